@@ -1,0 +1,5 @@
+//! Adapters from the vehicle models to [`crate::StateSpaceModel`].
+
+pub mod rear_axle;
+pub mod single_track;
+pub mod two_track;

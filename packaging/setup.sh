@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs, where missing, what building and testing need on a fresh machine. Idempotent and quiet
+# when there is nothing to do; both README commands call it first.
+#  - libclang: the `fmi` crate (the harness's FMI importer) runs bindgen at build time.
+#  - .venv: the pinned Python packages of tests/requirements.txt (fmpy, filterpy, pytest, ...).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+have_libclang() {
+    ldconfig -p 2>/dev/null | grep -q 'libclang[-.0-9]*\.so' ||
+        compgen -G '/usr/lib/llvm-*/lib/libclang*.so*' >/dev/null
+}
+if ! have_libclang; then
+    echo "setup: installing libclang-dev (needed by bindgen in the fmi crate)" >&2
+    sudo_cmd=""
+    [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
+    $sudo_cmd apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq libclang-dev >/dev/null
+fi
+
+venv="$root/.venv"
+stamp="$venv/.requirements"
+if [ ! -x "$venv/bin/python" ] || ! cmp -s "$root/tests/requirements.txt" "$stamp"; then
+    echo "setup: creating $venv from tests/requirements.txt" >&2
+    python3 -m venv "$venv"
+    "$venv/bin/pip" install -q --disable-pip-version-check -r "$root/tests/requirements.txt"
+    cp "$root/tests/requirements.txt" "$stamp"
+fi
