@@ -1,0 +1,4 @@
+//! Benchmarks: see README.
+fn main() {
+    divan::main();
+}
