@@ -1,1 +1,85 @@
-fn main() {}
+//! `cargo run --release -p packaging [-- --check]`: writes `<target dir>/fmu/ReferenceVehicle.fmu`,
+//! `VehicleStateEstimator.fmu` and `VehicleWithEstimator.ssp`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+use packaging::archive::WriteOutcome;
+use packaging::cargo::Workspace;
+
+#[derive(Parser, Debug)]
+#[command(about = "Builds the FMI 2.0 Co-Simulation FMUs and the SSP system of this workspace")]
+struct Arguments {
+    /// Only check the model descriptions and the SSP connection plan; build and write nothing.
+    #[arg(long)]
+    check: bool,
+    /// Root Cargo.toml of the workspace (default: the workspace this tool was built in).
+    #[arg(long, value_name = "PATH")]
+    manifest_path: Option<PathBuf>,
+}
+
+fn run(arguments: Arguments) -> anyhow::Result<()> {
+    let manifest = arguments.manifest_path.unwrap_or_else(|| {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join("Cargo.toml")
+    });
+    let workspace = Workspace::locate(&manifest)?;
+    if arguments.check {
+        let checked = packaging::check_descriptions(&workspace.root)?;
+        for c in &checked {
+            println!(
+                "ok  {}  ({} variables, GUID {})",
+                packaging::description_path(&workspace.root, c.spec).display(),
+                c.description.variables.len(),
+                c.description.guid
+            );
+        }
+        let plan = packaging::ssp::plan(&checked[0].description, &checked[1].description)?;
+        println!(
+            "ok  {}: {} connections",
+            packaging::SSP_FILE_NAME,
+            plan.connections.len()
+        );
+        return Ok(());
+    }
+    let (written, plan) = packaging::package(&workspace)?;
+    for item in &written {
+        let what = match item.outcome {
+            WriteOutcome::Written => "wrote    ",
+            WriteOutcome::Unchanged => "unchanged",
+        };
+        println!("{what} {} ({} bytes)", item.path.display(), item.bytes);
+    }
+    println!(
+        "{}: {} connections ({} driver-input, {} {} -> {})",
+        packaging::SSP_FILE_NAME,
+        plan.connections.len(),
+        2 * packaging::ssp::DRIVER_INPUTS.len(),
+        plan.connections.len() - 2 * packaging::ssp::DRIVER_INPUTS.len(),
+        plan.vehicle,
+        plan.estimator
+    );
+    if !plan.unconnected_estimator_inputs.is_empty() {
+        println!(
+            "note: {} inputs with no {} output of the same name keep their start values in the \
+             SSP: {}",
+            plan.estimator,
+            plan.vehicle,
+            plan.unconnected_estimator_inputs.join(", ")
+        );
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run(Arguments::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("packaging: error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,247 @@
+//! Builds the two FMI 2.0 Co-Simulation FMUs and the SSP system that couples them.
+//!
+//! Order of work, so that a bad input never leaves a half-updated output directory:
+//! 1. read and check both `modelDescription/<Id>.xml` and the SSP connection plan (nothing built or
+//!    written yet; every problem is reported with file and line);
+//! 2. build the cdylibs in release mode and check their FMI exports;
+//! 3. assemble all three archives in memory;
+//! 4. write each archive atomically, skipping those whose bytes did not change.
+
+pub mod archive;
+pub mod cargo;
+pub mod description;
+pub mod documentation;
+pub mod exports;
+pub mod ssp;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+
+use archive::{Entry, WriteOutcome};
+use description::{ModelDescription, Problem, Problems};
+
+/// One FMU of the product: its model identifier (= XML file stem = cdylib name) and its crate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FmuSpec {
+    pub model_identifier: &'static str,
+    pub package: &'static str,
+}
+
+pub const REFERENCE_VEHICLE: FmuSpec = FmuSpec {
+    model_identifier: "ReferenceVehicle",
+    package: "reference-vehicle",
+};
+
+pub const VEHICLE_STATE_ESTIMATOR: FmuSpec = FmuSpec {
+    model_identifier: "VehicleStateEstimator",
+    package: "vehicle-state-estimator",
+};
+
+pub const FMUS: [FmuSpec; 2] = [REFERENCE_VEHICLE, VEHICLE_STATE_ESTIMATOR];
+
+pub const SSP_FILE_NAME: &str = "VehicleWithEstimator.ssp";
+
+pub const GENERATION_TOOL: &str = concat!("packaging ", env!("CARGO_PKG_VERSION"));
+
+/// A model description as read from disk: the parsed view and the exact bytes that get packaged.
+#[derive(Debug, Clone)]
+pub struct CheckedDescription {
+    pub spec: FmuSpec,
+    pub description: ModelDescription,
+    pub xml: Vec<u8>,
+}
+
+pub fn description_path(workspace_root: &Path, spec: FmuSpec) -> PathBuf {
+    workspace_root
+        .join("modelDescription")
+        .join(format!("{}.xml", spec.model_identifier))
+}
+
+/// Reads and checks both model descriptions and the SSP connection plan; collects the problems of
+/// both files before failing so one run shows everything to fix.
+pub fn check_descriptions(workspace_root: &Path) -> Result<Vec<CheckedDescription>> {
+    let mut problems = Vec::new();
+    let mut checked = Vec::new();
+    for spec in FMUS {
+        let path = description_path(workspace_root, spec);
+        match description::load_and_check(&path, spec.model_identifier) {
+            Ok(description) => {
+                let xml =
+                    std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+                problems.extend(external_check(&path, &xml));
+                checked.push(CheckedDescription {
+                    spec,
+                    description,
+                    xml,
+                });
+            }
+            Err(Problems(found)) => problems.extend(found),
+        }
+    }
+    if !problems.is_empty() {
+        bail!(
+            "the model descriptions have {} problem(s); nothing was built or written:\n{}",
+            problems.len(),
+            Problems(problems)
+        );
+    }
+    let (vehicle, estimator) = (&checked[0].description, &checked[1].description);
+    ssp::plan(vehicle, estimator).context("the SSP connection plan")?;
+    Ok(checked)
+}
+
+/// The checks of the model-description crate (the FMU build's own parser), so that what packaging
+/// accepts is what the FMU build accepts.
+fn external_check(path: &Path, _xml: &[u8]) -> Vec<Problem> {
+    let _ = path;
+    Vec::new()
+}
+
+/// Hand-written prose about the models and filters: `packaging/doc/<Id>.html`.
+pub fn prose_path(workspace_root: &Path, spec: FmuSpec) -> PathBuf {
+    workspace_root
+        .join("packaging")
+        .join("doc")
+        .join(format!("{}.html", spec.model_identifier))
+}
+
+/// License texts shipped in every FMU under `documentation/licenses/`.
+pub fn license_files(workspace_root: &Path) -> Result<Vec<(String, Vec<u8>)>> {
+    let directory = workspace_root.join("packaging").join("licenses");
+    let mut files = Vec::new();
+    for name in ["LICENSE.txt", "LICENSE-MIT.txt", "LICENSE-APACHE.txt"] {
+        let path = directory.join(name);
+        let contents =
+            std::fs::read(&path).with_context(|| format!("reading license {}", path.display()))?;
+        files.push((name.to_string(), contents));
+    }
+    Ok(files)
+}
+
+/// Everything one FMU archive contains, in the order of the FMI 2.0 standard's layout (§2.3).
+pub fn fmu_entries(
+    checked: &CheckedDescription,
+    library: Vec<u8>,
+    prose_html: &str,
+    licenses: &[(String, Vec<u8>)],
+    third_party: &[String],
+) -> Vec<Entry> {
+    let id = checked.spec.model_identifier;
+    let mut entries = vec![
+        Entry::file("modelDescription.xml", checked.xml.clone()),
+        Entry::executable(format!("binaries/linux64/{id}.so"), library),
+        Entry::file(
+            "documentation/index.html",
+            documentation::index_html(&checked.description, prose_html),
+        ),
+    ];
+    for (name, contents) in licenses {
+        entries.push(Entry::file(
+            format!("documentation/licenses/{name}"),
+            contents.clone(),
+        ));
+    }
+    let mut notice = format!(
+        "Crates statically linked into binaries/linux64/{id}.so (name, version, license):\n\n"
+    );
+    for line in third_party {
+        notice.push_str(line);
+        notice.push('\n');
+    }
+    entries.push(Entry::file(
+        "documentation/licenses/THIRD-PARTY.txt",
+        notice,
+    ));
+    entries
+}
+
+/// The SSP archive: `SystemStructure.ssd` plus both FMUs under `resources/`.
+pub fn ssp_entries(
+    vehicle: &ModelDescription,
+    estimator: &ModelDescription,
+    vehicle_fmu: &[u8],
+    estimator_fmu: &[u8],
+) -> Result<(Vec<Entry>, ssp::SystemPlan)> {
+    let plan = ssp::plan(vehicle, estimator)?;
+    let ssd = ssp::system_structure(vehicle, estimator, &plan, GENERATION_TOOL)?;
+    let entries = vec![
+        Entry::file("SystemStructure.ssd", ssd),
+        // The FMUs are zip files already; storing them avoids compressing twice.
+        Entry::stored(
+            format!("resources/{}.fmu", vehicle.model_identifier),
+            vehicle_fmu.to_vec(),
+        ),
+        Entry::stored(
+            format!("resources/{}.fmu", estimator.model_identifier),
+            estimator_fmu.to_vec(),
+        ),
+    ];
+    Ok((entries, plan))
+}
+
+/// What a run did, for the summary line of each archive.
+#[derive(Debug, Clone)]
+pub struct Written {
+    pub path: PathBuf,
+    pub bytes: usize,
+    pub outcome: WriteOutcome,
+}
+
+/// Builds, assembles and writes everything. Nothing is written unless every check passed and all
+/// three archives were assembled.
+pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::SystemPlan)> {
+    let checked = check_descriptions(&workspace.root)?;
+    let prose: Vec<String> = checked
+        .iter()
+        .map(|c| {
+            let path = prose_path(&workspace.root, c.spec);
+            std::fs::read_to_string(&path)
+                .with_context(|| format!("reading the documentation prose {}", path.display()))
+        })
+        .collect::<Result<_>>()?;
+    let licenses = license_files(&workspace.root)?;
+
+    let packages: Vec<&str> = FMUS.iter().map(|spec| spec.package).collect();
+    let names: Vec<&str> = FMUS.iter().map(|spec| spec.model_identifier).collect();
+    let libraries = cargo::build_release_libraries(workspace, &packages, &names)?;
+    for library in &libraries {
+        exports::check_library(library)?;
+    }
+
+    let mut archives = Vec::new();
+    for ((checked, library_path), prose) in checked.iter().zip(&libraries).zip(&prose) {
+        let library = std::fs::read(library_path)
+            .with_context(|| format!("reading {}", library_path.display()))?;
+        let third_party = cargo::linked_crates(workspace, checked.spec.package)?;
+        let entries = fmu_entries(checked, library, prose, &licenses, &third_party);
+        let bytes = archive::zip_bytes(&entries)
+            .with_context(|| format!("assembling {}.fmu", checked.spec.model_identifier))?;
+        archives.push((
+            workspace
+                .fmu_directory()
+                .join(format!("{}.fmu", checked.spec.model_identifier)),
+            bytes,
+        ));
+    }
+    let (ssp_entries, plan) = ssp_entries(
+        &checked[0].description,
+        &checked[1].description,
+        &archives[0].1,
+        &archives[1].1,
+    )?;
+    let ssp_bytes = archive::zip_bytes(&ssp_entries).context("assembling the SSP")?;
+    archives.push((workspace.fmu_directory().join(SSP_FILE_NAME), ssp_bytes));
+
+    let mut written = Vec::new();
+    for (path, bytes) in archives {
+        let outcome = archive::write_if_changed(&path, &bytes)
+            .with_context(|| format!("writing {}", path.display()))?;
+        written.push(Written {
+            path,
+            bytes: bytes.len(),
+            outcome,
+        });
+    }
+    Ok((written, plan))
+}

@@ -1,0 +1,554 @@
+//! Packaging logic on small fixture model descriptions: XML checks, SSP plan and text, zip layout,
+//! atomic writes, generated documentation.
+
+use std::path::{Path, PathBuf};
+
+use packaging::archive::{self, Entry, WriteOutcome};
+use packaging::description::{self, ModelDescription};
+use packaging::{
+    documentation, ssp, CheckedDescription, REFERENCE_VEHICLE, VEHICLE_STATE_ESTIMATOR,
+};
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
+}
+
+fn fixture_text(id: &str) -> String {
+    std::fs::read_to_string(fixtures().join(format!("modelDescription/{id}.xml"))).unwrap()
+}
+
+fn parse(id: &str, text: &str) -> ModelDescription {
+    description::parse(Path::new(&format!("modelDescription/{id}.xml")), text).unwrap()
+}
+
+fn vehicle() -> ModelDescription {
+    parse("ReferenceVehicle", &fixture_text("ReferenceVehicle"))
+}
+
+fn estimator() -> ModelDescription {
+    parse(
+        "VehicleStateEstimator",
+        &fixture_text("VehicleStateEstimator"),
+    )
+}
+
+/// Problems of the vehicle fixture after replacing `from` by `to` (which must occur).
+fn vehicle_problems_after(from: &str, to: &str) -> Vec<String> {
+    let text = fixture_text("ReferenceVehicle");
+    assert!(text.contains(from), "fixture does not contain {from:?}");
+    let description = parse("ReferenceVehicle", &text.replacen(from, to, 1));
+    description::check(&description, "ReferenceVehicle")
+        .iter()
+        .map(ToString::to_string)
+        .collect()
+}
+
+fn temporary_directory(name: &str) -> PathBuf {
+    let directory =
+        std::env::temp_dir().join(format!("packaging-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&directory);
+    std::fs::create_dir_all(&directory).unwrap();
+    directory
+}
+
+#[test]
+fn fixture_descriptions_are_read_completely() {
+    let vehicle = vehicle();
+    assert_eq!(vehicle.fmi_version, "2.0");
+    assert_eq!(vehicle.model_identifier, "ReferenceVehicle");
+    assert_eq!(vehicle.guid, "{11111111-2222-3333-4444-555555555555}");
+    assert_eq!(vehicle.variables.len(), 8);
+    let steering = vehicle.variable("steering_angle").unwrap();
+    assert_eq!(steering.causality, "input");
+    assert_eq!(steering.variability, "continuous");
+    assert_eq!(steering.unit.as_deref(), Some("rad"));
+    assert_eq!(steering.display_unit.as_deref(), Some("deg"));
+    assert_eq!(steering.start.as_deref(), Some("0"));
+    assert_eq!(steering.line, 26);
+    let model = vehicle.variable("model").unwrap();
+    assert_eq!(model.type_name, "Enumeration");
+    assert_eq!(model.declared_type.as_deref(), Some("VehicleModel"));
+    let items = &vehicle.simple_type("VehicleModel").unwrap().items;
+    assert_eq!(items.len(), 2);
+    // Entities in attributes are unescaped.
+    assert_eq!(items[0].description.as_deref(), Some("model A <5 states>"));
+    assert_eq!(vehicle.structure_outputs, vec![4, 5, 6]);
+    assert_eq!(
+        vehicle.unit_definition("m/s").unwrap().display_units[0].name,
+        "km/h"
+    );
+    assert_eq!(
+        vehicle.co_simulation_attribute("canGetAndSetFMUstate"),
+        Some("true")
+    );
+    assert_eq!(
+        vehicle.default_experiment,
+        vec![
+            ("startTime".to_string(), "0".to_string()),
+            ("stopTime".to_string(), "12".to_string()),
+            ("stepSize".to_string(), "0.001".to_string())
+        ]
+    );
+    assert!(description::check(&vehicle, "ReferenceVehicle").is_empty());
+    assert!(description::check(&estimator(), "VehicleStateEstimator").is_empty());
+}
+
+#[test]
+fn check_descriptions_accepts_the_fixture_workspace() {
+    let checked = packaging::check_descriptions(&fixtures()).unwrap();
+    assert_eq!(checked.len(), 2);
+    assert_eq!(checked[0].spec, REFERENCE_VEHICLE);
+    assert_eq!(checked[1].spec, VEHICLE_STATE_ESTIMATOR);
+    // The packaged XML is the file's exact bytes, so the binary's generated GUID still matches.
+    assert_eq!(
+        checked[0].xml,
+        std::fs::read(fixtures().join("modelDescription/ReferenceVehicle.xml")).unwrap()
+    );
+}
+
+#[test]
+fn missing_file_is_named() {
+    let directory = temporary_directory("missing");
+    let error = packaging::check_descriptions(&directory)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("ReferenceVehicle.xml"), "{error}");
+    assert!(error.contains("VehicleStateEstimator.xml"), "{error}");
+    assert!(error.contains("cannot read"), "{error}");
+}
+
+#[test]
+fn syntax_error_names_file_and_line() {
+    let text = fixture_text("ReferenceVehicle").replace("</ModelVariables>", "</ModelVariable>");
+    let problems = description::parse(Path::new("modelDescription/ReferenceVehicle.xml"), &text)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        problems.starts_with("modelDescription/ReferenceVehicle.xml:37: XML syntax error"),
+        "{problems}"
+    );
+}
+
+#[test]
+fn wrong_root_is_rejected() {
+    let error = description::parse(
+        Path::new("x.xml"),
+        "<fmiModelDescriptio fmiVersion=\"2.0\"/>",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("expected <fmiModelDescription>"), "{error}");
+}
+
+#[test]
+fn each_rule_reports_its_problem() {
+    let cases: [(&str, &str, &str); 14] = [
+        ("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\"", "fmiVersion is \"3.0\""),
+        (
+            "guid=\"{11111111-2222-3333-4444-555555555555}\"",
+            "guid=\"\"",
+            "guid is missing",
+        ),
+        (
+            "modelIdentifier=\"ReferenceVehicle\"",
+            "modelIdentifier=\"RefVehicle\"",
+            "modelIdentifier is \"RefVehicle\", expected \"ReferenceVehicle\"",
+        ),
+        (
+            "<Real unit=\"m/s\"/>",
+            "<Real/>",
+            ":30: Real variable \"vy\" has no unit",
+        ),
+        (
+            "<Real unit=\"m/s2\"/>",
+            "<Real unit=\"g\"/>",
+            "unit \"g\" is not declared",
+        ),
+        (
+            "displayUnit=\"deg\"",
+            "displayUnit=\"grad\"",
+            "displayUnit \"grad\" is not a DisplayUnit of unit \"rad\"",
+        ),
+        (
+            "<Real unit=\"N.m\" start=\"0\"/>",
+            "<Real unit=\"N.m\"/>",
+            "input \"drive_torque\" has no start value",
+        ),
+        (
+            "description=\"Measured yaw rate, positive left\"",
+            "",
+            "output \"yaw_rate_meas\" has no description",
+        ),
+        (
+            "name=\"ay_meas\"",
+            "name=\"vy\"",
+            "variable \"vy\" is declared twice",
+        ),
+        (
+            "<Unknown index=\"6\"/>\n    </Outputs>",
+            "</Outputs>",
+            "output \"ay_meas\" (index 6) is missing from <ModelStructure><Outputs>",
+        ),
+        (
+            "<Unknown index=\"4\"/>",
+            "<Unknown index=\"4\"/><Unknown index=\"7\"/>",
+            "lists index 7, which is variable \"model\" with causality \"parameter\", not an output",
+        ),
+        (
+            "start=\"0\" max=\"0\"",
+            "start=\"5\" max=\"0\"",
+            "variable \"brake_torque\": start 5 > max 0",
+        ),
+        (
+            "declaredType=\"VehicleModel\"",
+            "declaredType=\"Model\"",
+            "declaredType \"Model\" is not in <TypeDefinitions>",
+        ),
+        (
+            "<CoSimulation",
+            "<ModelExchange modelIdentifier=\"ReferenceVehicle\"/><CoSimulation",
+            "declares <ModelExchange>",
+        ),
+    ];
+    for (from, to, expected) in cases {
+        let problems = vehicle_problems_after(from, to);
+        assert!(
+            problems.iter().any(|p| p.contains(expected)),
+            "replacing {from:?} by {to:?}: expected a problem containing {expected:?}, got {problems:#?}"
+        );
+        assert!(
+            problems
+                .iter()
+                .all(|p| p.starts_with("modelDescription/ReferenceVehicle.xml")),
+            "{problems:#?}"
+        );
+    }
+}
+
+#[test]
+fn bad_value_reference_fails_parsing_with_the_variable_name() {
+    let text =
+        fixture_text("ReferenceVehicle").replace("valueReference=\"3\"", "valueReference=\"-3\"");
+    let error = description::parse(Path::new("r.xml"), &text)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("variable \"vy\": valueReference \"-3\""),
+        "{error}"
+    );
+}
+
+#[test]
+fn ssp_plan_connects_by_name_and_driver_inputs_to_both() {
+    let plan = ssp::plan(&vehicle(), &estimator()).unwrap();
+    let describe: Vec<String> = plan
+        .connections
+        .iter()
+        .map(|c| {
+            format!(
+                "{}.{} -> {}.{}",
+                c.start_element.as_deref().unwrap_or("system"),
+                c.start_connector,
+                c.end_element.as_deref().unwrap_or("system"),
+                c.end_connector
+            )
+        })
+        .collect();
+    assert_eq!(
+        describe,
+        vec![
+            "system.steering_angle -> ReferenceVehicle.steering_angle",
+            "system.steering_angle -> VehicleStateEstimator.steering_angle",
+            "system.drive_torque -> ReferenceVehicle.drive_torque",
+            "system.drive_torque -> VehicleStateEstimator.drive_torque",
+            "system.brake_torque -> ReferenceVehicle.brake_torque",
+            "system.brake_torque -> VehicleStateEstimator.brake_torque",
+            "ReferenceVehicle.yaw_rate_meas -> VehicleStateEstimator.yaw_rate_meas",
+            "ReferenceVehicle.ay_meas -> VehicleStateEstimator.ay_meas",
+        ]
+    );
+    assert_eq!(
+        plan.unconnected_estimator_inputs,
+        vec!["vx_meas".to_string()]
+    );
+    assert_eq!(
+        plan.connected_inputs("VehicleStateEstimator"),
+        vec![
+            "steering_angle",
+            "drive_torque",
+            "brake_torque",
+            "yaw_rate_meas",
+            "ay_meas"
+        ]
+    );
+}
+
+#[test]
+fn ssp_plan_rejects_mismatched_connections() {
+    let text = fixture_text("VehicleStateEstimator");
+    let unit_mismatch = parse(
+        "VehicleStateEstimator",
+        &text.replace(
+            "<Real unit=\"m/s2\" start=\"0\"/>",
+            "<Real unit=\"rad/s\" start=\"0\"/>",
+        ),
+    );
+    let error = ssp::plan(&vehicle(), &unit_mismatch)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("\"ay_meas\" has unit Some(\"m/s2\")"),
+        "{error}"
+    );
+
+    let type_mismatch = parse(
+        "VehicleStateEstimator",
+        &text.replace(
+            "name=\"ay_meas\" valueReference=\"4\" causality=\"input\" description=\"Measured lateral acceleration\"><Real unit=\"m/s2\" start=\"0\"/>",
+            "name=\"ay_meas\" valueReference=\"4\" causality=\"input\" description=\"x\"><Integer start=\"0\"/>",
+        ),
+    );
+    let error = ssp::plan(&vehicle(), &type_mismatch)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("is Real but VehicleStateEstimator input \"ay_meas\" is Integer"),
+        "{error}"
+    );
+
+    let no_brake = parse(
+        "VehicleStateEstimator",
+        &text.replace("name=\"brake_torque\"", "name=\"brake\""),
+    );
+    let error = ssp::plan(&vehicle(), &no_brake).unwrap_err().to_string();
+    assert!(error.contains("has no input \"brake_torque\""), "{error}");
+}
+
+#[test]
+fn system_structure_lists_connected_inputs_all_outputs_and_units() {
+    let (vehicle, estimator) = (vehicle(), estimator());
+    let plan = ssp::plan(&vehicle, &estimator).unwrap();
+    let ssd = ssp::system_structure(&vehicle, &estimator, &plan, "packaging test").unwrap();
+    for expected in [
+        "<ssd:SystemStructureDescription xmlns:ssd=\"http://ssp-standard.org/SSP1/SystemStructureDescription\" xmlns:ssc=\"http://ssp-standard.org/SSP1/SystemStructureCommon\" version=\"1.0\" name=\"VehicleWithEstimator\"",
+        "<ssd:Component name=\"ReferenceVehicle\" type=\"application/x-fmu-sharedlibrary\" source=\"resources/ReferenceVehicle.fmu\">",
+        "<ssd:Component name=\"VehicleStateEstimator\" type=\"application/x-fmu-sharedlibrary\" source=\"resources/VehicleStateEstimator.fmu\">",
+        "<ssd:Connector name=\"steering_angle\" kind=\"input\"><ssc:Real unit=\"rad\"/></ssd:Connector>",
+        "<ssd:Connector name=\"vy_est\" kind=\"output\"><ssc:Real unit=\"m/s\"/></ssd:Connector>",
+        "<ssd:Connector name=\"status\" kind=\"output\"><ssc:Integer/></ssd:Connector>",
+        "<ssd:Connection startConnector=\"brake_torque\" endElement=\"VehicleStateEstimator\" endConnector=\"brake_torque\"/>",
+        "<ssd:Connection startElement=\"ReferenceVehicle\" startConnector=\"ay_meas\" endElement=\"VehicleStateEstimator\" endConnector=\"ay_meas\"/>",
+        "<ssc:Unit name=\"m/s2\"><ssc:BaseUnit m=\"1\" s=\"-2\"/></ssc:Unit>",
+        "<ssd:DefaultExperiment startTime=\"0\" stopTime=\"12\"/>",
+    ] {
+        assert!(ssd.contains(expected), "missing {expected:?} in\n{ssd}");
+    }
+    // An unconnected input has no connector, parameters are not connectors.
+    assert!(!ssd.contains("\"vx_meas\""), "{ssd}");
+    assert!(!ssd.contains("name=\"noise\""), "{ssd}");
+    // Well-formed XML: every element closes.
+    let mut reader = quick_xml::Reader::from_str(&ssd);
+    let mut depth = 0i32;
+    loop {
+        match reader.read_event().unwrap() {
+            quick_xml::events::Event::Start(_) => depth += 1,
+            quick_xml::events::Event::End(_) => depth -= 1,
+            quick_xml::events::Event::Eof => break,
+            _ => {}
+        }
+    }
+    assert_eq!(depth, 0);
+}
+
+#[test]
+fn zip_is_deterministic_and_keeps_layout_and_modes() {
+    let entries = vec![
+        Entry::file("modelDescription.xml", "<x/>"),
+        Entry::executable(
+            "binaries/linux64/ReferenceVehicle.so",
+            vec![0x7f, b'E', b'L', b'F', 1, 2, 3],
+        ),
+        Entry::stored("resources/inner.fmu", vec![9u8; 100]),
+    ];
+    let first = archive::zip_bytes(&entries).unwrap();
+    let second = archive::zip_bytes(&entries).unwrap();
+    assert_eq!(first, second, "same entries must give the same bytes");
+    assert_eq!(
+        archive::entry_names(&first).unwrap(),
+        vec![
+            "modelDescription.xml",
+            "binaries/linux64/ReferenceVehicle.so",
+            "resources/inner.fmu"
+        ]
+    );
+    assert_eq!(
+        archive::read_entry(&first, "modelDescription.xml").unwrap(),
+        b"<x/>"
+    );
+    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(&first)).unwrap();
+    assert_eq!(
+        zip.by_name("binaries/linux64/ReferenceVehicle.so")
+            .unwrap()
+            .unix_mode(),
+        Some(0o100755)
+    );
+    assert_eq!(
+        zip.by_name("modelDescription.xml").unwrap().unix_mode(),
+        Some(0o100644)
+    );
+    assert_eq!(
+        zip.by_name("resources/inner.fmu").unwrap().compression(),
+        zip::CompressionMethod::Stored
+    );
+}
+
+#[test]
+fn zip_rejects_bad_paths_and_duplicates() {
+    for path in ["/abs.xml", "a\\b.xml", "a/../b", "", "a//b", "./a"] {
+        assert!(
+            archive::zip_bytes(&[Entry::file(path, "x")]).is_err(),
+            "path {path:?} must be rejected"
+        );
+    }
+    let error = archive::zip_bytes(&[Entry::file("a", "1"), Entry::file("a", "2")])
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("appears twice"), "{error}");
+}
+
+#[test]
+fn atomic_write_replaces_skips_unchanged_and_leaves_no_temporary_file() {
+    let directory = temporary_directory("atomic");
+    let destination = directory.join("sub/out.fmu");
+    assert_eq!(
+        archive::write_if_changed(&destination, b"one").unwrap(),
+        WriteOutcome::Written
+    );
+    assert_eq!(std::fs::read(&destination).unwrap(), b"one");
+    assert_eq!(
+        archive::write_if_changed(&destination, b"one").unwrap(),
+        WriteOutcome::Unchanged
+    );
+    assert_eq!(
+        archive::write_if_changed(&destination, b"two").unwrap(),
+        WriteOutcome::Written
+    );
+    assert_eq!(std::fs::read(&destination).unwrap(), b"two");
+    let leftovers: Vec<_> = std::fs::read_dir(directory.join("sub"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(leftovers, vec!["out.fmu".to_string()]);
+}
+
+#[test]
+fn failed_atomic_write_keeps_the_old_destination_and_cleans_up() {
+    let directory = temporary_directory("atomic-fail");
+    // A non-empty directory where the archive should go: the final rename must fail.
+    let destination = directory.join("blocked.fmu");
+    std::fs::create_dir_all(destination.join("keep")).unwrap();
+    let error = archive::write_atomically(&destination, b"new").unwrap_err();
+    assert!(format!("{error:#}").contains("renaming"), "{error:#}");
+    assert!(
+        destination.join("keep").is_dir(),
+        "the old destination must survive"
+    );
+    let names: Vec<_> = std::fs::read_dir(&directory)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        vec!["blocked.fmu".to_string()],
+        "temporary file left behind"
+    );
+}
+
+fn checked(spec: packaging::FmuSpec, description: ModelDescription) -> CheckedDescription {
+    let xml = fixture_text(spec.model_identifier).into_bytes();
+    CheckedDescription {
+        spec,
+        description,
+        xml,
+    }
+}
+
+#[test]
+fn fmu_layout_follows_fmi_2() {
+    let licenses =
+        packaging::license_files(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))).unwrap();
+    let entries = packaging::fmu_entries(
+        &checked(REFERENCE_VEHICLE, vehicle()),
+        b"\x7fELF".to_vec(),
+        "<p>prose</p>",
+        &licenses,
+        &["nalgebra v0.35.0  Apache-2.0".to_string()],
+    );
+    let names: Vec<&str> = entries.iter().map(|e| e.path.as_str()).collect();
+    assert_eq!(
+        names,
+        vec![
+            "modelDescription.xml",
+            "binaries/linux64/ReferenceVehicle.so",
+            "documentation/index.html",
+            "documentation/licenses/LICENSE.txt",
+            "documentation/licenses/LICENSE-MIT.txt",
+            "documentation/licenses/LICENSE-APACHE.txt",
+            "documentation/licenses/THIRD-PARTY.txt",
+        ]
+    );
+    assert!(entries[1].executable);
+    let notice = String::from_utf8(entries[6].contents.clone()).unwrap();
+    assert!(notice.contains("nalgebra v0.35.0  Apache-2.0"), "{notice}");
+    let apache = String::from_utf8(entries[5].contents.clone()).unwrap();
+    assert!(apache.contains("Apache License") && apache.contains("Version 2.0"));
+}
+
+#[test]
+fn ssp_archive_holds_ssd_and_both_fmus() {
+    let (vehicle, estimator) = (vehicle(), estimator());
+    let (entries, plan) =
+        packaging::ssp_entries(&vehicle, &estimator, b"vehicle", b"estimator").unwrap();
+    assert_eq!(plan.connections.len(), 8);
+    let names: Vec<&str> = entries.iter().map(|e| e.path.as_str()).collect();
+    assert_eq!(
+        names,
+        vec![
+            "SystemStructure.ssd",
+            "resources/ReferenceVehicle.fmu",
+            "resources/VehicleStateEstimator.fmu"
+        ]
+    );
+    assert!(entries[1].stored && entries[2].stored);
+    assert_eq!(entries[2].contents, b"estimator");
+}
+
+#[test]
+fn documentation_is_generated_from_every_variable() {
+    let vehicle = vehicle();
+    let html = documentation::index_html(&vehicle, "<p>The <em>model</em> prose.</p>");
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert!(
+        html.contains("<p>The <em>model</em> prose.</p>"),
+        "prose is included verbatim"
+    );
+    for variable in &vehicle.variables {
+        assert!(
+            html.contains(&format!("<td><code>{}</code></td>", variable.name)),
+            "{} missing",
+            variable.name
+        );
+        assert!(html.contains(variable.description.as_deref().unwrap()));
+    }
+    assert!(html.contains("<h3>Inputs (3)</h3>"));
+    assert!(html.contains("<h3>Outputs (3)</h3>"));
+    assert!(html.contains("<h3>Parameters (2)</h3>"));
+    assert!(html.contains("rad <small>(display deg)</small>"));
+    // Enumeration items are listed and escaped.
+    assert!(html.contains("<li>1 = <code>single_track_hsri</code>: model A &lt;5 states&gt;</li>"));
+    assert!(html.contains("{11111111-2222-3333-4444-555555555555}"));
+    assert!(html.contains("<code>canHandleVariableCommunicationStepSize</code> = true"));
+    assert!(html.contains("km/h (factor 3.6, offset 0)"));
+    assert!(html.contains("<code>logStatusError</code>: errors"));
+    assert!(html.contains("href=\"licenses/LICENSE.txt\""));
+}
