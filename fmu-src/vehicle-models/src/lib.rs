@@ -1,1 +1,35 @@
-//! Vehicle models A (single-track, HSRI), B (two-track, Magic Formula) and C (rear-axle single-track); no FMI code
+//! Vehicle models for planar (lateral + longitudinal) vehicle dynamics; no FMI code.
+//!
+//! - **Model A** ([`single_track`]): 5-state nonlinear single-track model with HSRI tyres
+//!   (seed 000, ch. 5-6), the core model of the estimators and of the reference vehicle.
+//! - **Model B** ([`two_track`]): two-track model with lateral load transfer and Magic Formula
+//!   tyres (seed 001), both as a full reference vehicle and in the 3-state `[β, r, ay]` form.
+//! - **Model C** ([`rear_axle`]): rear-axle-referenced single-track model with longitudinal load
+//!   transfer (seed 003, §2.1), the test bed of the particle filter and EM identification.
+//! - Tyres ([`tyre`]): HSRI, Magic Formula and linear behind one [`tyre::TyreModel`] trait.
+//!
+//! Conventions (everyone relies on them):
+//! - states, inputs and measurements are `nalgebra::SVector<f64, N>`; index constants name the
+//!   positions (e.g. [`single_track::state_index`], [`driver_input::index`]);
+//! - axes ISO 8855 (x forward, y left, z up), yaw rate positive for a left turn, steering angle =
+//!   road-wheel angle at the front axle, positive left; sideslip `β = atan2(vy, vx)`;
+//! - `brake_torque ≥ 0` is the magnitude of the total brake torque (see [`driver_input`]);
+//! - parameters are plain serde structs whose `Default` holds the seed's values;
+//! - every equation is generic over [`Scalar`], so the exact Jacobians come from forward-mode
+//!   automatic differentiation ([`scalar::Dual`]) of the very same code;
+//! - no heap allocation in any step.
+
+pub mod driver_input;
+pub mod integrator;
+pub mod manoeuvre;
+pub mod scalar;
+pub mod single_track;
+pub mod truth;
+pub mod tyre;
+
+pub use driver_input::{DriverInput, DriverInputVector};
+pub use integrator::Integrator;
+pub use scalar::{Dual, Scalar};
+pub use single_track::{SingleTrackHsri, SingleTrackModel, SingleTrackParams, SingleTrackState};
+pub use truth::VehicleTruth;
+pub use tyre::{HsriTyre, LinearTyre, MagicFormulaTyre, TyreModel};

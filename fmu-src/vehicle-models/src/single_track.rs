@@ -1,0 +1,632 @@
+//! Model A: the 5-state nonlinear single-track model of seed 000 (000: 5.42-5.46, 5.63, 6.1-6.5)
+//! with any [`TyreModel`] (HSRI by default, 000: 5.65-5.73).
+//!
+//! - State `x = [vx, vy, r, ωF, ωR]`: CoG velocities in the body frame (m/s), yaw rate (rad/s),
+//!   front and rear wheel angular speeds (rad/s). Indices in [`state_index`].
+//! - Input `u = [steering_angle, drive_torque, brake_torque]`, see [`crate::driver_input`]
+//!   (brake torque is a magnitude ≥ 0; the seed's `M_B = −brake_torque`).
+//! - Measurement `y = [r, ay, ωF, ωR]` (000: 5.63), `ay = v̇y + vx r` (000: 5.40): direct
+//!   feed-through of the steering angle. Indices in [`measurement_index`].
+//! - Axes ISO 8855 (x forward, y left, z up); sideslip `β = atan2(vy, vx)`.
+//!
+//! The tyre model gives the force of one wheel; axle forces are twice that (000: text before
+//! table 5.2). Wheel loads are constant (no load transfer, 000: after table 5.2).
+//!
+//! **Low speed.** Slip and slip angle divide by the longitudinal wheel-centre velocity
+//! (000: 5.17, 5.22, 5.65). Below `low_speed_guard` (default 1 m/s) that divisor is replaced by
+//! the guard value, so the equations stay finite at standstill: the tyre forces then act like a
+//! damper on the contact-patch velocities, bringing a standing car to rest instead of producing
+//! NaN. The seed model is not meant for such speeds; nothing else changes. Brake torque follows
+//! the seed (a torque on the wheel, not a friction brake), so holding the brake at standstill
+//! would spin the wheels backwards — manoeuvres brake from speed and end before standstill.
+//!
+//! Every equation is written once, generic over [`Scalar`]; the Jacobians of the discrete step
+//! and of the measurement are obtained by forward-mode automatic differentiation of exactly that
+//! code (exact to rounding), including the derivative `∂ω̇/∂ω` inside the semi-implicit step.
+
+use nalgebra::{SMatrix, SVector};
+use serde::{Deserialize, Serialize};
+
+use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVector, INPUT_DIM};
+use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
+use crate::scalar::{seed_state_and_input, split_jacobians, Dual, Scalar};
+use crate::truth::VehicleTruth;
+use crate::tyre::{HsriTyre, TyreKinematics, TyreModel};
+
+/// Number of states of model A.
+pub const STATE_DIM: usize = 5;
+/// Number of measurements of model A.
+pub const MEASUREMENT_DIM: usize = 4;
+
+/// Positions in model A's state vector.
+pub mod state_index {
+    /// Longitudinal CoG velocity `vx`, m/s.
+    pub const VX: usize = 0;
+    /// Lateral CoG velocity `vy`, m/s.
+    pub const VY: usize = 1;
+    /// Yaw rate `r`, rad/s.
+    pub const YAW_RATE: usize = 2;
+    /// Front wheel angular speed `ωF`, rad/s.
+    pub const OMEGA_FRONT: usize = 3;
+    /// Rear wheel angular speed `ωR`, rad/s.
+    pub const OMEGA_REAR: usize = 4;
+}
+
+/// Positions in model A's measurement vector (000: 5.63).
+pub mod measurement_index {
+    /// Yaw rate, rad/s.
+    pub const YAW_RATE: usize = 0;
+    /// Lateral acceleration, m/s².
+    pub const LATERAL_ACCELERATION: usize = 1;
+    /// Front wheel angular speed, rad/s.
+    pub const OMEGA_FRONT: usize = 2;
+    /// Rear wheel angular speed, rad/s.
+    pub const OMEGA_REAR: usize = 3;
+}
+
+/// Model A's state vector `[vx, vy, r, ωF, ωR]`.
+pub type SingleTrackState = SVector<f64, STATE_DIM>;
+/// Model A's measurement vector `[r, ay, ωF, ωR]`.
+pub type SingleTrackMeasurement = SVector<f64, MEASUREMENT_DIM>;
+
+/// Two wheels per axle: the single-track axle force is twice the force of one tyre
+/// (000: text before table 5.2).
+const WHEELS_PER_AXLE: f64 = 2.0;
+
+/// Model A's state with names.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct NamedSingleTrackState {
+    pub longitudinal_velocity: f64,
+    pub lateral_velocity: f64,
+    pub yaw_rate: f64,
+    pub omega_front: f64,
+    pub omega_rear: f64,
+}
+
+impl NamedSingleTrackState {
+    pub fn to_vector(&self) -> SingleTrackState {
+        SingleTrackState::new(
+            self.longitudinal_velocity,
+            self.lateral_velocity,
+            self.yaw_rate,
+            self.omega_front,
+            self.omega_rear,
+        )
+    }
+
+    pub fn from_vector(x: &SingleTrackState) -> Self {
+        Self {
+            longitudinal_velocity: x[state_index::VX],
+            lateral_velocity: x[state_index::VY],
+            yaw_rate: x[state_index::YAW_RATE],
+            omega_front: x[state_index::OMEGA_FRONT],
+            omega_rear: x[state_index::OMEGA_REAR],
+        }
+    }
+}
+
+/// Vehicle data of seed 000, table 5.1, plus the wheel loads quoted after table 5.2.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SingleTrackParams {
+    /// `m`, vehicle mass, kg.
+    pub mass: f64,
+    /// `lF` (`l1`), CoG to front axle, m.
+    pub cog_to_front_axle: f64,
+    /// `lR` (`l2`), CoG to rear axle, m.
+    pub cog_to_rear_axle: f64,
+    /// `Iz`, yaw moment of inertia, kg m².
+    pub yaw_inertia: f64,
+    /// `IF1`, spin inertia of **both** front wheels, kg m².
+    pub front_wheel_inertia: f64,
+    /// `IR2`, spin inertia of **both** rear wheels, kg m².
+    pub rear_wheel_inertia: f64,
+    /// `ν`, share of the brake torque on the front axle.
+    pub brake_split_front: f64,
+    /// `r`, tyre radius, m (table 5.2).
+    pub wheel_radius: f64,
+    /// `FZF`, vertical load of **one** front wheel, N.
+    pub front_wheel_load: f64,
+    /// `FZR`, vertical load of **one** rear wheel, N.
+    pub rear_wheel_load: f64,
+    /// `iL`, steering ratio (steering-wheel angle / road-wheel angle).
+    pub steering_ratio: f64,
+    /// Smallest longitudinal wheel-centre speed used as divisor in slip and slip angle, m/s
+    /// (project's guard against division by zero near standstill, see module docs).
+    pub low_speed_guard: f64,
+}
+
+impl Default for SingleTrackParams {
+    fn default() -> Self {
+        // 000: table 5.1; wheel radius from table 5.2; wheel loads from the text after table 5.2.
+        Self {
+            mass: 1400.0,
+            cog_to_front_axle: 1.4346,
+            cog_to_rear_axle: 1.4831,
+            yaw_inertia: 2978.7,
+            front_wheel_inertia: 10.3,
+            rear_wheel_inertia: 3.0,
+            brake_split_front: 0.6,
+            wheel_radius: 0.3,
+            front_wheel_load: 3492.0,
+            rear_wheel_load: 3374.0,
+            steering_ratio: 14.97,
+            low_speed_guard: 1.0,
+        }
+    }
+}
+
+/// Kinematics and force of one axle.
+#[derive(Clone, Copy, Debug)]
+struct AxleState<S: Scalar> {
+    /// Longitudinal velocity of the wheel centre in the wheel frame.
+    wheel_velocity: S,
+    slip: S,
+    tan_slip_angle: S,
+    /// Axle force (both wheels), wheel frame.
+    longitudinal_force: S,
+    lateral_force: S,
+}
+
+/// Axle forces (both wheels, wheel frame) and the steering angle they are rotated by.
+#[derive(Clone, Copy, Debug)]
+struct AxleForces<S: Scalar> {
+    front_longitudinal: S,
+    front_lateral: S,
+    rear_longitudinal: S,
+    rear_lateral: S,
+    cos_steer: S,
+    sin_steer: S,
+}
+
+/// All intermediate quantities at one `(x, u)`.
+#[derive(Clone, Copy, Debug)]
+struct Evaluation<S: Scalar> {
+    front: AxleState<S>,
+    rear: AxleState<S>,
+    cos_steer: S,
+    sin_steer: S,
+}
+
+impl<S: Scalar> Evaluation<S> {
+    #[inline(always)]
+    fn axle_forces(&self) -> AxleForces<S> {
+        AxleForces {
+            front_longitudinal: self.front.longitudinal_force,
+            front_lateral: self.front.lateral_force,
+            rear_longitudinal: self.rear.longitudinal_force,
+            rear_lateral: self.rear.lateral_force,
+            cos_steer: self.cos_steer,
+            sin_steer: self.sin_steer,
+        }
+    }
+}
+
+/// Everything model A computes at one `(x, u)` besides the state derivative.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SingleTrackOutputs {
+    /// `atan2(vy, vx)`, rad.
+    pub sideslip: f64,
+    /// `ay = v̇y + vx r` (000: 5.40), m/s².
+    pub lateral_acceleration: f64,
+    /// `ax = v̇x − vy r` (000: 5.41), m/s².
+    pub longitudinal_acceleration: f64,
+    /// Front slip angle `αF` (000: 5.17), rad.
+    pub slip_angle_front: f64,
+    /// Rear slip angle `αR` (000: 5.22), rad.
+    pub slip_angle_rear: f64,
+    /// Front slip `sF` (000: 5.65).
+    pub slip_front: f64,
+    /// Rear slip `sR` (000: 5.65).
+    pub slip_rear: f64,
+    /// Front axle longitudinal force `FxF` (wheel frame), N.
+    pub longitudinal_force_front: f64,
+    /// Front axle lateral force `FyF` (wheel frame), N.
+    pub lateral_force_front: f64,
+    /// Rear axle longitudinal force `FxR`, N.
+    pub longitudinal_force_rear: f64,
+    /// Rear axle lateral force `FyR`, N.
+    pub lateral_force_rear: f64,
+}
+
+/// Model A with tyre model `T`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SingleTrackModel<T: TyreModel = HsriTyre> {
+    pub vehicle: SingleTrackParams,
+    pub tyre: T,
+}
+
+/// Model A as in seed 000: single-track with HSRI tyres.
+pub type SingleTrackHsri = SingleTrackModel<HsriTyre>;
+
+/// `v` if `|v|` is at least `guard`, else the constant `guard` (see the module docs).
+#[inline(always)]
+pub(crate) fn guarded_speed<S: Scalar>(speed: S, guard: f64) -> S {
+    if speed.value().abs() < guard {
+        S::constant(guard)
+    } else {
+        speed
+    }
+}
+
+impl<T: TyreModel> SingleTrackModel<T> {
+    pub fn new(vehicle: SingleTrackParams, tyre: T) -> Self {
+        Self { vehicle, tyre }
+    }
+
+    /// Straight driving at `speed` with freely rolling wheels (`ω r = vx`).
+    pub fn straight_rolling_state(&self, speed: f64) -> SingleTrackState {
+        let omega = speed / self.vehicle.wheel_radius;
+        SingleTrackState::new(speed, 0.0, 0.0, omega, omega)
+    }
+
+    /// Kinematics and force of one axle from the longitudinal and lateral velocity of its wheel
+    /// centre in the wheel frame.
+    #[inline(always)]
+    fn axle<S: Scalar>(
+        &self,
+        wheel_velocity: S,
+        wheel_lateral_velocity: S,
+        omega: S,
+        wheel_load: f64,
+    ) -> AxleState<S> {
+        let p = &self.vehicle;
+        let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
+        // (000: 5.17), (000: 5.22)
+        let tan_slip_angle = -wheel_lateral_velocity / divisor;
+        // (000: 5.65)
+        let slip = (omega * p.wheel_radius - wheel_velocity) / divisor;
+        let force = self.tyre.force(&TyreKinematics {
+            slip,
+            tan_slip_angle,
+            wheel_velocity,
+            vertical_load: S::constant(wheel_load),
+        });
+        AxleState {
+            wheel_velocity,
+            slip,
+            tan_slip_angle,
+            longitudinal_force: force.longitudinal * WHEELS_PER_AXLE,
+            lateral_force: force.lateral * WHEELS_PER_AXLE,
+        }
+    }
+
+    /// Front axle (000: 5.16, 5.17).
+    #[inline(always)]
+    fn front_axle<S: Scalar>(
+        &self,
+        vx: S,
+        vy: S,
+        yaw_rate: S,
+        omega: S,
+        cos_steer: S,
+        sin_steer: S,
+    ) -> AxleState<S> {
+        let lateral_at_axle = vy + yaw_rate * self.vehicle.cog_to_front_axle;
+        // (000: 5.16)
+        let wheel_velocity = vx * cos_steer + lateral_at_axle * sin_steer;
+        let wheel_lateral_velocity = -(vx * sin_steer) + lateral_at_axle * cos_steer;
+        self.axle(
+            wheel_velocity,
+            wheel_lateral_velocity,
+            omega,
+            self.vehicle.front_wheel_load,
+        )
+    }
+
+    /// Rear axle (000: 5.21, 5.22).
+    #[inline(always)]
+    fn rear_axle<S: Scalar>(&self, vx: S, vy: S, yaw_rate: S, omega: S) -> AxleState<S> {
+        // (000: 5.21)
+        let wheel_lateral_velocity = vy - yaw_rate * self.vehicle.cog_to_rear_axle;
+        self.axle(
+            vx,
+            wheel_lateral_velocity,
+            omega,
+            self.vehicle.rear_wheel_load,
+        )
+    }
+
+    #[inline(always)]
+    fn evaluate<S: Scalar>(&self, x: &[S; STATE_DIM], u: &[S; INPUT_DIM]) -> Evaluation<S> {
+        use state_index::*;
+        let steer = u[input_index::STEERING_ANGLE];
+        let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
+        Evaluation {
+            front: self.front_axle(
+                x[VX],
+                x[VY],
+                x[YAW_RATE],
+                x[OMEGA_FRONT],
+                cos_steer,
+                sin_steer,
+            ),
+            rear: self.rear_axle(x[VX], x[VY], x[YAW_RATE], x[OMEGA_REAR]),
+            cos_steer,
+            sin_steer,
+        }
+    }
+
+    /// `[v̇x, v̇y, ṙ]` from the axle forces (000: 5.43, 5.42, 5.44).
+    #[inline(always)]
+    fn body_derivatives<S: Scalar>(&self, x: &[S; STATE_DIM], forces: &AxleForces<S>) -> [S; 3] {
+        use state_index::*;
+        let p = &self.vehicle;
+        let AxleForces {
+            front_longitudinal,
+            front_lateral,
+            rear_longitudinal,
+            rear_lateral,
+            cos_steer,
+            sin_steer,
+        } = *forces;
+        let (vx, vy, yaw_rate) = (x[VX], x[VY], x[YAW_RATE]);
+        // (000: 5.43)
+        let vx_dot = (rear_longitudinal - front_lateral * sin_steer
+            + front_longitudinal * cos_steer)
+            / p.mass
+            + vy * yaw_rate;
+        // (000: 5.42)
+        let vy_dot = (rear_lateral + front_lateral * cos_steer + front_longitudinal * sin_steer)
+            / p.mass
+            - vx * yaw_rate;
+        // (000: 5.44)
+        let yaw_acceleration = (-(rear_lateral * p.cog_to_rear_axle)
+            + (front_lateral * cos_steer + front_longitudinal * sin_steer) * p.cog_to_front_axle)
+            / p.yaw_inertia;
+        [vx_dot, vy_dot, yaw_acceleration]
+    }
+
+    /// Front wheel spin acceleration `ω̇F` (000: 5.45) with `M_B = −brake_torque`.
+    #[inline(always)]
+    fn front_spin_acceleration<S: Scalar>(&self, u: &[S; INPUT_DIM], longitudinal_force: S) -> S {
+        let p = &self.vehicle;
+        let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
+        // (000: 5.45)
+        (u[input_index::DRIVE_TORQUE] + brake * p.brake_split_front
+            - longitudinal_force * p.wheel_radius)
+            / p.front_wheel_inertia
+    }
+
+    /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`.
+    #[inline(always)]
+    fn rear_spin_acceleration<S: Scalar>(&self, u: &[S; INPUT_DIM], longitudinal_force: S) -> S {
+        let p = &self.vehicle;
+        let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
+        // (000: 5.46)
+        (brake * (1.0 - p.brake_split_front) - longitudinal_force * p.wheel_radius)
+            / p.rear_wheel_inertia
+    }
+
+    /// Continuous-time right-hand side `ẋ = f(x, u)` (000: 5.42-5.46), generic over the scalar.
+    #[inline(always)]
+    pub fn derivatives_generic<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+    ) -> [S; STATE_DIM] {
+        let e = self.evaluate(x, u);
+        let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
+        [
+            vx_dot,
+            vy_dot,
+            yaw_acceleration,
+            self.front_spin_acceleration(u, e.front.longitudinal_force),
+            self.rear_spin_acceleration(u, e.rear.longitudinal_force),
+        ]
+    }
+
+    /// The seed-000 discrete step (000: 6.1-6.5): explicit Euler for `vx, vy, r`, semi-implicit
+    /// Euler for `ωF, ωR` with the exact `∂ω̇/∂ω` (from a one-direction dual number seeded in the
+    /// wheel speed; each axle's force depends on its own wheel speed only).
+    #[inline(always)]
+    fn step_seed_scheme<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        dt: f64,
+    ) -> [S; STATE_DIM] {
+        use state_index::*;
+        type W<S> = Dual<S, 1>;
+        let lift = W::<S>::from_value;
+        let steer = u[input_index::STEERING_ANGLE];
+        let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
+        let front = self.front_axle(
+            lift(x[VX]),
+            lift(x[VY]),
+            lift(x[YAW_RATE]),
+            W::<S>::variable(x[OMEGA_FRONT], 0),
+            lift(cos_steer),
+            lift(sin_steer),
+        );
+        let rear = self.rear_axle(
+            lift(x[VX]),
+            lift(x[VY]),
+            lift(x[YAW_RATE]),
+            W::<S>::variable(x[OMEGA_REAR], 0),
+        );
+        let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(
+            x,
+            &AxleForces {
+                front_longitudinal: front.longitudinal_force.value,
+                front_lateral: front.lateral_force.value,
+                rear_longitudinal: rear.longitudinal_force.value,
+                rear_lateral: rear.lateral_force.value,
+                cos_steer,
+                sin_steer,
+            },
+        );
+        let p = &self.vehicle;
+        let front_spin = self.front_spin_acceleration(u, front.longitudinal_force.value);
+        let rear_spin = self.rear_spin_acceleration(u, rear.longitudinal_force.value);
+        // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46)
+        let front_spin_derivative =
+            -(front.longitudinal_force.gradient[0] * p.wheel_radius) / p.front_wheel_inertia;
+        let rear_spin_derivative =
+            -(rear.longitudinal_force.gradient[0] * p.wheel_radius) / p.rear_wheel_inertia;
+        // (000: 6.3), (000: 6.4), (000: 6.5)
+        let body = explicit_euler(
+            &[x[VX], x[VY], x[YAW_RATE]],
+            dt,
+            &[vx_dot, vy_dot, yaw_acceleration],
+        );
+        [
+            body[0],
+            body[1],
+            body[2],
+            // (000: 6.1)
+            semi_implicit_update(x[OMEGA_FRONT], front_spin, front_spin_derivative, dt),
+            // (000: 6.2)
+            semi_implicit_update(x[OMEGA_REAR], rear_spin, rear_spin_derivative, dt),
+        ]
+    }
+
+    /// One discrete step with the chosen integrator, generic over the scalar.
+    #[inline(always)]
+    pub fn step_generic<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        dt: f64,
+        integrator: Integrator,
+    ) -> [S; STATE_DIM] {
+        match integrator {
+            Integrator::SemiImplicitEuler => self.step_seed_scheme(x, u, dt),
+            Integrator::RungeKutta4 => {
+                runge_kutta4(x, dt, |state| self.derivatives_generic(state, u))
+            }
+        }
+    }
+
+    /// Measurement `y = [r, ay, ωF, ωR]` (000: 5.63), generic over the scalar.
+    #[inline(always)]
+    pub fn measurement_generic<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+    ) -> [S; MEASUREMENT_DIM] {
+        use state_index::*;
+        let e = self.evaluate(x, u);
+        // (000: 5.40) with (000: 5.42): ay = v̇y + vx r = (FyR + FyF cos δ + FxF sin δ) / m
+        let lateral_acceleration = (e.rear.lateral_force
+            + e.front.lateral_force * e.cos_steer
+            + e.front.longitudinal_force * e.sin_steer)
+            / self.vehicle.mass;
+        [
+            x[YAW_RATE],
+            lateral_acceleration,
+            x[OMEGA_FRONT],
+            x[OMEGA_REAR],
+        ]
+    }
+
+    /// Continuous-time state derivative `ẋ = f(x, u)` (000: 5.42-5.46).
+    pub fn derivatives(&self, x: &SingleTrackState, u: &DriverInputVector) -> SingleTrackState {
+        SingleTrackState::from(self.derivatives_generic(&x.data.0[0], &u.data.0[0]))
+    }
+
+    /// One discrete step `x(k+1) = f_d(x(k), u(k))` of length `dt`.
+    pub fn step(
+        &self,
+        x: &SingleTrackState,
+        u: &DriverInputVector,
+        dt: f64,
+        integrator: Integrator,
+    ) -> SingleTrackState {
+        SingleTrackState::from(self.step_generic(&x.data.0[0], &u.data.0[0], dt, integrator))
+    }
+
+    /// Exact Jacobians `(∂f_d/∂x, ∂f_d/∂u)` of the discrete step (5×5, 5×3).
+    pub fn step_jacobians(
+        &self,
+        x: &SingleTrackState,
+        u: &DriverInputVector,
+        dt: f64,
+        integrator: Integrator,
+    ) -> (
+        SMatrix<f64, STATE_DIM, STATE_DIM>,
+        SMatrix<f64, STATE_DIM, INPUT_DIM>,
+    ) {
+        let (xs, us) = seed_state_and_input::<STATE_DIM, INPUT_DIM, { STATE_DIM + INPUT_DIM }>(
+            &x.data.0[0],
+            &u.data.0[0],
+        );
+        split_jacobians(&self.step_generic(&xs, &us, dt, integrator))
+    }
+
+    /// Measurement `y = h(x, u)` (000: 5.63).
+    pub fn measurement(
+        &self,
+        x: &SingleTrackState,
+        u: &DriverInputVector,
+    ) -> SingleTrackMeasurement {
+        SingleTrackMeasurement::from(self.measurement_generic(&x.data.0[0], &u.data.0[0]))
+    }
+
+    /// Exact Jacobians `(∂h/∂x, ∂h/∂u)` of the measurement (4×5, 4×3).
+    pub fn measurement_jacobians(
+        &self,
+        x: &SingleTrackState,
+        u: &DriverInputVector,
+    ) -> (
+        SMatrix<f64, MEASUREMENT_DIM, STATE_DIM>,
+        SMatrix<f64, MEASUREMENT_DIM, INPUT_DIM>,
+    ) {
+        let (xs, us) = seed_state_and_input::<STATE_DIM, INPUT_DIM, { STATE_DIM + INPUT_DIM }>(
+            &x.data.0[0],
+            &u.data.0[0],
+        );
+        split_jacobians(&self.measurement_generic(&xs, &us))
+    }
+
+    /// Derived quantities at `(x, u)`: sideslip, accelerations, slip angles, slips, axle forces.
+    pub fn outputs(&self, x: &SingleTrackState, u: &DriverInputVector) -> SingleTrackOutputs {
+        use state_index::*;
+        let xs: &[f64; STATE_DIM] = &x.data.0[0];
+        let us: &[f64; INPUT_DIM] = &u.data.0[0];
+        let e = self.evaluate(xs, us);
+        let [vx_dot, vy_dot, _] = self.body_derivatives(xs, &e.axle_forces());
+        let (vx, vy, yaw_rate) = (xs[VX], xs[VY], xs[YAW_RATE]);
+        SingleTrackOutputs {
+            sideslip: vy.atan2(vx),
+            // (000: 5.40)
+            lateral_acceleration: vy_dot + vx * yaw_rate,
+            // (000: 5.41)
+            longitudinal_acceleration: vx_dot - vy * yaw_rate,
+            slip_angle_front: e.front.tan_slip_angle.atan(),
+            slip_angle_rear: e.rear.tan_slip_angle.atan(),
+            slip_front: e.front.slip,
+            slip_rear: e.rear.slip,
+            longitudinal_force_front: e.front.longitudinal_force,
+            lateral_force_front: e.front.lateral_force,
+            longitudinal_force_rear: e.rear.longitudinal_force,
+            lateral_force_rear: e.rear.lateral_force,
+        }
+    }
+
+    /// The reference-vehicle truth quantities at `(x, u)`.
+    pub fn truth(&self, x: &SingleTrackState, u: &DriverInputVector) -> VehicleTruth {
+        use state_index::*;
+        let o = self.outputs(x, u);
+        VehicleTruth {
+            longitudinal_velocity: x[VX],
+            lateral_velocity: x[VY],
+            yaw_rate: x[YAW_RATE],
+            omega_front: x[OMEGA_FRONT],
+            omega_rear: x[OMEGA_REAR],
+            sideslip: o.sideslip,
+            lateral_acceleration: o.lateral_acceleration,
+            longitudinal_acceleration: o.longitudinal_acceleration,
+            slip_angle_front: o.slip_angle_front,
+            slip_angle_rear: o.slip_angle_rear,
+            slip_front: o.slip_front,
+            slip_rear: o.slip_rear,
+        }
+    }
+
+    /// Longitudinal velocity of the front wheel centre (000: 5.16); exposed for tests.
+    pub fn front_wheel_velocity(&self, x: &SingleTrackState, u: &DriverInputVector) -> f64 {
+        let e = self.evaluate::<f64>(&x.data.0[0], &u.data.0[0]);
+        e.front.wheel_velocity
+    }
+}

@@ -1,0 +1,71 @@
+//! Tyre models behind one interface: HSRI (seed 000), Magic Formula (seed 001) and linear.
+//!
+//! A tyre model maps the kinematics of one wheel (longitudinal slip, tangent of the slip angle,
+//! longitudinal speed of the wheel centre, vertical load) to the longitudinal and lateral force of
+//! that **one wheel** in the wheel frame. The single-track model A doubles them to axle forces
+//! (000: text before table 5.2).
+//!
+//! Sign conventions (ISO 8855, as 000: 5.17, 5.22, 5.65):
+//! - `slip = (ω r − v_x,wheel) / v_x,wheel`: positive when driving, negative when braking;
+//! - `tan α = −v_y,wheel / v_x,wheel`: a positive slip angle produces a positive (leftward)
+//!   lateral force;
+//! - the longitudinal force is positive forward.
+
+use crate::scalar::Scalar;
+
+mod hsri;
+mod linear;
+mod magic_formula;
+
+pub use hsri::{HsriParams, HsriTyre};
+pub use linear::{LinearTyre, LinearTyreParams};
+pub use magic_formula::{MagicFormulaParams, MagicFormulaTyre};
+
+/// Kinematic quantities of one wheel, the inputs of a tyre model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TyreKinematics<S: Scalar> {
+    /// Longitudinal slip `s` (000: 5.65), dimensionless.
+    pub slip: S,
+    /// `tan α`, tangent of the slip angle (000: 5.17, 5.22).
+    pub tan_slip_angle: S,
+    /// Longitudinal velocity of the wheel centre in the wheel frame, m/s (for the sliding speed,
+    /// 000: 5.66).
+    pub wheel_velocity: S,
+    /// Vertical load on this wheel, N.
+    pub vertical_load: S,
+}
+
+/// Force of one tyre on the road plane, in the wheel frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TyreForce<S: Scalar> {
+    /// Longitudinal (circumferential) force `U`, N, positive forward.
+    pub longitudinal: S,
+    /// Lateral force `S`, N, positive to the left.
+    pub lateral: S,
+}
+
+impl<S: Scalar> TyreForce<S> {
+    /// No force (wheel off the ground).
+    #[inline(always)]
+    pub fn zero() -> Self {
+        Self {
+            longitudinal: S::constant(0.0),
+            lateral: S::constant(0.0),
+        }
+    }
+}
+
+/// One interface for every tyre model, so the vehicle models are generic over it.
+///
+/// `force` is generic over [`Scalar`], which is what makes the vehicle Jacobians exact: the same
+/// code runs on dual numbers.
+pub trait TyreModel: Clone + std::fmt::Debug + Send + Sync {
+    /// Force of one tyre for the given kinematics.
+    fn force<S: Scalar>(&self, kinematics: &TyreKinematics<S>) -> TyreForce<S>;
+
+    /// Cornering stiffness `∂F_y/∂tan α` at zero slip, N/rad, at the given vertical load.
+    fn cornering_stiffness(&self, vertical_load: f64) -> f64;
+
+    /// Longitudinal slip stiffness `∂F_x/∂s` at zero slip, N, at the given vertical load.
+    fn longitudinal_stiffness(&self, vertical_load: f64) -> f64;
+}

@@ -1,0 +1,311 @@
+//! Physics and Jacobian checks of model A (seed 000).
+
+mod common;
+
+use common::{assert_jacobian_close, central_difference};
+use nalgebra::{SMatrix, SVector};
+use vehicle_models::driver_input::{index as input_index, DriverInputVector};
+use vehicle_models::manoeuvre::{SeedManoeuvre, SEED_INITIAL_SPEED, SEED_MANOEUVRE_DURATION};
+use vehicle_models::single_track::{state_index, SingleTrackState};
+use vehicle_models::tyre::{HsriTyre, LinearTyre, MagicFormulaTyre, TyreModel};
+use vehicle_models::{Integrator, SingleTrackHsri, SingleTrackModel, SingleTrackParams};
+
+const SAMPLE_TIME: f64 = 1e-3;
+
+fn simulate<T: TyreModel>(
+    model: &SingleTrackModel<T>,
+    manoeuvre: SeedManoeuvre,
+    integrator: Integrator,
+    mirror: bool,
+) -> (SingleTrackState, DriverInputVector) {
+    let mut state = model.straight_rolling_state(SEED_INITIAL_SPEED);
+    let steps = (SEED_MANOEUVRE_DURATION / SAMPLE_TIME).round() as usize;
+    let input_at = |t: f64| {
+        let mut u = manoeuvre.input_at(t).to_vector();
+        if mirror {
+            u[input_index::STEERING_ANGLE] = -u[input_index::STEERING_ANGLE];
+        }
+        u
+    };
+    for k in 0..steps {
+        state = model.step(
+            &state,
+            &input_at(k as f64 * SAMPLE_TIME),
+            SAMPLE_TIME,
+            integrator,
+        );
+    }
+    (state, input_at(SEED_MANOEUVRE_DURATION))
+}
+
+#[test]
+fn stiffness_check_values_of_seed_000() {
+    // 000: after table 5.2: CαF = 6.6109e4, CαR = 6.4639e4 N/rad, CsF = 1.1623e5, CsR = 1.0967e5 N
+    let tyre = HsriTyre::default();
+    let p = SingleTrackParams::default();
+    // The seed quotes five digits; its rear Cs (1.0967e5) is 3.5e-4 above what (000: 5.71) gives
+    // at FZR = 3374 N (1.0963e5), so the tolerance is 5e-4.
+    let close = |a: f64, b: f64| ((a - b) / b).abs() < 5e-4;
+    assert!(close(
+        tyre.cornering_stiffness(p.front_wheel_load),
+        6.6109e4
+    ));
+    assert!(close(tyre.cornering_stiffness(p.rear_wheel_load), 6.4639e4));
+    assert!(close(
+        tyre.longitudinal_stiffness(p.front_wheel_load),
+        1.1623e5
+    ));
+    assert!(close(
+        tyre.longitudinal_stiffness(p.rear_wheel_load),
+        1.0967e5
+    ));
+}
+
+#[test]
+fn hsri_small_slip_force_equals_stiffness_times_slip() {
+    // The slope of the HSRI force at zero slip is the stiffness of (000: 5.70, 5.71).
+    let model = SingleTrackHsri::default();
+    let fz = model.vehicle.front_wheel_load;
+    let tiny = 1e-5;
+    let lateral = model.tyre.force(&vehicle_models::tyre::TyreKinematics {
+        slip: 0.0,
+        tan_slip_angle: tiny,
+        wheel_velocity: 18.0,
+        vertical_load: fz,
+    });
+    let longitudinal = model.tyre.force(&vehicle_models::tyre::TyreKinematics {
+        slip: tiny,
+        tan_slip_angle: 0.0,
+        wheel_velocity: 18.0,
+        vertical_load: fz,
+    });
+    assert!((lateral.lateral / tiny / model.tyre.cornering_stiffness(fz) - 1.0).abs() < 1e-9);
+    assert!(
+        (longitudinal.longitudinal / tiny / model.tyre.longitudinal_stiffness(fz) - 1.0).abs()
+            < 1e-4
+    );
+}
+
+#[test]
+fn moderate_ramp_settles_near_seed_lateral_acceleration() {
+    // SPEC §7 / 000: 7.1: ay "etwa 3.7 m/s²"; independent implementation of SPEC: 3.65.
+    let model = SingleTrackHsri::default();
+    let (x, u) = simulate(
+        &model,
+        SeedManoeuvre::ModerateRamp,
+        Integrator::SemiImplicitEuler,
+        false,
+    );
+    let ay = model.outputs(&x, &u).lateral_acceleration;
+    assert!((ay - 3.65).abs() < 0.03, "ay = {ay}");
+    // steady: the measured ay equals vx·r up to the tiny v̇y
+    assert!((ay - x[state_index::VX] * x[state_index::YAW_RATE]).abs() < 0.02);
+    // speed falls through the cornering drag (000: 7.1 text on fig. 7.3)
+    assert!(x[state_index::VX] < SEED_INITIAL_SPEED - 0.1);
+}
+
+#[test]
+fn runge_kutta_and_seed_scheme_agree_on_the_moderate_ramp() {
+    let model = SingleTrackHsri::default();
+    let (euler, _) = simulate(
+        &model,
+        SeedManoeuvre::ModerateRamp,
+        Integrator::SemiImplicitEuler,
+        false,
+    );
+    let (rk4, _) = simulate(
+        &model,
+        SeedManoeuvre::ModerateRamp,
+        Integrator::RungeKutta4,
+        false,
+    );
+    let difference = (euler - rk4).abs();
+    assert!(difference[state_index::VX] < 1e-2, "{difference}");
+    assert!(difference[state_index::VY] < 1e-3, "{difference}");
+    assert!(difference[state_index::YAW_RATE] < 1e-3, "{difference}");
+}
+
+#[test]
+fn braking_reaches_the_seed_deceleration() {
+    // 000: fig. 7.11 text: about 4 m/s² deceleration from 11 s with M_B = −2000 N·m.
+    let model = SingleTrackHsri::default();
+    let (x, u) = simulate(
+        &model,
+        SeedManoeuvre::HighRampBraking,
+        Integrator::SemiImplicitEuler,
+        false,
+    );
+    let o = model.outputs(&x, &u);
+    assert!(
+        (o.longitudinal_acceleration + 4.0).abs() < 0.5,
+        "ax = {}",
+        o.longitudinal_acceleration
+    );
+    assert!(
+        o.slip_front < 0.0 && o.slip_rear < 0.0,
+        "braking slips must be negative"
+    );
+    assert!(x.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn steering_left_and_right_gives_mirrored_states() {
+    let model = SingleTrackHsri::default();
+    for manoeuvre in [SeedManoeuvre::HighRamp, SeedManoeuvre::HighRampBraking] {
+        let (left, _) = simulate(&model, manoeuvre, Integrator::SemiImplicitEuler, false);
+        let (right, _) = simulate(&model, manoeuvre, Integrator::SemiImplicitEuler, true);
+        let mirror = SVector::<f64, 5>::new(1.0, -1.0, -1.0, 1.0, 1.0);
+        let difference = left - right.component_mul(&mirror);
+        assert!(difference.amax() < 1e-9, "{manoeuvre:?}: {difference}");
+        assert!(
+            left[state_index::YAW_RATE] > 0.1,
+            "left steer must turn left"
+        );
+    }
+}
+
+#[test]
+fn straight_coasting_stays_straight_and_wheels_roll_freely() {
+    let model = SingleTrackHsri::default();
+    let mut x = model.straight_rolling_state(18.0);
+    let u = DriverInputVector::zeros();
+    for integrator in [Integrator::SemiImplicitEuler, Integrator::RungeKutta4] {
+        for _ in 0..5000 {
+            x = model.step(&x, &u, SAMPLE_TIME, integrator);
+        }
+        assert_eq!(x[state_index::VY], 0.0);
+        assert_eq!(x[state_index::YAW_RATE], 0.0);
+        // no rolling resistance in the model (000: 5.42-5.46 neglect it): speed is kept
+        assert!((x[state_index::VX] - 18.0).abs() < 1e-9);
+        let o = model.outputs(&x, &u);
+        assert!(o.slip_front.abs() < 1e-12 && o.slip_rear.abs() < 1e-12);
+        assert_eq!(o.sideslip, 0.0);
+    }
+}
+
+#[test]
+fn freely_rolling_wheels_keep_zero_slip_while_cornering() {
+    // Undriven, unbraked wheels carry only the force that decelerates their own spin inertia
+    // (the car slows through cornering drag, ~0.06 m/s²), so their slip stays ~1e-5.
+    let model = SingleTrackHsri::default();
+    let (x, u) = simulate(
+        &model,
+        SeedManoeuvre::ModerateRamp,
+        Integrator::SemiImplicitEuler,
+        false,
+    );
+    let o = model.outputs(&x, &u);
+    assert!(o.slip_rear.abs() < 1e-4, "sR = {}", o.slip_rear);
+    assert!(o.slip_front.abs() < 1e-4, "sF = {}", o.slip_front);
+}
+
+#[test]
+fn standstill_produces_no_nan() {
+    let model = SingleTrackHsri::default();
+    let mut x = SingleTrackState::new(0.0, 0.3, 0.1, 0.0, 0.0);
+    let u = DriverInputVector::new(0.1, 50.0, 0.0);
+    for integrator in [Integrator::SemiImplicitEuler, Integrator::RungeKutta4] {
+        for _ in 0..2000 {
+            x = model.step(&x, &u, SAMPLE_TIME, integrator);
+            assert!(x.iter().all(|v| v.is_finite()), "{x}");
+        }
+        let (a, b) = model.step_jacobians(&x, &u, SAMPLE_TIME, integrator);
+        assert!(a.iter().chain(b.iter()).all(|v| v.is_finite()));
+    }
+}
+
+/// Operating points covering straight rolling (the LKF point of 000: 5.58-5.62), moderate
+/// cornering with drive, sliding under braking, and high lateral slip.
+fn operating_points() -> Vec<(SingleTrackState, DriverInputVector)> {
+    vec![
+        (
+            SingleTrackState::new(18.0, 0.0, 0.0, 60.0, 60.0),
+            DriverInputVector::new(0.0, 0.0, 0.0),
+        ),
+        (
+            SingleTrackState::new(17.5, -0.03, 0.21, 58.4, 58.3),
+            DriverInputVector::new(0.035, 80.0, 0.0),
+        ),
+        (
+            SingleTrackState::new(12.0, 0.3, 0.25, 37.0, 38.5),
+            DriverInputVector::new(0.122, 0.0, 1500.0),
+        ),
+        (
+            SingleTrackState::new(15.0, 0.8, 0.45, 49.0, 49.5),
+            DriverInputVector::new(0.15, 300.0, 0.0),
+        ),
+    ]
+}
+
+fn check_model_jacobians<T: TyreModel>(model: &SingleTrackModel<T>) {
+    for (x, u) in operating_points() {
+        for integrator in [Integrator::SemiImplicitEuler, Integrator::RungeKutta4] {
+            let (a, b) = model.step_jacobians(&x, &u, SAMPLE_TIME, integrator);
+            let a_fd: SMatrix<f64, 5, 5> =
+                central_difference(&x, |x| model.step(x, &u, SAMPLE_TIME, integrator));
+            let b_fd: SMatrix<f64, 5, 3> =
+                central_difference(&u, |u| model.step(&x, u, SAMPLE_TIME, integrator));
+            assert_jacobian_close(&format!("A {integrator:?} at {x}"), &a, &a_fd);
+            assert_jacobian_close(&format!("B {integrator:?} at {x}"), &b, &b_fd);
+        }
+        let (c, d) = model.measurement_jacobians(&x, &u);
+        let c_fd: SMatrix<f64, 4, 5> = central_difference(&x, |x| model.measurement(x, &u));
+        let d_fd: SMatrix<f64, 4, 3> = central_difference(&u, |u| model.measurement(&x, u));
+        assert_jacobian_close("C", &c, &c_fd);
+        assert_jacobian_close("D", &d, &d_fd);
+    }
+}
+
+#[test]
+fn exact_jacobians_match_central_differences_hsri() {
+    check_model_jacobians(&SingleTrackHsri::default());
+}
+
+#[test]
+fn exact_jacobians_match_central_differences_other_tyres() {
+    check_model_jacobians(&SingleTrackModel::new(
+        SingleTrackParams::default(),
+        LinearTyre::default(),
+    ));
+    check_model_jacobians(&SingleTrackModel::new(
+        SingleTrackParams::default(),
+        MagicFormulaTyre::default(),
+    ));
+}
+
+#[test]
+fn semi_implicit_jacobian_contains_the_differentiated_wheel_stiffness() {
+    // The wheel-speed row of the seed scheme differs from explicit Euler exactly by the
+    // (1 − T ∂ω̇/∂ω)⁻¹ factor; at T = 10 ms its effect on ∂ωF(k+1)/∂ωF is large, and the exact
+    // Jacobian must still match central differences there.
+    let model = SingleTrackHsri::default();
+    let dt = 0.01;
+    let x = SingleTrackState::new(5.0, 0.0, 0.0, 16.0, 16.6);
+    let u = DriverInputVector::new(0.0, 100.0, 0.0);
+    let (a, _) = model.step_jacobians(&x, &u, dt, Integrator::SemiImplicitEuler);
+    let a_fd: SMatrix<f64, 5, 5> =
+        central_difference(&x, |x| model.step(x, &u, dt, Integrator::SemiImplicitEuler));
+    assert_jacobian_close("A at low speed", &a, &a_fd);
+    // The Jacobian with ∂ω̇/∂ω frozen (not differentiated) would be 1/(1 − T ∂ω̇/∂ω) here;
+    // the exact one also carries T ω̇ · T ∂²ω̇/∂ω² / (1 − T ∂ω̇/∂ω)², which matters at this point.
+    let omega_rate = |omega: f64| {
+        let mut y = x;
+        y[state_index::OMEGA_FRONT] = omega;
+        model.derivatives(&y, &u)[state_index::OMEGA_FRONT]
+    };
+    let h = 1e-6 * x[state_index::OMEGA_FRONT];
+    let rate_slope = (omega_rate(x[state_index::OMEGA_FRONT] + h)
+        - omega_rate(x[state_index::OMEGA_FRONT] - h))
+        / (2.0 * h);
+    assert!(
+        rate_slope < 0.0,
+        "a gripping wheel damps its own spin: {rate_slope}"
+    );
+    let frozen = 1.0 / (1.0 - dt * rate_slope);
+    let omega = state_index::OMEGA_FRONT;
+    assert!(
+        (a[(omega, omega)] - frozen).abs() > 1e-2,
+        "exact {} vs frozen {frozen}",
+        a[(omega, omega)]
+    );
+}
