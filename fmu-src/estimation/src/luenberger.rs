@@ -1,1 +1,407 @@
-// placeholder: filled by its owner
+//! Discrete Luenberger observer with the gain placed by the Ackermann formula (002: §4).
+//!
+//! The seed derives the observer in continuous time for one output: `l = p̂(A) O⁻¹ eₙ`, where
+//! `p̂` is the desired characteristic polynomial, `O = [cᵀ; cᵀA; …; cᵀAⁿ⁻¹]` the observability
+//! matrix and `eₙ` the last unit vector (the seed's `sᵀ` is the last row of `O⁻¹`, 002: "ACKERMANN-
+//! Formel"). Here the observer runs on the discrete linearisation `x(k+1) = A x(k) + B u(k)`,
+//! `y = C x + D u` (about a fixed operating point, as the LKF) in predictor/corrector form:
+//!
+//! `x̂⁻(k+1) = A x̂⁺(k) + B u(k)`,  `x̂⁺(k+1) = x̂⁻(k+1) + L (y(k+1) - C x̂⁻(k+1) - D u(k+1))`,
+//!
+//! so the a-posteriori error obeys `e⁺(k+1) = (I - L C) A e⁺(k) = (A - L C A) e⁺(k)`. The gain is
+//! therefore placed for the pair `(A, C A)`; the a-priori error map `A (I - L C)` has the same
+//! eigenvalues. The requested poles are discrete (inside the unit circle); see
+//! [`crate::kalman::discrete_poles`] to map continuous poles.
+//!
+//! Several outputs (our decision; the seed covers only one): the state is split into blocks, each
+//! observed through one output row. The design is accepted only when the blocks are decoupled in
+//! `A` and in the chosen rows of `C A` (checked, relative tolerance 1e-12), so the error matrix is
+//! block-diagonal and its eigenvalues are exactly the union of the per-block poles. For model A
+//! linearised about straight driving the lateral states (vy, r) and the longitudinal states
+//! (vx, ωF, ωR) decouple exactly, so the default design observes (vy, r) through the yaw rate and
+//! (vx, ωF, ωR) through the front wheel speed. A single block with all states is the seed's
+//! single-output design.
+//!
+//! Numerics: with a short sample time `A ≈ I`, so the rows `cᵀAʲ` of the observability matrix are
+//! nearly equal. Ackermann is applied instead to `Ã = (A - I)/h` with poles `(zᵢ - 1)/h`
+//! (`h = max|A - I|`), which places exactly the same eigenvalues because
+//! `A - l c̃ᵀ = I + h (Ã - (l/h) c̃ᵀ)`, and is well conditioned.
+//!
+//! The observer also propagates the covariance of its estimation error for its fixed gain
+//! (Joseph form, valid for any gain), so it reports an uncertainty and NIS like the filters.
+//! A skipped measurement row contributes nothing to that step (its gain column is not applied).
+
+use nalgebra::{Complex, DMatrix, DVector, SMatrix, SVector};
+
+use crate::kalman::{
+    finite_or_restore, joseph_update, InitialEstimate, LinearisedModel, SettingsError,
+};
+use crate::linalg::{check_covariance, symmetrize};
+use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
+
+/// One block of the observer design: these states, observed through this output row, get
+/// these (discrete) error-dynamics poles.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignBlock {
+    /// State indices of the block.
+    pub states: Vec<usize>,
+    /// The measurement row whose innovation drives this block.
+    pub output: usize,
+    /// Desired discrete poles, one per state of the block; complex ones in conjugate pairs.
+    pub poles: Vec<Complex<f64>>,
+}
+
+/// How the observer gain is placed: the blocks must cover every state exactly once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObserverDesign {
+    pub blocks: Vec<DesignBlock>,
+}
+
+impl ObserverDesign {
+    /// The seed's single-output design: all states observed through `output`.
+    pub fn single_output(output: usize, poles: Vec<Complex<f64>>) -> Self {
+        Self {
+            blocks: vec![DesignBlock {
+                states: (0..poles.len()).collect(),
+                output,
+                poles,
+            }],
+        }
+    }
+
+    /// All the poles of the design, in block order.
+    pub fn poles(&self) -> Vec<Complex<f64>> {
+        self.blocks
+            .iter()
+            .flat_map(|b| b.poles.iter().copied())
+            .collect()
+    }
+}
+
+/// Coefficients `[a₀, …, a_{k-1}]` of the monic polynomial `∏(s - pᵢ) = sᵏ + a_{k-1}sᵏ⁻¹ + … + a₀`
+/// (002: "Koeffizienten âᵢ des charakteristischen Polynoms aus den vorgegebenen Eigenwerten").
+pub fn characteristic_coefficients(poles: &[Complex<f64>]) -> Result<Vec<f64>, SettingsError> {
+    // Coefficients in ascending order, leading 1 at the end.
+    let mut coefficients = vec![Complex::new(1.0, 0.0)];
+    for &pole in poles {
+        if !(pole.re.is_finite() && pole.im.is_finite()) {
+            return Err(SettingsError(format!(
+                "observer poles must be finite, got {pole}"
+            )));
+        }
+        let mut next = vec![Complex::new(0.0, 0.0); coefficients.len() + 1];
+        for (j, &c) in coefficients.iter().enumerate() {
+            next[j + 1] += c;
+            next[j] -= pole * c;
+        }
+        coefficients = next;
+    }
+    let scale = coefficients.iter().map(|c| c.norm()).fold(1.0, f64::max);
+    if coefficients.iter().any(|c| c.im.abs() > 1e-9 * scale) {
+        return Err(SettingsError(format!(
+            "observer poles must come in complex-conjugate pairs, got {poles:?}"
+        )));
+    }
+    coefficients.pop();
+    Ok(coefficients.into_iter().map(|c| c.re).collect())
+}
+
+/// The Ackermann formula for an observer (002: §4): the gain `l` such that `A - l cᵀ` has the
+/// eigenvalues `poles`, `l = p̂(A) O⁻¹ eₙ`. Errors when `(A, cᵀ)` is not observable.
+pub fn ackermann_observer_gain(
+    system: &DMatrix<f64>,
+    output_row: &DVector<f64>,
+    poles: &[Complex<f64>],
+) -> Result<DVector<f64>, SettingsError> {
+    let n = system.nrows();
+    if system.ncols() != n || output_row.len() != n || poles.len() != n {
+        return Err(SettingsError(format!(
+            "pole placement needs a square system, an output row of its size and one pole per state; got a {}x{} system, {} output entries, {} poles",
+            system.nrows(),
+            system.ncols(),
+            output_row.len(),
+            poles.len()
+        )));
+    }
+    let coefficients = characteristic_coefficients(poles)?;
+    // O = [cᵀ; cᵀA; …; cᵀAⁿ⁻¹].
+    let mut observability = DMatrix::<f64>::zeros(n, n);
+    let mut row = output_row.transpose();
+    for j in 0..n {
+        observability.set_row(j, &row);
+        row *= system;
+    }
+    let mut last_unit = DVector::<f64>::zeros(n);
+    last_unit[n - 1] = 1.0;
+    let singular_values = observability.clone().svd(false, false).singular_values;
+    let largest = singular_values.max();
+    let smallest = singular_values.min();
+    if largest.is_nan() || largest <= 0.0 || smallest <= 1e-12 * largest {
+        return Err(SettingsError(format!(
+            "the system is not observable from the chosen output (observability matrix singular values {})",
+            singular_values.transpose()
+        )));
+    }
+    let q = observability
+        .lu()
+        .solve(&last_unit)
+        .ok_or_else(|| SettingsError("the observability matrix is singular".to_string()))?;
+    // p̂(A) by Horner's scheme: Aⁿ + a_{n-1}Aⁿ⁻¹ + … + a₀ I.
+    let identity = DMatrix::<f64>::identity(n, n);
+    let mut polynomial = identity.clone();
+    for &a in coefficients.iter().rev() {
+        polynomial = &polynomial * system + &identity * a;
+    }
+    Ok(polynomial * q)
+}
+
+/// The observer gain `L` (N × M) of `design` for the discrete linear model: places the
+/// eigenvalues of `(I - L C) A` (see the module documentation).
+pub fn observer_gain<const N: usize, const M: usize, const U: usize>(
+    linear: &LinearisedModel<N, M, U>,
+    design: &ObserverDesign,
+) -> Result<SMatrix<f64, N, M>, SettingsError> {
+    let a = &linear.transition;
+    let ca = linear.output_matrix * a;
+    let mut covered = [false; N];
+    for block in &design.blocks {
+        if block.output >= M {
+            return Err(SettingsError(format!(
+                "observer design: output index {} out of range (the model has {M} outputs)",
+                block.output
+            )));
+        }
+        if block.poles.len() != block.states.len() {
+            return Err(SettingsError(format!(
+                "observer design: a block with states {:?} needs {} poles, got {}",
+                block.states,
+                block.states.len(),
+                block.poles.len()
+            )));
+        }
+        for &s in &block.states {
+            if s >= N || covered[s] {
+                return Err(SettingsError(format!(
+                    "observer design: state index {s} is out of range or in two blocks (the model has {N} states)"
+                )));
+            }
+            covered[s] = true;
+        }
+        if let Some(pole) = block
+            .poles
+            .iter()
+            .find(|p| p.norm().is_nan() || p.norm() >= 1.0)
+        {
+            return Err(SettingsError(format!(
+                "observer poles must lie inside the unit circle (discrete time), got {pole}"
+            )));
+        }
+    }
+    if let Some(missing) = covered.iter().position(|&c| !c) {
+        return Err(SettingsError(format!(
+            "observer design: state {missing} is in no block"
+        )));
+    }
+    // Block decoupling, so that the eigenvalues of the whole error matrix are the union of the
+    // per-block ones.
+    let tolerance = 1e-12 * a.amax().max(ca.amax());
+    for block in &design.blocks {
+        for &inside in &block.states {
+            for outside in (0..N).filter(|s| !block.states.contains(s)) {
+                let coupled = a[(inside, outside)].abs() > tolerance
+                    || a[(outside, inside)].abs() > tolerance
+                    || ca[(block.output, outside)].abs() > tolerance;
+                if coupled {
+                    return Err(SettingsError(format!(
+                        "observer design: states {:?} are coupled to state {outside} in the linear model or in output {}; use one block",
+                        block.states, block.output
+                    )));
+                }
+            }
+        }
+    }
+    let mut gain = SMatrix::<f64, N, M>::zeros();
+    for block in &design.blocks {
+        let k = block.states.len();
+        let shifted_system = DMatrix::from_fn(k, k, |i, j| {
+            a[(block.states[i], block.states[j])] - if i == j { 1.0 } else { 0.0 }
+        });
+        let h = shifted_system.amax();
+        let h = if h > 0.0 { h } else { 1.0 };
+        let shifted_system = shifted_system / h;
+        let output_row = DVector::from_fn(k, |i, _| ca[(block.output, block.states[i])]);
+        let shifted_poles: Vec<Complex<f64>> = block.poles.iter().map(|&z| (z - 1.0) / h).collect();
+        let block_gain = ackermann_observer_gain(&shifted_system, &output_row, &shifted_poles)?;
+        for (i, &s) in block.states.iter().enumerate() {
+            gain[(s, block.output)] = h * block_gain[i];
+        }
+    }
+    Ok(gain)
+}
+
+/// The discrete Luenberger observer of seed 002 on the linearisation of any [`StateSpaceModel`].
+#[derive(Debug, Clone)]
+pub struct LuenbergerObserver<Model, const N: usize, const M: usize, const U: usize> {
+    model: Model,
+    linear: LinearisedModel<N, M, U>,
+    gain: SMatrix<f64, N, M>,
+    process_noise: SMatrix<f64, N, N>,
+    measurement_noise: SMatrix<f64, M, M>,
+    state: SVector<f64, N>,
+    covariance: SMatrix<f64, N, N>,
+    last_report: UpdateReport<M>,
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> LuenbergerObserver<Model, N, M, U>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    /// Linearises `model` about `(operating_state, operating_input)`, places the gain by
+    /// `design` and starts from `initial` (its covariance seeds the error-covariance propagation).
+    pub fn new(
+        model: Model,
+        operating_state: &SVector<f64, N>,
+        operating_input: &SVector<f64, U>,
+        design: &ObserverDesign,
+        initial: &InitialEstimate<N>,
+    ) -> Result<Self, SettingsError> {
+        initial.validate()?;
+        let process_noise = model.process_noise();
+        let measurement_noise = model.measurement_noise();
+        check_covariance("the process noise covariance Q", &process_noise)
+            .map_err(SettingsError)?;
+        check_covariance("the measurement noise covariance R", &measurement_noise)
+            .map_err(SettingsError)?;
+        let linear = LinearisedModel::about(&model, operating_state, operating_input)?;
+        let gain = observer_gain(&linear, design)?;
+        Ok(Self {
+            model,
+            linear,
+            gain,
+            process_noise,
+            measurement_noise,
+            state: initial.state,
+            covariance: initial.covariance,
+            last_report: UpdateReport::skipped(),
+        })
+    }
+
+    /// The placed observer gain `L`.
+    pub fn gain(&self) -> &SMatrix<f64, N, M> {
+        &self.gain
+    }
+
+    /// The a-posteriori error map `(I - L C) A` whose eigenvalues were placed.
+    pub fn error_dynamics(&self) -> SMatrix<f64, N, N> {
+        (SMatrix::<f64, N, N>::identity() - self.gain * self.linear.output_matrix)
+            * self.linear.transition
+    }
+
+    /// The linear model the observer runs on.
+    pub fn linearisation(&self) -> &LinearisedModel<N, M, U> {
+        &self.linear
+    }
+
+    /// The model the observer was linearised from.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The report of the last measurement update.
+    pub fn last_report(&self) -> &UpdateReport<M> {
+        &self.last_report
+    }
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> Estimator<N, M, U>
+    for LuenbergerObserver<Model, N, M, U>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    fn predict(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
+        let previous_state = self.state;
+        let previous_covariance = self.covariance;
+        self.state = self.linear.predict(&self.state, input);
+        let a = &self.linear.transition;
+        self.covariance = a * self.covariance * a.transpose() + self.process_noise;
+        symmetrize(&mut self.covariance);
+        if finite_or_restore(
+            &mut self.state,
+            &mut self.covariance,
+            previous_state,
+            previous_covariance,
+        ) {
+            Ok(())
+        } else {
+            Err(FilterIssue::StateReset)
+        }
+    }
+
+    fn update(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        mask: &MeasurementMask<M>,
+    ) -> Result<UpdateReport<M>, FilterIssue> {
+        let predicted = self.linear.measure(&self.state, input);
+        let c = &self.linear.output_matrix;
+        let cross = self.covariance * c.transpose();
+        let innovation_covariance = c * cross + self.measurement_noise;
+        // The Kalman gain of masked_gain is not used; it yields the masked innovation and NIS.
+        let step = match crate::kalman::masked_gain(
+            cross,
+            innovation_covariance,
+            measurement,
+            &predicted,
+            mask,
+        ) {
+            Ok(Some(step)) => step,
+            Ok(None) => {
+                self.last_report = UpdateReport::skipped();
+                return Ok(self.last_report);
+            }
+            Err(issue) => {
+                self.last_report = UpdateReport::skipped();
+                return Err(issue);
+            }
+        };
+        let report = step.report;
+        let mut gain = self.gain;
+        let mut used_output_matrix = *c;
+        for row in 0..M {
+            if !report.used[row] {
+                gain.column_mut(row).fill(0.0);
+                used_output_matrix.row_mut(row).fill(0.0);
+            }
+        }
+        let previous_state = self.state;
+        let previous_covariance = self.covariance;
+        self.state += gain * report.innovation;
+        self.covariance = joseph_update(
+            &self.covariance,
+            &gain,
+            &used_output_matrix,
+            &self.measurement_noise,
+        );
+        symmetrize(&mut self.covariance);
+        if !finite_or_restore(
+            &mut self.state,
+            &mut self.covariance,
+            previous_state,
+            previous_covariance,
+        ) {
+            self.last_report = UpdateReport::skipped();
+            return Err(FilterIssue::StateReset);
+        }
+        self.last_report = report;
+        Ok(report)
+    }
+
+    fn state(&self) -> &SVector<f64, N> {
+        &self.state
+    }
+
+    fn covariance(&self) -> &SMatrix<f64, N, N> {
+        &self.covariance
+    }
+}

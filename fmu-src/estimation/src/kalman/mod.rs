@@ -1,1 +1,440 @@
-// placeholder: filled by its owner
+//! Kalman-type filters over [`StateSpaceModel`]: the linear Kalman filter on a fixed
+//! linearisation ([`LinearKalmanFilter`], 000: 4.64-4.75), the extended Kalman filter
+//! ([`ExtendedKalmanFilter`], 000: 4.99-4.113) and the unscented Kalman filter with either the
+//! seed's 2n sigma points or the scaled 2n+1 set ([`UnscentedKalmanFilter`], 000: 4.114-4.144;
+//! 001 [13, 16]).
+//!
+//! [`KalmanEstimator`] wraps these and the Luenberger observer in one enum, so a caller (the FMU)
+//! can pick the estimator from a parameter at run time and drive it through one [`Estimator`]
+//! implementation.
+//!
+//! Missing measurements: a row whose mask entry is `false` or whose value is not finite is
+//! skipped. The filters do that without allocating by giving the skipped rows a unit innovation
+//! covariance and a zero cross-covariance: the innovation covariance is then block-diagonal
+//! between used and skipped rows, so the gain columns of the skipped rows are exactly zero and the
+//! update is exactly the update with the used rows alone.
+
+mod ekf;
+mod linearised;
+mod lkf;
+mod ukf;
+
+pub use ekf::ExtendedKalmanFilter;
+pub use linearised::LinearisedModel;
+pub use lkf::LinearKalmanFilter;
+pub use ukf::{SigmaPoints, UnscentedKalmanFilter};
+
+use nalgebra::{Complex, SMatrix, SVector};
+
+use crate::linalg::{all_finite, check_covariance, repair_positive_definite, symmetrize};
+use crate::luenberger::{LuenbergerObserver, ObserverDesign};
+use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
+
+/// An estimator setting that cannot work, with a message naming the setting and what was expected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid estimator setting: {0}")]
+pub struct SettingsError(pub String);
+
+/// The Gaussian an estimator starts from: `x̂⁺(0)` and `P⁺(0)` (000: 4.69-4.70).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InitialEstimate<const N: usize> {
+    pub state: SVector<f64, N>,
+    pub covariance: SMatrix<f64, N, N>,
+}
+
+impl<const N: usize> InitialEstimate<N> {
+    /// A start with a diagonal covariance.
+    pub fn diagonal(state: SVector<f64, N>, variances: SVector<f64, N>) -> Self {
+        Self {
+            state,
+            covariance: SMatrix::from_diagonal(&variances),
+        }
+    }
+
+    /// Checks that the state is finite and the covariance symmetric positive definite.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        if !all_finite(&self.state) {
+            return Err(SettingsError(format!(
+                "the initial state must be finite, got {}",
+                self.state.transpose()
+            )));
+        }
+        check_covariance("the initial covariance", &self.covariance).map_err(SettingsError)
+    }
+}
+
+/// Checks the model's `Q` and `R` once, when a filter is built.
+fn validated_noise<Model, const N: usize, const M: usize, const U: usize>(
+    model: &Model,
+) -> Result<(SMatrix<f64, N, N>, SMatrix<f64, M, M>), SettingsError>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    let process_noise = model.process_noise();
+    let measurement_noise = model.measurement_noise();
+    check_covariance("the process noise covariance Q", &process_noise).map_err(SettingsError)?;
+    check_covariance("the measurement noise covariance R", &measurement_noise)
+        .map_err(SettingsError)?;
+    Ok((process_noise, measurement_noise))
+}
+
+/// Which rows take part in an update: present in the mask, finite in the measurement and finite
+/// in the prediction.
+fn usable_rows<const M: usize>(
+    measurement: &SVector<f64, M>,
+    predicted: &SVector<f64, M>,
+    mask: &MeasurementMask<M>,
+) -> MeasurementMask<M> {
+    let mut used = [false; M];
+    for row in 0..M {
+        used[row] = mask[row] && measurement[row].is_finite() && predicted[row].is_finite();
+    }
+    used
+}
+
+/// The gain, innovation and consistency of one masked measurement update.
+pub(crate) struct GainStep<const N: usize, const M: usize> {
+    pub(crate) gain: SMatrix<f64, N, M>,
+    pub(crate) innovation_covariance: SMatrix<f64, M, M>,
+    pub(crate) report: UpdateReport<M>,
+}
+
+/// `K = Pxy S⁻¹` over the used rows (000: 4.72, 4.111, 4.142), the innovation `ν = y - ŷ` and
+/// `NIS = νᵀ S⁻¹ ν`. `cross` is `Pxy` (`P⁻Hᵀ` for the LKF/EKF), `innovation_covariance` is `S`
+/// including `R`. Returns `Ok(None)` when no row is usable and `Err(UpdateSkipped)` when `S` is
+/// not positive definite.
+pub(crate) fn masked_gain<const N: usize, const M: usize>(
+    mut cross: SMatrix<f64, N, M>,
+    mut innovation_covariance: SMatrix<f64, M, M>,
+    measurement: &SVector<f64, M>,
+    predicted: &SVector<f64, M>,
+    mask: &MeasurementMask<M>,
+) -> Result<Option<GainStep<N, M>>, FilterIssue> {
+    let used = usable_rows(measurement, predicted, mask);
+    let rows_used = used.iter().filter(|&&u| u).count();
+    if rows_used == 0 {
+        return Ok(None);
+    }
+    let mut innovation = SVector::<f64, M>::zeros();
+    for row in 0..M {
+        if used[row] {
+            innovation[row] = measurement[row] - predicted[row];
+        } else {
+            // Decouple the skipped row: unit variance, no correlation, no cross-covariance.
+            innovation_covariance.row_mut(row).fill(0.0);
+            innovation_covariance.column_mut(row).fill(0.0);
+            innovation_covariance[(row, row)] = 1.0;
+            cross.column_mut(row).fill(0.0);
+        }
+    }
+    symmetrize(&mut innovation_covariance);
+    if !all_finite(&innovation_covariance) || !all_finite(&cross) {
+        return Err(FilterIssue::UpdateSkipped);
+    }
+    let Some(cholesky) = innovation_covariance.cholesky() else {
+        return Err(FilterIssue::UpdateSkipped);
+    };
+    // K = Pxy S⁻¹  <=>  Kᵀ = S⁻¹ Pxyᵀ (S symmetric).
+    let gain = cholesky.solve(&cross.transpose()).transpose();
+    let nis = innovation.dot(&cholesky.solve(&innovation));
+    Ok(Some(GainStep {
+        gain,
+        innovation_covariance,
+        report: UpdateReport {
+            innovation,
+            nis,
+            rows_used,
+            used,
+        },
+    }))
+}
+
+/// Keeps a posterior covariance symmetric positive definite. A Joseph-form or `P - K S Kᵀ`
+/// result is positive semi-definite in exact arithmetic; rounding can break that, which this
+/// detects cheaply (negative or zero diagonal) or via the Cholesky attempt of the next step.
+/// Returns whether a repair was needed, or `None` if the covariance is not finite.
+fn keep_positive_definite<const N: usize>(covariance: &mut SMatrix<f64, N, N>) -> Option<bool> {
+    symmetrize(covariance);
+    if !all_finite(covariance) {
+        return None;
+    }
+    if covariance.diagonal().iter().all(|&v| v > 0.0) {
+        return Some(false);
+    }
+    *covariance = repair_positive_definite(covariance)?;
+    Some(true)
+}
+
+/// Which estimator [`KalmanEstimator::build`] builds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EstimatorKind<const N: usize, const U: usize> {
+    /// Linear Kalman filter on the linearisation about `(state, input)` (000: 4.64-4.75).
+    Linear {
+        operating_state: SVector<f64, N>,
+        operating_input: SVector<f64, U>,
+    },
+    /// Extended Kalman filter (000: 4.99-4.113).
+    Extended,
+    /// Unscented Kalman filter with the given sigma-point set.
+    Unscented(SigmaPoints),
+    /// Luenberger observer with a pole-placement gain (002: §4) on the linearisation about
+    /// `(state, input)`.
+    Luenberger {
+        operating_state: SVector<f64, N>,
+        operating_input: SVector<f64, U>,
+        design: ObserverDesign,
+    },
+}
+
+/// Any of the deterministic estimators of this module, chosen at run time.
+#[derive(Debug, Clone)]
+pub enum KalmanEstimator<Model, const N: usize, const M: usize, const U: usize> {
+    Linear(LinearKalmanFilter<Model, N, M, U>),
+    Extended(ExtendedKalmanFilter<Model, N, M, U>),
+    Unscented(UnscentedKalmanFilter<Model, N, M, U>),
+    Luenberger(LuenbergerObserver<Model, N, M, U>),
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> KalmanEstimator<Model, N, M, U>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    /// Builds the estimator `kind` on `model`, starting from `initial`.
+    pub fn build(
+        model: Model,
+        kind: &EstimatorKind<N, U>,
+        initial: &InitialEstimate<N>,
+    ) -> Result<Self, SettingsError> {
+        Ok(match kind {
+            EstimatorKind::Linear {
+                operating_state,
+                operating_input,
+            } => Self::Linear(LinearKalmanFilter::new(
+                model,
+                operating_state,
+                operating_input,
+                initial,
+            )?),
+            EstimatorKind::Extended => Self::Extended(ExtendedKalmanFilter::new(model, initial)?),
+            EstimatorKind::Unscented(points) => {
+                Self::Unscented(UnscentedKalmanFilter::new(model, *points, initial)?)
+            }
+            EstimatorKind::Luenberger {
+                operating_state,
+                operating_input,
+                design,
+            } => Self::Luenberger(LuenbergerObserver::new(
+                model,
+                operating_state,
+                operating_input,
+                design,
+                initial,
+            )?),
+        })
+    }
+
+    /// The report of the last measurement update (also after an update that returned a
+    /// [`FilterIssue`] but still corrected the estimate).
+    pub fn last_report(&self) -> &UpdateReport<M> {
+        match self {
+            Self::Linear(filter) => filter.last_report(),
+            Self::Extended(filter) => filter.last_report(),
+            Self::Unscented(filter) => filter.last_report(),
+            Self::Luenberger(filter) => filter.last_report(),
+        }
+    }
+
+    /// The model the estimator runs on.
+    pub fn model(&self) -> &Model {
+        match self {
+            Self::Linear(filter) => filter.model(),
+            Self::Extended(filter) => filter.model(),
+            Self::Unscented(filter) => filter.model(),
+            Self::Luenberger(filter) => filter.model(),
+        }
+    }
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> Estimator<N, M, U>
+    for KalmanEstimator<Model, N, M, U>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    fn predict(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
+        match self {
+            Self::Linear(filter) => filter.predict(input),
+            Self::Extended(filter) => filter.predict(input),
+            Self::Unscented(filter) => filter.predict(input),
+            Self::Luenberger(filter) => filter.predict(input),
+        }
+    }
+
+    fn update(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        mask: &MeasurementMask<M>,
+    ) -> Result<UpdateReport<M>, FilterIssue> {
+        match self {
+            Self::Linear(filter) => filter.update(measurement, input, mask),
+            Self::Extended(filter) => filter.update(measurement, input, mask),
+            Self::Unscented(filter) => filter.update(measurement, input, mask),
+            Self::Luenberger(filter) => filter.update(measurement, input, mask),
+        }
+    }
+
+    fn state(&self) -> &SVector<f64, N> {
+        match self {
+            Self::Linear(filter) => filter.state(),
+            Self::Extended(filter) => filter.state(),
+            Self::Unscented(filter) => filter.state(),
+            Self::Luenberger(filter) => filter.state(),
+        }
+    }
+
+    fn covariance(&self) -> &SMatrix<f64, N, N> {
+        match self {
+            Self::Linear(filter) => filter.covariance(),
+            Self::Extended(filter) => filter.covariance(),
+            Self::Unscented(filter) => filter.covariance(),
+            Self::Luenberger(filter) => filter.covariance(),
+        }
+    }
+}
+
+/// Discrete poles `zᵢ = exp(sᵢ T)` from continuous-time poles `sᵢ` and the sample time `T`:
+/// seed 002 designs in continuous time, the observer here is discrete.
+pub fn discrete_poles<const K: usize>(
+    continuous: [Complex<f64>; K],
+    sample_time: f64,
+) -> [Complex<f64>; K] {
+    continuous.map(|pole| (pole * sample_time).exp())
+}
+
+/// Shared step bookkeeping: the state and covariance before a step, restored when a step would
+/// leave them non-finite (SPEC §6: no NaN ever leaves the estimator).
+pub(crate) fn finite_or_restore<const N: usize>(
+    state: &mut SVector<f64, N>,
+    covariance: &mut SMatrix<f64, N, N>,
+    previous_state: SVector<f64, N>,
+    previous_covariance: SMatrix<f64, N, N>,
+) -> bool {
+    if all_finite(state) && all_finite(covariance) {
+        true
+    } else {
+        *state = previous_state;
+        *covariance = previous_covariance;
+        false
+    }
+}
+
+/// The Joseph-form covariance update `P⁺ = (I - K H) P⁻ (I - K H)ᵀ + K R Kᵀ` (004; 000: 4.61),
+/// valid for any gain, so it also serves the fixed-gain Luenberger observer.
+pub(crate) fn joseph_update<const N: usize, const M: usize>(
+    covariance: &SMatrix<f64, N, N>,
+    gain: &SMatrix<f64, N, M>,
+    output_matrix: &SMatrix<f64, M, N>,
+    measurement_noise: &SMatrix<f64, M, M>,
+) -> SMatrix<f64, N, N> {
+    let i_minus_kh = SMatrix::<f64, N, N>::identity() - gain * output_matrix;
+    i_minus_kh * covariance * i_minus_kh.transpose() + gain * measurement_noise * gain.transpose()
+}
+
+/// A posterior step common to the LKF and EKF: gain from `P⁻ Hᵀ` and `S = H P⁻ Hᵀ + R`, state
+/// correction, Joseph-form covariance. Returns the report and whether the covariance needed a
+/// repair; leaves state and covariance untouched when no row is usable.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn linearised_update<const N: usize, const M: usize>(
+    state: &mut SVector<f64, N>,
+    covariance: &mut SMatrix<f64, N, N>,
+    predicted_measurement: &SVector<f64, M>,
+    output_matrix: &SMatrix<f64, M, N>,
+    measurement_noise: &SMatrix<f64, M, M>,
+    measurement: &SVector<f64, M>,
+    mask: &MeasurementMask<M>,
+) -> Result<(UpdateReport<M>, bool), FilterIssue> {
+    let cross = *covariance * output_matrix.transpose();
+    let innovation_covariance = output_matrix * cross + measurement_noise;
+    let Some(step) = masked_gain(
+        cross,
+        innovation_covariance,
+        measurement,
+        predicted_measurement,
+        mask,
+    )?
+    else {
+        return Ok((UpdateReport::skipped(), false));
+    };
+    let previous_state = *state;
+    let previous_covariance = *covariance;
+    *state += step.gain * step.report.innovation;
+    // Skipped rows have zero gain columns; zero their H rows too so that a non-finite entry in
+    // a skipped row cannot leak into K H as 0 · NaN.
+    let mut used_output_matrix = *output_matrix;
+    for row in 0..M {
+        if !step.report.used[row] {
+            used_output_matrix.row_mut(row).fill(0.0);
+        }
+    }
+    *covariance = joseph_update(
+        covariance,
+        &step.gain,
+        &used_output_matrix,
+        measurement_noise,
+    );
+    let repaired = keep_positive_definite(covariance);
+    if !finite_or_restore(state, covariance, previous_state, previous_covariance)
+        || repaired.is_none()
+    {
+        *state = previous_state;
+        *covariance = previous_covariance;
+        return Err(FilterIssue::StateReset);
+    }
+    Ok((step.report, repaired == Some(true)))
+}
+
+/// Records the outcome of an update as the filter's last report and turns a repaired covariance
+/// into the [`FilterIssue`] the caller sees (the estimate itself was still corrected).
+pub(crate) fn conclude_update<const M: usize>(
+    last_report: &mut UpdateReport<M>,
+    outcome: Result<(UpdateReport<M>, bool), FilterIssue>,
+) -> Result<UpdateReport<M>, FilterIssue> {
+    match outcome {
+        Ok((report, repaired)) => {
+            *last_report = report;
+            if repaired {
+                Err(FilterIssue::CovarianceRepaired)
+            } else {
+                Ok(report)
+            }
+        }
+        Err(issue) => {
+            *last_report = UpdateReport::skipped();
+            Err(issue)
+        }
+    }
+}
+
+/// A prior step common to the filters: checks the new state and covariance, restores the old
+/// ones (inflated by `Q`, since time has passed) if the prediction was not finite.
+pub(crate) fn finish_prediction<const N: usize>(
+    state: &mut SVector<f64, N>,
+    covariance: &mut SMatrix<f64, N, N>,
+    previous_state: SVector<f64, N>,
+    previous_covariance: SMatrix<f64, N, N>,
+    process_noise: &SMatrix<f64, N, N>,
+) -> Result<(), FilterIssue> {
+    if !finite_or_restore(state, covariance, previous_state, previous_covariance) {
+        *covariance += process_noise;
+        return Err(FilterIssue::StateReset);
+    }
+    match keep_positive_definite(covariance) {
+        Some(false) => Ok(()),
+        Some(true) => Err(FilterIssue::CovarianceRepaired),
+        None => {
+            *state = previous_state;
+            *covariance = previous_covariance + process_noise;
+            Err(FilterIssue::StateReset)
+        }
+    }
+}

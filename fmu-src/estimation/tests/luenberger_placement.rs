@@ -1,0 +1,262 @@
+//! The Luenberger observer (002: §4): its error dynamics must have exactly the placed eigenvalues.
+
+mod kalman_support;
+
+use estimation::kalman::{discrete_poles, InitialEstimate};
+use estimation::luenberger::{
+    ackermann_observer_gain, characteristic_coefficients, DesignBlock, LuenbergerObserver,
+    ObserverDesign,
+};
+use estimation::Estimator;
+use kalman_support::LinearModel;
+use nalgebra::{Complex, DMatrix, DVector, SMatrix, SVector, Vector1};
+
+fn sorted(mut values: Vec<Complex<f64>>) -> Vec<Complex<f64>> {
+    values.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
+    values
+}
+
+fn assert_same_eigenvalues(actual: Vec<Complex<f64>>, expected: Vec<Complex<f64>>, tolerance: f64) {
+    let (actual, expected) = (sorted(actual), sorted(expected));
+    assert_eq!(actual.len(), expected.len());
+    for (a, e) in actual.iter().zip(&expected) {
+        assert!(
+            (a - e).norm() < tolerance,
+            "eigenvalues {actual:?}, placed {expected:?}"
+        );
+    }
+}
+
+#[test]
+fn characteristic_polynomial_of_known_poles() {
+    // (s + 1)(s + 2)(s + 3) = s³ + 6 s² + 11 s + 6.
+    let c = characteristic_coefficients(&[-1.0, -2.0, -3.0].map(|p| Complex::new(p, 0.0))).unwrap();
+    assert_eq!(c, vec![6.0, 11.0, 6.0]);
+    // (s - (-1 + 2i))(s - (-1 - 2i)) = s² + 2 s + 5.
+    let c =
+        characteristic_coefficients(&[Complex::new(-1.0, 2.0), Complex::new(-1.0, -2.0)]).unwrap();
+    assert!((c[0] - 5.0).abs() < 1e-15 && (c[1] - 2.0).abs() < 1e-15);
+    assert!(
+        characteristic_coefficients(&[Complex::new(-1.0, 2.0), Complex::new(-1.0, 1.0)])
+            .unwrap_err()
+            .to_string()
+            .contains("conjugate")
+    );
+}
+
+#[test]
+fn ackermann_places_the_seed_002_oscillator_poles() {
+    // The damped oscillator of 002 §6, ẍ + r ẋ + w0² x = 0, observed through the velocity,
+    // with observer poles five times the system's eigenvalues (002: "l = 5 · eig(A)").
+    let (w0, r) = (2.0_f64, 0.4_f64);
+    let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -w0 * w0, -r]);
+    let c = DVector::from_vec(vec![0.0, 1.0]);
+    let system_poles: Vec<Complex<f64>> = a.complex_eigenvalues().iter().copied().collect();
+    let poles: Vec<Complex<f64>> = system_poles.iter().map(|p| p * 5.0).collect();
+    let l = ackermann_observer_gain(&a, &c, &poles).unwrap();
+    let error_matrix = &a - &l * c.transpose();
+    assert_same_eigenvalues(
+        error_matrix.complex_eigenvalues().iter().copied().collect(),
+        poles,
+        1e-10,
+    );
+    // By hand: A - l cᵀ = [[0, 1 - l1], [-w0², -r - l2]] has the characteristic polynomial
+    // s² + (r + l2) s + w0² (1 - l1); the placed one is s² + 5 r s + 25 w0².
+    assert!((l[1] - 4.0 * r).abs() < 1e-12);
+    assert!((l[0] - (1.0 - 25.0)).abs() < 1e-12);
+}
+
+#[test]
+fn an_unobservable_output_is_refused() {
+    let a = DMatrix::from_row_slice(2, 2, &[0.5, 0.0, 0.0, 0.7]);
+    let c = DVector::from_vec(vec![1.0, 0.0]);
+    let poles = [Complex::new(0.1, 0.0), Complex::new(0.2, 0.0)];
+    let err = ackermann_observer_gain(&a, &c, &poles).unwrap_err();
+    assert!(err.to_string().contains("not observable"), "{err}");
+}
+
+/// Two decoupled subsystems (2 + 2 states), one output each, sampled at 10 ms: the structure of
+/// model A linearised about straight driving.
+fn block_model() -> LinearModel<4, 2, 1> {
+    let t = 0.01;
+    let a = SMatrix::<f64, 4, 4>::new(
+        1.0 - 3.0 * t,
+        -18.0 * t,
+        0.0,
+        0.0, //
+        0.4 * t,
+        1.0 - 5.0 * t,
+        0.0,
+        0.0, //
+        0.0,
+        0.0,
+        1.0 - 0.1 * t,
+        2.0 * t, //
+        0.0,
+        0.0,
+        30.0 * t,
+        1.0 - 120.0 * t,
+    );
+    LinearModel {
+        a,
+        b: SMatrix::<f64, 4, 1>::new(0.0, 0.1, 0.0, 0.3),
+        c: SMatrix::<f64, 2, 4>::new(0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+        d: SMatrix::zeros(),
+        q: SMatrix::identity() * 1e-6,
+        r: SMatrix::identity() * 1e-4,
+    }
+}
+
+fn initial() -> InitialEstimate<4> {
+    InitialEstimate::diagonal(SVector::<f64, 4>::zeros(), SVector::<f64, 4>::repeat(1.0))
+}
+
+#[test]
+fn block_design_places_every_eigenvalue_of_the_error_dynamics() {
+    let t = 0.01;
+    let lateral = discrete_poles([Complex::new(-20.0, 5.0), Complex::new(-20.0, -5.0)], t);
+    let longitudinal = discrete_poles([Complex::new(-40.0, 0.0), Complex::new(-300.0, 0.0)], t);
+    let design = ObserverDesign {
+        blocks: vec![
+            DesignBlock {
+                states: vec![0, 1],
+                output: 0,
+                poles: lateral.to_vec(),
+            },
+            DesignBlock {
+                states: vec![2, 3],
+                output: 1,
+                poles: longitudinal.to_vec(),
+            },
+        ],
+    };
+    let observer = LuenbergerObserver::new(
+        block_model(),
+        &SVector::zeros(),
+        &Vector1::zeros(),
+        &design,
+        &initial(),
+    )
+    .unwrap();
+    let error_matrix = observer.error_dynamics();
+    let eigenvalues: Vec<Complex<f64>> = DMatrix::from_iterator(4, 4, error_matrix.iter().copied())
+        .complex_eigenvalues()
+        .iter()
+        .copied()
+        .collect();
+    assert_same_eigenvalues(eigenvalues, design.poles(), 1e-10);
+    // The a-priori error map A (I - L C) has the same spectrum.
+    let model = block_model();
+    let prior_map = model.a * (SMatrix::<f64, 4, 4>::identity() - observer.gain() * model.c);
+    let eigenvalues: Vec<Complex<f64>> = DMatrix::from_iterator(4, 4, prior_map.iter().copied())
+        .complex_eigenvalues()
+        .iter()
+        .copied()
+        .collect();
+    assert_same_eigenvalues(eigenvalues, design.poles(), 1e-10);
+}
+
+#[test]
+fn single_output_design_on_the_coupled_system() {
+    // Couple the blocks; then only the seed's single-output design applies, and it must place
+    // all four poles through output 1 alone.
+    let mut model = block_model();
+    model.a[(2, 1)] = 0.05;
+    model.a[(1, 3)] = -0.02;
+    let poles = vec![
+        Complex::new(0.8, 0.1),
+        Complex::new(0.8, -0.1),
+        Complex::new(0.6, 0.0),
+        Complex::new(0.3, 0.0),
+    ];
+    let blocks = ObserverDesign {
+        blocks: vec![
+            DesignBlock {
+                states: vec![0, 1],
+                output: 0,
+                poles: poles[..2].to_vec(),
+            },
+            DesignBlock {
+                states: vec![2, 3],
+                output: 1,
+                poles: poles[2..].to_vec(),
+            },
+        ],
+    };
+    let refused = LuenbergerObserver::new(
+        model.clone(),
+        &SVector::zeros(),
+        &Vector1::zeros(),
+        &blocks,
+        &initial(),
+    );
+    assert!(refused.unwrap_err().to_string().contains("coupled"));
+    let design = ObserverDesign::single_output(1, poles.clone());
+    let observer = LuenbergerObserver::new(
+        model,
+        &SVector::zeros(),
+        &Vector1::zeros(),
+        &design,
+        &initial(),
+    )
+    .unwrap();
+    assert_eq!(observer.gain().column(0).amax(), 0.0);
+    let e = observer.error_dynamics();
+    let eigenvalues: Vec<Complex<f64>> = DMatrix::from_iterator(4, 4, e.iter().copied())
+        .complex_eigenvalues()
+        .iter()
+        .copied()
+        .collect();
+    assert_same_eigenvalues(eigenvalues, poles, 1e-9);
+}
+
+#[test]
+fn the_estimation_error_follows_the_placed_error_dynamics() {
+    // Noise-free: e⁺(k+1) = (I - L C) A e⁺(k) exactly, so the observer converges to the truth.
+    let model = block_model();
+    let poles = [
+        Complex::new(0.5, 0.2),
+        Complex::new(0.5, -0.2),
+        Complex::new(0.4, 0.0),
+        Complex::new(0.2, 0.0),
+    ];
+    let design = ObserverDesign {
+        blocks: vec![
+            DesignBlock {
+                states: vec![0, 1],
+                output: 0,
+                poles: poles[..2].to_vec(),
+            },
+            DesignBlock {
+                states: vec![2, 3],
+                output: 1,
+                poles: poles[2..].to_vec(),
+            },
+        ],
+    };
+    let mut observer = LuenbergerObserver::new(
+        model.clone(),
+        &SVector::zeros(),
+        &Vector1::zeros(),
+        &design,
+        &initial(),
+    )
+    .unwrap();
+    let error_map = observer.error_dynamics();
+    let mut truth = SVector::<f64, 4>::new(0.3, -0.1, 2.0, 0.5);
+    let mut expected_error = truth - observer.state();
+    for k in 0..40 {
+        let u = Vector1::new((k as f64 * 0.3).sin());
+        truth = model.a * truth + model.b * u;
+        observer.predict(&u).unwrap();
+        let y = model.c * truth;
+        observer.update(&y, &u, &[true, true]).unwrap();
+        expected_error = error_map * expected_error;
+        let error = truth - observer.state();
+        assert!(
+            (error - expected_error).amax() < 1e-12,
+            "step {k}: {error} vs {expected_error}"
+        );
+    }
+    assert!(expected_error.amax() < 1e-6);
+}
