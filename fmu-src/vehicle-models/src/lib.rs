@@ -22,6 +22,7 @@
 pub mod driver_input;
 pub mod integrator;
 pub mod manoeuvre;
+pub mod rear_axle;
 pub mod scalar;
 pub mod single_track;
 pub mod truth;
@@ -29,6 +30,7 @@ pub mod tyre;
 
 pub use driver_input::{DriverInput, DriverInputVector};
 pub use integrator::Integrator;
+pub use rear_axle::{RearAxleModel, RearAxleParams};
 pub use scalar::{Dual, Scalar};
 pub use single_track::{SingleTrackHsri, SingleTrackModel, SingleTrackParams, SingleTrackState};
 pub use truth::VehicleTruth;
