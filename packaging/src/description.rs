@@ -1,16 +1,16 @@
-//! Reads the parts of an FMI 2.0 `modelDescription.xml` that packaging needs (identity, variables,
-//! units, type definitions, model structure) and checks the rules an archive relies on.
+//! The view of a `modelDescription.xml` that packaging works with (identity, variables, units,
+//! type definitions, model structure), as display-ready text.
 //!
-//! The model-description crate of the FMU build is the authority on the full schema; this reader is
-//! deliberately small and only extracts what the documentation page and the SSP system structure are
-//! generated from, plus the checks whose failure would make a shipped archive unusable.
+//! Parsing and validation are the model-description crate's: the FMU crates generate their
+//! value-reference tables with the same parser, so what packaging accepts is exactly what the FMU
+//! build accepts. This module converts its typed result into attribute texts for the generated
+//! documentation and the SSP, and adds the one rule that only packaging knows: the file name, the
+//! archive name and the shared-library name must all be the model identifier.
 
-use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use quick_xml::events::{BytesStart, Event};
-use quick_xml::{Reader, XmlVersion};
+use model_description as md;
 
 /// One problem found in a model description, with the file and (where known) the line.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -117,7 +117,6 @@ pub struct ModelDescription {
     pub model_identifier: String,
     /// All attributes of `<CoSimulation>` in document order.
     pub co_simulation: Vec<(String, String)>,
-    pub has_model_exchange: bool,
     pub unit_definitions: Vec<UnitDefinition>,
     pub type_definitions: Vec<SimpleType>,
     pub log_categories: Vec<(String, Option<String>)>,
@@ -125,7 +124,6 @@ pub struct ModelDescription {
     pub variables: Vec<ScalarVariable>,
     /// 1-based indices from `<ModelStructure><Outputs><Unknown index=..>`.
     pub structure_outputs: Vec<usize>,
-    pub has_model_structure: bool,
 }
 
 impl ModelDescription {
@@ -180,46 +178,16 @@ impl ModelDescription {
     }
 }
 
-const VARIABLE_TYPES: [&str; 5] = ["Real", "Integer", "Boolean", "String", "Enumeration"];
-
-fn attributes(element: &BytesStart<'_>) -> Result<BTreeMap<String, String>, String> {
-    let mut map = BTreeMap::new();
-    for attribute in element.attributes() {
-        let attribute = attribute.map_err(|error| format!("malformed attribute: {error}"))?;
-        let key = AsRef::<str>::as_ref(&attribute.key).to_string();
-        let value = attribute
-            .normalized_value(XmlVersion::Implicit1_0)
-            .map_err(|error| format!("attribute {key}: {error}"))?
-            .into_owned();
-        map.insert(key, value);
-    }
-    Ok(map)
+fn problem_from(path: &Path, error: model_description::Error) -> Problems {
+    Problems(vec![Problem {
+        file: path.to_path_buf(),
+        line: error.line,
+        message: format!("{}: {}", error.context, error.message),
+    }])
 }
 
-fn ordered_attributes(element: &BytesStart<'_>) -> Result<Vec<(String, String)>, String> {
-    let mut list = Vec::new();
-    for attribute in element.attributes() {
-        let attribute = attribute.map_err(|error| format!("malformed attribute: {error}"))?;
-        let key = AsRef::<str>::as_ref(&attribute.key).to_string();
-        let value = attribute
-            .normalized_value(XmlVersion::Implicit1_0)
-            .map_err(|error| format!("attribute {key}: {error}"))?
-            .into_owned();
-        list.push((key, value));
-    }
-    Ok(list)
-}
-
-fn line_of(text: &str, byte_position: usize) -> usize {
-    let end = byte_position.min(text.len());
-    text.as_bytes()[..end]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
-}
-
-/// Reads a model description from disk; any I/O or XML syntax error is a [`Problem`] naming the file.
+/// Reads, parses and validates a model description from disk (model-description crate); any
+/// problem is a [`Problem`] naming the file and, where known, the line.
 pub fn read_file(path: &Path) -> Result<ModelDescription, Problems> {
     let text = std::fs::read_to_string(path).map_err(|error| {
         Problems(vec![Problem {
@@ -231,452 +199,305 @@ pub fn read_file(path: &Path) -> Result<ModelDescription, Problems> {
     parse(path, &text)
 }
 
-/// Parses model-description text; `file` only names the source in messages.
+/// Parses and validates model-description text; `file` only names the source in messages.
 pub fn parse(file: &Path, text: &str) -> Result<ModelDescription, Problems> {
-    let problem = |line: Option<usize>, message: String| {
-        Problems(vec![Problem {
-            file: file.to_path_buf(),
-            line,
-            message,
-        }])
+    let parsed = model_description::parse_str(text, &file.display().to_string())
+        .map_err(|error| problem_from(file, error))?;
+    Ok(convert(file, &parsed))
+}
+
+/// Shortest text that reads back as the same number ("0", "0.001", "57.29577951308232").
+fn number(value: f64) -> String {
+    format!("{value}")
+}
+
+fn causality_name(causality: md::Causality) -> &'static str {
+    match causality {
+        md::Causality::Parameter => "parameter",
+        md::Causality::CalculatedParameter => "calculatedParameter",
+        md::Causality::Input => "input",
+        md::Causality::Output => "output",
+        md::Causality::Local => "local",
+        md::Causality::Independent => "independent",
+    }
+}
+
+fn variability_name(variability: md::Variability) -> &'static str {
+    match variability {
+        md::Variability::Constant => "constant",
+        md::Variability::Fixed => "fixed",
+        md::Variability::Tunable => "tunable",
+        md::Variability::Discrete => "discrete",
+        md::Variability::Continuous => "continuous",
+    }
+}
+
+fn initial_name(initial: md::Initial) -> &'static str {
+    match initial {
+        md::Initial::Exact => "exact",
+        md::Initial::Approx => "approx",
+        md::Initial::Calculated => "calculated",
+    }
+}
+
+fn base_unit_attributes(base: &md::BaseUnit) -> Vec<(String, String)> {
+    // FMI 2.0 attribute names and order; zero exponents and the identity factor/offset are the
+    // defaults and stay implicit, as in the source files.
+    let exponents = [
+        ("kg", base.kg),
+        ("m", base.m),
+        ("s", base.s),
+        ("A", base.a),
+        ("K", base.k),
+        ("mol", base.mol),
+        ("cd", base.cd),
+        ("rad", base.rad),
+    ];
+    let mut attributes: Vec<(String, String)> = exponents
+        .iter()
+        .filter(|(_, exponent)| *exponent != 0)
+        .map(|(name, exponent)| (name.to_string(), exponent.to_string()))
+        .collect();
+    if base.factor != 1.0 {
+        attributes.push(("factor".into(), number(base.factor)));
+    }
+    if base.offset != 0.0 {
+        attributes.push(("offset".into(), number(base.offset)));
+    }
+    attributes
+}
+
+fn convert_variable(variable: &md::ScalarVariable) -> ScalarVariable {
+    let mut converted = ScalarVariable {
+        name: variable.name.clone(),
+        value_reference: variable.value_reference,
+        description: variable.description.clone(),
+        causality: causality_name(variable.causality).into(),
+        variability: variability_name(variable.variability).into(),
+        initial: variable.initial.map(|i| initial_name(i).to_string()),
+        line: variable.line,
+        ..ScalarVariable::default()
     };
-    let mut reader = Reader::from_str(text);
-    reader.config_mut().trim_text(true);
-    let mut description = ModelDescription {
+    let text = |value: Option<f64>| value.map(number);
+    let integer = |value: Option<i32>| value.map(|v| v.to_string());
+    match &variable.value {
+        md::VariableValue::Real {
+            declared_type,
+            unit,
+            display_unit,
+            min,
+            max,
+            start,
+            ..
+        } => {
+            converted.type_name = "Real".into();
+            converted.declared_type = declared_type.clone();
+            converted.unit = unit.clone();
+            converted.display_unit = display_unit.clone();
+            converted.min = text(*min);
+            converted.max = text(*max);
+            converted.start = text(*start);
+        }
+        md::VariableValue::Integer {
+            declared_type,
+            min,
+            max,
+            start,
+        } => {
+            converted.type_name = "Integer".into();
+            converted.declared_type = declared_type.clone();
+            converted.min = integer(*min);
+            converted.max = integer(*max);
+            converted.start = integer(*start);
+        }
+        md::VariableValue::Enumeration {
+            declared_type,
+            min,
+            max,
+            start,
+        } => {
+            converted.type_name = "Enumeration".into();
+            converted.declared_type = Some(declared_type.clone());
+            converted.min = integer(*min);
+            converted.max = integer(*max);
+            converted.start = integer(*start);
+        }
+        md::VariableValue::Boolean {
+            declared_type,
+            start,
+        } => {
+            converted.type_name = "Boolean".into();
+            converted.declared_type = declared_type.clone();
+            converted.start = start.map(|b| b.to_string());
+        }
+        md::VariableValue::String {
+            declared_type,
+            start,
+        } => {
+            converted.type_name = "String".into();
+            converted.declared_type = declared_type.clone();
+            converted.start = start.clone();
+        }
+    }
+    converted
+}
+
+fn convert_simple_type(simple: &md::SimpleType) -> SimpleType {
+    let mut converted = SimpleType {
+        name: simple.name.clone(),
+        description: simple.description.clone(),
+        ..SimpleType::default()
+    };
+    match &simple.kind {
+        md::SimpleTypeKind::Real {
+            unit, display_unit, ..
+        } => {
+            converted.kind = "Real".into();
+            converted.unit = unit.clone();
+            converted.display_unit = display_unit.clone();
+        }
+        md::SimpleTypeKind::Integer { .. } => converted.kind = "Integer".into(),
+        md::SimpleTypeKind::Boolean => converted.kind = "Boolean".into(),
+        md::SimpleTypeKind::String => converted.kind = "String".into(),
+        md::SimpleTypeKind::Enumeration { items } => {
+            converted.kind = "Enumeration".into();
+            converted.items = items
+                .iter()
+                .map(|item| EnumerationItem {
+                    name: item.name.clone(),
+                    value: item.value.to_string(),
+                    description: item.description.clone(),
+                })
+                .collect();
+        }
+    }
+    converted
+}
+
+/// The packaging view of a validated model description.
+pub fn convert(file: &Path, parsed: &md::ModelDescription) -> ModelDescription {
+    let co = &parsed.co_simulation;
+    let flag = |value: bool| value.to_string();
+    let co_simulation = vec![
+        ("modelIdentifier".to_string(), co.model_identifier.clone()),
+        ("needsExecutionTool".into(), flag(co.needs_execution_tool)),
+        (
+            "canHandleVariableCommunicationStepSize".into(),
+            flag(co.can_handle_variable_communication_step_size),
+        ),
+        (
+            "canInterpolateInputs".into(),
+            flag(co.can_interpolate_inputs),
+        ),
+        (
+            "maxOutputDerivativeOrder".into(),
+            co.max_output_derivative_order.to_string(),
+        ),
+        (
+            "canRunAsynchronuously".into(),
+            flag(co.can_run_asynchronuously),
+        ),
+        (
+            "canBeInstantiatedOnlyOncePerProcess".into(),
+            flag(co.can_be_instantiated_only_once_per_process),
+        ),
+        (
+            "canNotUseMemoryManagementFunctions".into(),
+            flag(co.can_not_use_memory_management_functions),
+        ),
+        (
+            "canGetAndSetFMUstate".into(),
+            flag(co.can_get_and_set_fmu_state),
+        ),
+        (
+            "canSerializeFMUstate".into(),
+            flag(co.can_serialize_fmu_state),
+        ),
+        (
+            "providesDirectionalDerivative".into(),
+            flag(co.provides_directional_derivative),
+        ),
+    ];
+    let mut default_experiment = Vec::new();
+    if let Some(experiment) = &parsed.default_experiment {
+        for (name, value) in [
+            ("startTime", experiment.start_time),
+            ("stopTime", experiment.stop_time),
+            ("tolerance", experiment.tolerance),
+            ("stepSize", experiment.step_size),
+        ] {
+            if let Some(value) = value {
+                default_experiment.push((name.to_string(), number(value)));
+            }
+        }
+    }
+    ModelDescription {
         file: file.to_path_buf(),
-        ..ModelDescription::default()
-    };
-    // Element names from the root down to the current element.
-    let mut stack: Vec<String> = Vec::new();
-    let mut saw_root = false;
-    loop {
-        let start_position = reader.buffer_position() as usize;
-        let event = reader.read_event().map_err(|error| {
-            problem(
-                Some(line_of(text, reader.error_position() as usize)),
-                format!("XML syntax error: {error}"),
-            )
-        })?;
-        let (element, is_empty) = match &event {
-            Event::Start(element) => (element, false),
-            Event::Empty(element) => (element, true),
-            Event::End(_) => {
-                stack.pop();
-                continue;
-            }
-            Event::Eof => break,
-            _ => continue,
-        };
-        // The element starts after leading whitespace that trim_text skipped.
-        let line = line_of(
-            text,
-            start_position + leading_whitespace(&text[start_position..]),
-        );
-        let name = AsRef::<str>::as_ref(&element.local_name()).to_string();
-        let attrs = attributes(element).map_err(|message| problem(Some(line), message))?;
-        let parent = stack.last().map(String::as_str);
-        let grandparent = stack.len().checked_sub(2).map(|i| stack[i].as_str());
-        match (parent, name.as_str()) {
-            (None, root) => {
-                if root != "fmiModelDescription" {
-                    return Err(problem(
-                        Some(line),
-                        format!("the root element is <{root}>, expected <fmiModelDescription>"),
-                    ));
-                }
-                saw_root = true;
-                let get = |key: &str| attrs.get(key).cloned();
-                description.fmi_version = get("fmiVersion").unwrap_or_default();
-                description.model_name = get("modelName").unwrap_or_default();
-                description.guid = get("guid").unwrap_or_default();
-                description.description = get("description");
-                description.author = get("author");
-                description.version = get("version");
-                description.generation_tool = get("generationTool");
-            }
-            (Some("fmiModelDescription"), "CoSimulation") => {
-                description.model_identifier =
-                    attrs.get("modelIdentifier").cloned().unwrap_or_default();
-                description.co_simulation =
-                    ordered_attributes(element).map_err(|message| problem(Some(line), message))?;
-            }
-            (Some("fmiModelDescription"), "ModelExchange") => description.has_model_exchange = true,
-            (Some("fmiModelDescription"), "DefaultExperiment") => {
-                description.default_experiment =
-                    ordered_attributes(element).map_err(|message| problem(Some(line), message))?;
-            }
-            (Some("fmiModelDescription"), "ModelStructure") => {
-                description.has_model_structure = true
-            }
-            (Some("UnitDefinitions"), "Unit") => {
-                description.unit_definitions.push(UnitDefinition {
-                    name: attrs.get("name").cloned().unwrap_or_default(),
-                    ..UnitDefinition::default()
-                })
-            }
-            (Some("Unit"), "BaseUnit") if grandparent == Some("UnitDefinitions") => {
-                if let Some(unit) = description.unit_definitions.last_mut() {
-                    unit.base_unit = ordered_attributes(element)
-                        .map_err(|message| problem(Some(line), message))?;
-                }
-            }
-            (Some("Unit"), "DisplayUnit") if grandparent == Some("UnitDefinitions") => {
-                if let Some(unit) = description.unit_definitions.last_mut() {
-                    unit.display_units.push(DisplayUnit {
-                        name: attrs.get("name").cloned().unwrap_or_default(),
-                        factor: attrs.get("factor").cloned(),
-                        offset: attrs.get("offset").cloned(),
-                    });
-                }
-            }
-            (Some("TypeDefinitions"), "SimpleType") => {
-                description.type_definitions.push(SimpleType {
-                    name: attrs.get("name").cloned().unwrap_or_default(),
-                    description: attrs.get("description").cloned(),
-                    ..SimpleType::default()
-                })
-            }
-            (Some("SimpleType"), kind) if VARIABLE_TYPES.contains(&kind) => {
-                if let Some(simple_type) = description.type_definitions.last_mut() {
-                    simple_type.kind = kind.to_string();
-                    simple_type.unit = attrs.get("unit").cloned();
-                    simple_type.display_unit = attrs.get("displayUnit").cloned();
-                }
-            }
-            (Some("Enumeration"), "Item") if grandparent == Some("SimpleType") => {
-                if let Some(simple_type) = description.type_definitions.last_mut() {
-                    simple_type.items.push(EnumerationItem {
-                        name: attrs.get("name").cloned().unwrap_or_default(),
-                        value: attrs.get("value").cloned().unwrap_or_default(),
-                        description: attrs.get("description").cloned(),
-                    });
-                }
-            }
-            (Some("LogCategories"), "Category") => description.log_categories.push((
-                attrs.get("name").cloned().unwrap_or_default(),
-                attrs.get("description").cloned(),
-            )),
-            (Some("ModelVariables"), "ScalarVariable") => {
-                let name = attrs.get("name").cloned().unwrap_or_default();
-                let value_reference = match attrs.get("valueReference") {
-                    Some(text) => text.trim().parse::<u32>().map_err(|_| {
-                        problem(
-                            Some(line),
-                            format!(
-                                "variable {name:?}: valueReference {text:?} is not an unsigned \
-                                 32-bit integer"
-                            ),
-                        )
-                    })?,
-                    None => {
-                        return Err(problem(
-                            Some(line),
-                            format!("variable {name:?} has no valueReference"),
-                        ))
-                    }
-                };
-                description.variables.push(ScalarVariable {
-                    name,
-                    value_reference,
-                    description: attrs.get("description").cloned(),
-                    causality: attrs
-                        .get("causality")
-                        .cloned()
-                        .unwrap_or_else(|| "local".into()),
-                    variability: attrs
-                        .get("variability")
-                        .cloned()
-                        .unwrap_or_else(|| "continuous".into()),
-                    initial: attrs.get("initial").cloned(),
-                    line,
-                    ..ScalarVariable::default()
-                });
-            }
-            (Some("ScalarVariable"), kind)
-                if VARIABLE_TYPES.contains(&kind) && grandparent == Some("ModelVariables") =>
-            {
-                if let Some(variable) = description.variables.last_mut() {
-                    variable.type_name = kind.to_string();
-                    variable.declared_type = attrs.get("declaredType").cloned();
-                    variable.unit = attrs.get("unit").cloned();
-                    variable.display_unit = attrs.get("displayUnit").cloned();
-                    variable.start = attrs.get("start").cloned();
-                    variable.min = attrs.get("min").cloned();
-                    variable.max = attrs.get("max").cloned();
-                }
-            }
-            (Some("Outputs"), "Unknown") if grandparent == Some("ModelStructure") => {
-                let index = attrs
-                    .get("index")
-                    .and_then(|text| text.trim().parse::<usize>().ok())
-                    .ok_or_else(|| {
-                        problem(
-                            Some(line),
-                            "ModelStructure/Outputs/Unknown needs a positive integer index".into(),
-                        )
-                    })?;
-                description.structure_outputs.push(index);
-            }
-            _ => {}
-        }
-        if !is_empty {
-            stack.push(name);
-        }
+        fmi_version: parsed.fmi_version.clone(),
+        model_name: parsed.model_name.clone(),
+        guid: parsed.guid.clone(),
+        description: parsed.description.clone(),
+        author: parsed.author.clone(),
+        version: parsed.version.clone(),
+        generation_tool: parsed.generation_tool.clone(),
+        model_identifier: co.model_identifier.clone(),
+        co_simulation,
+        unit_definitions: parsed
+            .unit_definitions
+            .iter()
+            .map(|unit| UnitDefinition {
+                name: unit.name.clone(),
+                base_unit: unit
+                    .base_unit
+                    .as_ref()
+                    .map(base_unit_attributes)
+                    .unwrap_or_default(),
+                display_units: unit
+                    .display_units
+                    .iter()
+                    .map(|display| DisplayUnit {
+                        name: display.name.clone(),
+                        factor: Some(number(display.factor)),
+                        offset: Some(number(display.offset)),
+                    })
+                    .collect(),
+            })
+            .collect(),
+        type_definitions: parsed
+            .type_definitions
+            .iter()
+            .map(convert_simple_type)
+            .collect(),
+        log_categories: parsed
+            .log_categories
+            .iter()
+            .map(|category| (category.name.clone(), category.description.clone()))
+            .collect(),
+        default_experiment,
+        variables: parsed.variables.iter().map(convert_variable).collect(),
+        structure_outputs: parsed
+            .model_structure
+            .outputs
+            .iter()
+            .map(|unknown| unknown.index)
+            .collect(),
     }
-    if !saw_root {
-        return Err(problem(None, "the file contains no XML element".into()));
-    }
-    Ok(description)
 }
-
-fn leading_whitespace(text: &str) -> usize {
-    text.len() - text.trim_start().len()
-}
-
-fn parse_number(text: &str) -> Option<f64> {
-    text.trim().parse::<f64>().ok()
-}
-
-/// Checks the rules a packaged FMU relies on. `expected_identifier` is the model identifier the
-/// archive is built for (the file stem and the shared-library name must agree with it).
+/// Checks what packaging adds to the model-description crate's validation: the CoSimulation
+/// model identifier must be `expected_identifier` (the file stem, which names the archive and the
+/// shared library `binaries/linux64/<id>.so` that importers look up).
 pub fn check(description: &ModelDescription, expected_identifier: &str) -> Vec<Problem> {
     let mut problems = Vec::new();
-    let mut report = |line: Option<usize>, message: String| {
+    if description.model_identifier != expected_identifier {
         problems.push(Problem {
             file: description.file.clone(),
-            line,
-            message,
-        })
-    };
-    if description.fmi_version != "2.0" {
-        report(
-            None,
-            format!(
-                "fmiVersion is {:?}, expected \"2.0\"",
-                description.fmi_version
-            ),
-        );
-    }
-    if description.model_name.trim().is_empty() {
-        report(None, "modelName is missing or empty".into());
-    }
-    if description.guid.trim().is_empty() {
-        report(None, "guid is missing or empty".into());
-    }
-    if description.co_simulation.is_empty() {
-        report(
-            None,
-            "no <CoSimulation> element: the FMUs are Co-Simulation FMUs".into(),
-        );
-    } else if description.model_identifier != expected_identifier {
-        report(
-            None,
-            format!(
+            line: None,
+            message: format!(
                 "CoSimulation modelIdentifier is {:?}, expected {:?} (the file name and the \
                  shared library lib{}.so must carry the model identifier)",
                 description.model_identifier, expected_identifier, expected_identifier
             ),
-        );
-    }
-    if description.has_model_exchange {
-        report(
-            None,
-            "declares <ModelExchange>, but the binaries implement Co-Simulation only".into(),
-        );
-    }
-    if !description.has_model_structure {
-        report(None, "no <ModelStructure> element".into());
-    }
-    if description.variables.is_empty() {
-        report(None, "no ScalarVariable in <ModelVariables>".into());
-    }
-
-    let units: BTreeSet<&str> = description
-        .unit_definitions
-        .iter()
-        .map(|unit| unit.name.as_str())
-        .collect();
-    let mut names = BTreeSet::new();
-    for variable in &description.variables {
-        let at = Some(variable.line);
-        let name = &variable.name;
-        if name.is_empty() {
-            report(at, "a ScalarVariable has no name".into());
-            continue;
-        }
-        if !names.insert(name.as_str()) {
-            report(at, format!("variable {name:?} is declared twice"));
-        }
-        if variable.type_name.is_empty() {
-            report(
-                at,
-                format!(
-                    "variable {name:?} has no type element (Real, Integer, Boolean, String or \
-                     Enumeration)"
-                ),
-            );
-            continue;
-        }
-        if !matches!(
-            variable.causality.as_str(),
-            "parameter" | "calculatedParameter" | "input" | "output" | "local" | "independent"
-        ) {
-            report(
-                at,
-                format!(
-                    "variable {name:?}: unknown causality {:?}",
-                    variable.causality
-                ),
-            );
-        }
-        if matches!(
-            variable.causality.as_str(),
-            "input" | "output" | "parameter"
-        ) && variable
-            .description
-            .as_deref()
-            .is_none_or(|text| text.trim().is_empty())
-        {
-            report(
-                at,
-                format!(
-                    "{} {name:?} has no description (it must state meaning and sign convention)",
-                    variable.causality
-                ),
-            );
-        }
-        if matches!(variable.causality.as_str(), "input" | "parameter") && variable.start.is_none()
-        {
-            report(
-                at,
-                format!(
-                    "{} {name:?} has no start value (FMI 2.0 requires one)",
-                    variable.causality
-                ),
-            );
-        }
-        if let Some(declared) = &variable.declared_type {
-            match description.simple_type(declared) {
-                None => report(
-                    at,
-                    format!(
-                        "variable {name:?}: declaredType {declared:?} is not in <TypeDefinitions>"
-                    ),
-                ),
-                Some(simple_type) if simple_type.kind != variable.type_name => report(
-                    at,
-                    format!(
-                        "variable {name:?} is {} but its declaredType {declared:?} is {}",
-                        variable.type_name, simple_type.kind
-                    ),
-                ),
-                Some(_) => {}
-            }
-        } else if variable.type_name == "Enumeration" {
-            report(at, format!("enumeration {name:?} has no declaredType"));
-        }
-        if variable.type_name == "Real" {
-            match description.effective_unit(variable) {
-                None => report(
-                    at,
-                    format!("Real variable {name:?} has no unit (use \"1\" for dimensionless)"),
-                ),
-                Some(unit) if !units.contains(unit.as_str()) => report(
-                    at,
-                    format!(
-                        "variable {name:?}: unit {unit:?} is not declared in <UnitDefinitions>"
-                    ),
-                ),
-                Some(unit) => {
-                    if let Some(display) = description.effective_display_unit(variable) {
-                        let declared = description
-                            .unit_definition(&unit)
-                            .is_some_and(|u| u.display_units.iter().any(|d| d.name == display));
-                        if !declared {
-                            report(
-                                at,
-                                format!(
-                                    "variable {name:?}: displayUnit {display:?} is not a \
-                                     DisplayUnit of unit {unit:?}"
-                                ),
-                            );
-                        }
-                    }
-                }
-            }
-        }
-        if matches!(
-            variable.type_name.as_str(),
-            "Real" | "Integer" | "Enumeration"
-        ) {
-            let min = variable.min.as_deref().and_then(parse_number);
-            let max = variable.max.as_deref().and_then(parse_number);
-            let start = variable.start.as_deref().and_then(parse_number);
-            for (label, value) in [
-                ("min", &variable.min),
-                ("max", &variable.max),
-                ("start", &variable.start),
-            ] {
-                if let Some(text) = value {
-                    if parse_number(text).is_none() {
-                        report(
-                            at,
-                            format!("variable {name:?}: {label} {text:?} is not a number"),
-                        );
-                    }
-                }
-            }
-            if let (Some(min), Some(max)) = (min, max) {
-                if min > max {
-                    report(at, format!("variable {name:?}: min {min} > max {max}"));
-                }
-            }
-            if let (Some(start), Some(min)) = (start, min) {
-                if start < min {
-                    report(at, format!("variable {name:?}: start {start} < min {min}"));
-                }
-            }
-            if let (Some(start), Some(max)) = (start, max) {
-                if start > max {
-                    report(at, format!("variable {name:?}: start {start} > max {max}"));
-                }
-            }
-        }
-    }
-
-    // ModelStructure/Outputs must list exactly the outputs (FMI 2.0 section 2.2.8).
-    let output_indices: BTreeSet<usize> = description
-        .variables
-        .iter()
-        .enumerate()
-        .filter(|(_, variable)| variable.causality == "output")
-        .map(|(index, _)| index + 1)
-        .collect();
-    let listed: BTreeSet<usize> = description.structure_outputs.iter().copied().collect();
-    for index in output_indices.difference(&listed) {
-        let variable = &description.variables[index - 1];
-        report(
-            Some(variable.line),
-            format!(
-                "output {:?} (index {index}) is missing from <ModelStructure><Outputs>",
-                variable.name
-            ),
-        );
-    }
-    for index in listed.difference(&output_indices) {
-        let what = match description.variables.get(index - 1) {
-            Some(variable) => format!(
-                "variable {:?} with causality {:?}",
-                variable.name, variable.causality
-            ),
-            None => "no variable".into(),
-        };
-        report(
-            None,
-            format!(
-                "<ModelStructure><Outputs> lists index {index}, which is {what}, not an output"
-            ),
-        );
+        });
     }
     problems
 }

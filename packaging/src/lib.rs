@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 use archive::{Entry, WriteOutcome};
-use description::{ModelDescription, Problem, Problems};
+use description::{ModelDescription, Problems};
 
 /// One FMU of the product: its model identifier (= XML file stem = cdylib name) and its crate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,8 +58,8 @@ pub fn description_path(workspace_root: &Path, spec: FmuSpec) -> PathBuf {
         .join(format!("{}.xml", spec.model_identifier))
 }
 
-/// Reads and checks both model descriptions and the SSP connection plan; collects the problems of
-/// both files before failing so one run shows everything to fix.
+/// Reads and validates both model descriptions (model-description crate, the parser the FMU build
+/// uses) and the SSP connection plan; collects the problems of both files before failing.
 pub fn check_descriptions(workspace_root: &Path) -> Result<Vec<CheckedDescription>> {
     let mut problems = Vec::new();
     let mut checked = Vec::new();
@@ -69,7 +69,6 @@ pub fn check_descriptions(workspace_root: &Path) -> Result<Vec<CheckedDescriptio
             Ok(description) => {
                 let xml =
                     std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-                problems.extend(external_check(&path, &xml));
                 checked.push(CheckedDescription {
                     spec,
                     description,
@@ -89,13 +88,6 @@ pub fn check_descriptions(workspace_root: &Path) -> Result<Vec<CheckedDescriptio
     let (vehicle, estimator) = (&checked[0].description, &checked[1].description);
     ssp::plan(vehicle, estimator).context("the SSP connection plan")?;
     Ok(checked)
-}
-
-/// The checks of the model-description crate (the FMU build's own parser), so that what packaging
-/// accepts is what the FMU build accepts.
-fn external_check(path: &Path, _xml: &[u8]) -> Vec<Problem> {
-    let _ = path;
-    Vec::new()
 }
 
 /// Hand-written prose about the models and filters: `packaging/doc/<Id>.html`.
