@@ -1,1 +1,591 @@
-//! FMI 2.0 Co-Simulation plumbing, written once for both FMUs
+//! FMI 2.0 Co-Simulation plumbing, written once for both FMUs.
+//!
+//! An FMU crate is a short file of equations: it includes the variable table generated from its
+//! modelDescription.xml (crate `model-description`, build-time), implements
+//! [`CoSimulationModel`] and expands [`export_fmi2!`], which defines every FMI 2.0 common and
+//! co-simulation function as a `#[no_mangle] extern "C"` symbol of that crate (symbols of an
+//! rlib are not exported reliably from a cdylib, so the functions are generated inside it):
+//!
+//! ```ignore
+//! include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
+//! #[derive(Clone)]
+//! pub struct MyModel { variables: Variables, /* internal state */ }
+//! impl fmi_export::CoSimulationModel for MyModel { /* instantiate, initialize, do_step, … */ }
+//! fmi_export::export_fmi2!(MyModel);
+//! ```
+//!
+//! What the plumbing guarantees (FMI 2.0.4, sections 2.1 and 4.2):
+//!
+//! - **State machine.** Each call is checked against the states the standard allows it in
+//!   (the masks in [`api`]); a call in another state answers `fmi2Error` with a log line
+//!   "fmi2X: called in state S; allowed in …".
+//! - **Errors.** Every `fmi2Error` is logged (always, whatever `loggingOn` says) and moves the
+//!   instance to the *Error* state, as the standard specifies; from there `fmi2Reset`,
+//!   `fmi2SetFMUstate` (back to a stored state), the getters and `fmi2FreeInstance` are allowed.
+//!   `fmi2Discard` is used where the standard allows it: a value outside its min/max (or a
+//!   non-finite parameter) in `fmi2SetXXX` (nothing of the call is applied; the state is kept),
+//!   a step the model cannot complete in `fmi2DoStep` (state *StepFailed*), and status queries
+//!   that have no answer (`fmi2GetStatus` without an asynchronous step).
+//! - **Checks.** Null pointers, unknown value references (per base type), wrong GUID, wrong
+//!   fmuType, `communicationStepSize <= 0` or non-finite, a `currentCommunicationPoint` that
+//!   does not continue the last step (relative tolerance [`TIME_TOLERANCE`]: masters send
+//!   0.009999999999999998 for 0.01), a step beyond a defined stopTime, setting a fixed parameter
+//!   after initialisation or an output at any time.
+//! - **Logging.** Through the master's logger, always as `logger(env, name, status, category,
+//!   "%s", message)`; categories logEvents, logStatusWarning, logStatusDiscard, logStatusError,
+//!   logStatusFatal, logAll.
+//! - **No panic crosses `extern "C"`**: every entry is wrapped in `catch_unwind`; a panic is
+//!   logged with its message and answered with `fmi2Error` (Error state). The crate has no
+//!   thread-local with a destructor; the one thread-local flag is a `Cell<bool>`.
+//! - **FMU state.** Get/Set/Free copy the whole model (Clone); serialisation writes the
+//!   variables and the model's internal state with [`StateWriter`] (f64 by bit pattern), so a
+//!   restored or deserialized state continues bit-identically.
+
+pub mod api;
+pub mod ffi;
+mod instance;
+mod state;
+mod variables;
+
+pub use instance::{Instance, MachineState};
+pub use state::{StateError, StateReader, StateWriter};
+pub use variables::{Causality, ValueType, Variability, VariableInfo, VariableStore};
+
+/// Relative tolerance when comparing a master's communication point with the end of the last
+/// step: `|t_master - t_fmu| <= TIME_TOLERANCE * max(1, |t_fmu|)`.
+pub const TIME_TOLERANCE: f64 = 1e-9;
+
+/// What `fmi2Instantiate` received, for models that need it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InstantiationContext {
+    pub instance_name: String,
+    pub resource_location: Option<String>,
+}
+
+/// How a `do_step` ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepOutcome {
+    /// The step was completed.
+    Ok,
+    /// The step was completed, but something is not quite right (logged, `fmi2Warning`).
+    Warning(String),
+    /// The step could not be completed (`fmi2Discard`, state StepFailed); the model kept its
+    /// last consistent values.
+    Discard(String),
+    /// The model cannot continue (`fmi2Error`, state Error).
+    Error(String),
+}
+
+/// One FMU's equations. The plumbing calls these only in states where the standard allows it,
+/// with value references and ranges already checked against [`CoSimulationModel::VARIABLES`].
+pub trait CoSimulationModel: Clone + Send + Sized + 'static {
+    /// The generated `Variables` struct.
+    type Variables: VariableStore;
+    /// The modelIdentifier (generated `MODEL_IDENTIFIER`).
+    const MODEL_IDENTIFIER: &'static str;
+    /// The GUID fmi2Instantiate must receive (generated `GUID`).
+    const GUID: &'static str;
+    /// The generated variable table, sorted by (value type, value reference).
+    const VARIABLES: &'static [VariableInfo];
+    /// The LogCategories of the model description (generated `LOG_CATEGORIES`).
+    const LOG_CATEGORIES: &'static [&'static str];
+
+    /// A fresh instance holding the start values (fmi2Instantiate, fmi2Reset).
+    fn instantiate(context: &InstantiationContext) -> Self;
+
+    fn variables(&self) -> &Self::Variables;
+    fn variables_mut(&mut self) -> &mut Self::Variables;
+
+    /// Checks the parameters, builds the internal model and computes the outputs at
+    /// `start_time`. Called when initialisation mode is left, and before outputs are read in
+    /// initialisation mode after a change; must therefore be repeatable. An `Err` message names
+    /// the offending parameter and what was expected.
+    fn initialize(&mut self, start_time: f64) -> Result<(), String>;
+
+    /// Advances from `current_time` by `step_size` (> 0, already checked) using the inputs as
+    /// currently set, and updates the outputs. Must not allocate on the heap in the normal path.
+    fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome;
+
+    /// Appends the internal state (everything beyond the variables) for fmi2SerializeFMUstate.
+    fn write_state(&self, writer: &mut StateWriter);
+
+    /// Restores what [`CoSimulationModel::write_state`] wrote, into an instance created by
+    /// [`CoSimulationModel::instantiate`] whose variables have already been restored.
+    fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError>;
+}
+
+/// Defines every FMI 2.0 common and co-simulation function for `$model` as an exported C symbol
+/// of the crate that expands it. Expand it once, in the FMU's cdylib crate.
+#[macro_export]
+macro_rules! export_fmi2 {
+    ($model:ty) => {
+        /// FMI 2.0 `fmi2GetTypesPlatform`.
+        #[no_mangle]
+        pub extern "C" fn fmi2GetTypesPlatform() -> *const ::std::ffi::c_char {
+            $crate::api::get_types_platform()
+        }
+
+        /// FMI 2.0 `fmi2GetVersion`.
+        #[no_mangle]
+        pub extern "C" fn fmi2GetVersion() -> *const ::std::ffi::c_char {
+            $crate::api::get_version()
+        }
+
+        /// FMI 2.0 `fmi2SetDebugLogging`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU; `categories` holds `n_categories` C strings.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetDebugLogging(
+            c: $crate::ffi::Fmi2Component,
+            logging_on: $crate::ffi::Fmi2Boolean,
+            n_categories: usize,
+            categories: *const $crate::ffi::Fmi2String,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe {
+                $crate::api::set_debug_logging::<$model>(c, logging_on, n_categories, categories)
+            }
+        }
+
+        /// FMI 2.0 `fmi2Instantiate`.
+        ///
+        /// # Safety
+        /// Pointers are null or valid C strings / callback structs, as the standard requires.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2Instantiate(
+            instance_name: $crate::ffi::Fmi2String,
+            fmu_type: $crate::ffi::Fmi2Type,
+            fmu_guid: $crate::ffi::Fmi2String,
+            fmu_resource_location: $crate::ffi::Fmi2String,
+            functions: *const $crate::ffi::Fmi2CallbackFunctions,
+            visible: $crate::ffi::Fmi2Boolean,
+            logging_on: $crate::ffi::Fmi2Boolean,
+        ) -> $crate::ffi::Fmi2Component {
+            unsafe {
+                $crate::api::instantiate::<$model>(
+                    instance_name,
+                    fmu_type,
+                    fmu_guid,
+                    fmu_resource_location,
+                    functions,
+                    visible,
+                    logging_on,
+                )
+            }
+        }
+
+        /// FMI 2.0 `fmi2FreeInstance`.
+        ///
+        /// # Safety
+        /// `c` is null or an instance of this FMU that is not used afterwards.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2FreeInstance(c: $crate::ffi::Fmi2Component) {
+            unsafe { $crate::api::free_instance::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2SetupExperiment`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetupExperiment(
+            c: $crate::ffi::Fmi2Component,
+            tolerance_defined: $crate::ffi::Fmi2Boolean,
+            tolerance: f64,
+            start_time: f64,
+            stop_time_defined: $crate::ffi::Fmi2Boolean,
+            stop_time: f64,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe {
+                $crate::api::setup_experiment::<$model>(
+                    c,
+                    tolerance_defined,
+                    tolerance,
+                    start_time,
+                    stop_time_defined,
+                    stop_time,
+                )
+            }
+        }
+
+        /// FMI 2.0 `fmi2EnterInitializationMode`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2EnterInitializationMode(
+            c: $crate::ffi::Fmi2Component,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::enter_initialization_mode::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2ExitInitializationMode`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2ExitInitializationMode(
+            c: $crate::ffi::Fmi2Component,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::exit_initialization_mode::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2Terminate`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2Terminate(
+            c: $crate::ffi::Fmi2Component,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::terminate::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2Reset`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2Reset(
+            c: $crate::ffi::Fmi2Component,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::reset::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2GetReal`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetReal(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *mut f64,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_real::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetInteger`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetInteger(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *mut $crate::ffi::Fmi2Integer,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_integer::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetBoolean`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetBoolean(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *mut $crate::ffi::Fmi2Boolean,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_boolean::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetString`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetString(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *mut $crate::ffi::Fmi2String,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_string::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2SetReal`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetReal(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *const f64,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::set_real::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2SetInteger`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetInteger(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *const $crate::ffi::Fmi2Integer,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::set_integer::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2SetBoolean`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetBoolean(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *const $crate::ffi::Fmi2Boolean,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::set_boolean::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2SetString`.
+        ///
+        /// # Safety
+        /// `vr` and `value` point to `nvr` elements.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetString(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            value: *const $crate::ffi::Fmi2String,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::set_string::<$model>(c, vr, nvr, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetFMUstate`.
+        ///
+        /// # Safety
+        /// `state` points to an `fmi2FMUstate` (null or from this FMU).
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetFMUstate(
+            c: $crate::ffi::Fmi2Component,
+            state: *mut $crate::ffi::Fmi2FmuState,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_fmu_state::<$model>(c, state) }
+        }
+
+        /// FMI 2.0 `fmi2SetFMUstate`.
+        ///
+        /// # Safety
+        /// `state` is an FMU state of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetFMUstate(
+            c: $crate::ffi::Fmi2Component,
+            state: $crate::ffi::Fmi2FmuState,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::set_fmu_state::<$model>(c, state) }
+        }
+
+        /// FMI 2.0 `fmi2FreeFMUstate`.
+        ///
+        /// # Safety
+        /// `state` points to an `fmi2FMUstate` (null or from this FMU).
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2FreeFMUstate(
+            c: $crate::ffi::Fmi2Component,
+            state: *mut $crate::ffi::Fmi2FmuState,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::free_fmu_state::<$model>(c, state) }
+        }
+
+        /// FMI 2.0 `fmi2SerializedFMUstateSize`.
+        ///
+        /// # Safety
+        /// `state` is an FMU state of this FMU; `size` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+            c: $crate::ffi::Fmi2Component,
+            state: $crate::ffi::Fmi2FmuState,
+            size: *mut usize,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::serialized_fmu_state_size::<$model>(c, state, size) }
+        }
+
+        /// FMI 2.0 `fmi2SerializeFMUstate`.
+        ///
+        /// # Safety
+        /// `bytes` has room for `size` bytes.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SerializeFMUstate(
+            c: $crate::ffi::Fmi2Component,
+            state: $crate::ffi::Fmi2FmuState,
+            bytes: *mut $crate::ffi::Fmi2Byte,
+            size: usize,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::serialize_fmu_state::<$model>(c, state, bytes, size) }
+        }
+
+        /// FMI 2.0 `fmi2DeSerializeFMUstate`.
+        ///
+        /// # Safety
+        /// `bytes` holds `size` bytes; `state` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+            c: $crate::ffi::Fmi2Component,
+            bytes: *const $crate::ffi::Fmi2Byte,
+            size: usize,
+            state: *mut $crate::ffi::Fmi2FmuState,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::deserialize_fmu_state::<$model>(c, bytes, size, state) }
+        }
+
+        /// FMI 2.0 `fmi2GetDirectionalDerivative` (not provided: answers fmi2Error).
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
+            c: $crate::ffi::Fmi2Component,
+            unknown: *const $crate::ffi::Fmi2ValueReference,
+            n_unknown: usize,
+            known: *const $crate::ffi::Fmi2ValueReference,
+            n_known: usize,
+            dv_known: *const f64,
+            dv_unknown: *mut f64,
+        ) -> $crate::ffi::Fmi2Status {
+            let _ = (unknown, n_unknown, known, n_known, dv_known, dv_unknown);
+            unsafe { $crate::api::get_directional_derivative::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2SetRealInputDerivatives` (canInterpolateInputs=false: fmi2Error).
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            order: *const $crate::ffi::Fmi2Integer,
+            value: *const f64,
+        ) -> $crate::ffi::Fmi2Status {
+            let _ = (vr, nvr, order, value);
+            unsafe { $crate::api::set_real_input_derivatives::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2GetRealOutputDerivatives` (maxOutputDerivativeOrder=0: fmi2Error).
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
+            c: $crate::ffi::Fmi2Component,
+            vr: *const $crate::ffi::Fmi2ValueReference,
+            nvr: usize,
+            order: *const $crate::ffi::Fmi2Integer,
+            value: *mut f64,
+        ) -> $crate::ffi::Fmi2Status {
+            let _ = (vr, nvr, order, value);
+            unsafe { $crate::api::get_real_output_derivatives::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2DoStep`.
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2DoStep(
+            c: $crate::ffi::Fmi2Component,
+            current_communication_point: f64,
+            communication_step_size: f64,
+            no_set_fmu_state_prior_to_current_point: $crate::ffi::Fmi2Boolean,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe {
+                $crate::api::do_step::<$model>(
+                    c,
+                    current_communication_point,
+                    communication_step_size,
+                    no_set_fmu_state_prior_to_current_point,
+                )
+            }
+        }
+
+        /// FMI 2.0 `fmi2CancelStep` (steps are never asynchronous: fmi2Error).
+        ///
+        /// # Safety
+        /// `c` is an instance of this FMU.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2CancelStep(
+            c: $crate::ffi::Fmi2Component,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::cancel_step::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2GetStatus`.
+        ///
+        /// # Safety
+        /// `value` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetStatus(
+            c: $crate::ffi::Fmi2Component,
+            kind: $crate::ffi::Fmi2StatusKind,
+            value: *mut $crate::ffi::Fmi2Status,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_status::<$model>(c, kind, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetRealStatus`.
+        ///
+        /// # Safety
+        /// `value` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetRealStatus(
+            c: $crate::ffi::Fmi2Component,
+            kind: $crate::ffi::Fmi2StatusKind,
+            value: *mut f64,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_real_status::<$model>(c, kind, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetIntegerStatus`.
+        ///
+        /// # Safety
+        /// `value` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetIntegerStatus(
+            c: $crate::ffi::Fmi2Component,
+            kind: $crate::ffi::Fmi2StatusKind,
+            value: *mut $crate::ffi::Fmi2Integer,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_integer_status::<$model>(c, kind, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetBooleanStatus`.
+        ///
+        /// # Safety
+        /// `value` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetBooleanStatus(
+            c: $crate::ffi::Fmi2Component,
+            kind: $crate::ffi::Fmi2StatusKind,
+            value: *mut $crate::ffi::Fmi2Boolean,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_boolean_status::<$model>(c, kind, value) }
+        }
+
+        /// FMI 2.0 `fmi2GetStringStatus`.
+        ///
+        /// # Safety
+        /// `value` is writable.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetStringStatus(
+            c: $crate::ffi::Fmi2Component,
+            kind: $crate::ffi::Fmi2StatusKind,
+            value: *mut $crate::ffi::Fmi2String,
+        ) -> $crate::ffi::Fmi2Status {
+            unsafe { $crate::api::get_string_status::<$model>(c, kind, value) }
+        }
+    };
+}

@@ -68,8 +68,9 @@ fn float_literal(value: f64) -> String {
     } else if value.is_nan() {
         "f64::NAN".into()
     } else {
-        // `{:?}` always writes a decimal point or an exponent, so the literal is an f64.
-        format!("{value:?}_f64")
+        // The bit pattern is exact and immune to lints about literals that look like constants;
+        // the comment keeps it readable.
+        format!("f64::from_bits({:#018x}) /* {value:?} */", value.to_bits())
     }
 }
 
@@ -188,8 +189,7 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
     sorted.sort_by_key(|v| (type_rank(v.base_type()), v.value_reference));
     let _ = writeln!(
         w,
-        "/// Every variable, sorted by (base type, value reference).\npub static VARIABLES: [::fmi_export::VariableInfo; {}] = [",
-        sorted.len()
+        "/// Every variable, sorted by (base type, value reference).\npub const VARIABLES: &[::fmi_export::VariableInfo] = &["
     );
     for variable in &sorted {
         let (value_type, min, max, allowed) = match &variable.value {

@@ -286,7 +286,10 @@ fn generated_code_holds_the_guid_the_value_references_and_the_start_values() {
     assert!(code.contains(&format!("pub const GUID: &str = {:?};", description.guid)));
     assert!(code.contains("pub const STEERING_ANGLE: u32 = 1;"));
     assert!(code.contains("pub const SINGLE_TRACK_HSRI: i32 = 1;"));
-    assert!(code.contains("vx0: 18.0_f64,"));
+    assert!(code.contains(&format!(
+        "vx0: f64::from_bits({:#018x}) /* 18.0 */,",
+        18.0f64.to_bits()
+    )));
     assert!(code.contains("noise: true,"));
     assert!(code.contains("seed: 1_i32,"));
     assert!(code.contains(

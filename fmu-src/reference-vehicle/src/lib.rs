@@ -1,1 +1,563 @@
-//! FMU ReferenceVehicle
+//! FMU **ReferenceVehicle**: the "true" planar motion of a car and its corrupted series-production
+//! sensor signals, as an FMI 2.0 Co-Simulation FMU (modelIdentifier `ReferenceVehicle`).
+//!
+//! The interface is modelDescription/ReferenceVehicle.xml (variables, units, sign conventions);
+//! the value references, GUID and start values are generated from it at build time.
+//!
+//! - **Vehicle.** Model A (`model = 1`): the 5-state single-track model with HSRI tyres of seed
+//!   000 from the `vehicle-models` crate, discretised with the seed-000 scheme (000: 6.1-6.5) or
+//!   RK4 (`integrator`). The car starts driving straight at `vx0` with freely rolling wheels.
+//! - **Sub-stepping.** A doStep of length `h` runs `n = ceil(h / integration_step)` equal steps
+//!   of `h / n`, holding the driver inputs (a non-finite input keeps its last finite value and
+//!   the step answers fmi2Warning).
+//! - **Process noise** (seed 000, ch. 7): after every integration step, Gaussian noise with the
+//!   standard deviations `process_noise_std_*` (scaled by `sqrt(dt / integration_step)` when a
+//!   step is shorter) is added to `[vx, vy, r, ωF, ωR]`.
+//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption), per integration
+//!   step and per signal, in this order: true value → + white Gaussian noise → quantisation
+//!   (rounding to a multiple of `quantum_*`) → transport delay of `sensor_latency` (whole
+//!   integration steps) → sample-and-hold every `sensor_sample_period` (sample instants
+//!   `t0 + k·period`). The chain starts primed with the noise-free initial values.
+//! - `noise = false` switches off all of it: no process noise, and the `*_meas` outputs equal
+//!   the truth exactly.
+//! - **Randomness** comes from one ChaCha20 generator seeded with `seed`; its position is part
+//!   of the FMU state, so the same parameters and seed give bit-identical outputs in any master
+//!   and thread, and a restored state continues bit-identically.
+//! - A step whose state turns non-finite answers fmi2Discard (the outputs keep their last
+//!   values).
+//!
+//! Model B (`model = 2`, two-track with Magic Formula tyres) is accepted by the interface; this
+//! build reports at initialisation that it is not available until the two-track model of the
+//! `vehicle-models` crate exists.
+#![allow(non_snake_case)] // the crate is named after the modelIdentifier
+
+use fmi_export::{
+    CoSimulationModel, InstantiationContext, StateError, StateReader, StateWriter, StepOutcome,
+};
+use nalgebra::SVector;
+use rand::SeedableRng;
+use rand_chacha::ChaCha20Rng;
+use rand_distr::{Distribution, StandardNormal};
+use vehicle_models::single_track::{SingleTrackParams, SingleTrackState, STATE_DIM};
+use vehicle_models::tyre::HsriParams;
+use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri, VehicleTruth};
+
+/// Generated from modelDescription/ReferenceVehicle.xml.
+pub mod model_description {
+    include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
+}
+
+use model_description::{integrator as integrator_items, vehicle_model, Variables};
+
+/// Number of sensor signals: `[yaw_rate, ay, omega_front, omega_rear, ax, vx]`.
+const SENSORS: usize = 6;
+
+/// Longest delay line, in integration steps (sensor_latency <= 1 s, step >= 1e-5 s).
+const MAX_LATENCY_STEPS: usize = 100_000;
+
+/// The true sensor values `[r, ay, ωF, ωR, ax, vx]` of a truth record.
+fn sensor_values(truth: &VehicleTruth) -> [f64; SENSORS] {
+    [
+        truth.yaw_rate,
+        truth.lateral_acceleration,
+        truth.omega_front,
+        truth.omega_rear,
+        truth.longitudinal_acceleration,
+        truth.longitudinal_velocity,
+    ]
+}
+
+/// Rounds to the nearest multiple of `quantum` (no quantisation when `quantum` is 0).
+fn quantise(value: f64, quantum: f64) -> f64 {
+    if quantum > 0.0 {
+        (value / quantum).round() * quantum
+    } else {
+        value
+    }
+}
+
+/// The vehicle model and its state.
+#[derive(Clone, Debug)]
+enum Dynamics {
+    SingleTrack {
+        model: SingleTrackHsri,
+        state: SingleTrackState,
+    },
+}
+
+impl Dynamics {
+    fn step(&mut self, input: &DriverInputVector, dt: f64, integrator: Integrator) {
+        match self {
+            Dynamics::SingleTrack { model, state } => {
+                *state = model.step(state, input, dt, integrator);
+            }
+        }
+    }
+
+    /// Adds `[vx, vy, r, ωF, ωR]` noise to the state.
+    fn add_noise(&mut self, noise: &SVector<f64, STATE_DIM>) {
+        match self {
+            Dynamics::SingleTrack { state, .. } => *state += noise,
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        match self {
+            Dynamics::SingleTrack { state, .. } => state.iter().all(|v| v.is_finite()),
+        }
+    }
+
+    fn truth(&self, input: &DriverInputVector) -> VehicleTruth {
+        match self {
+            Dynamics::SingleTrack { model, state } => model.truth(state, input),
+        }
+    }
+
+    fn write_state(&self, writer: &mut StateWriter) {
+        match self {
+            Dynamics::SingleTrack { state, .. } => writer.f64s(state.as_slice()),
+        }
+    }
+
+    fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
+        match self {
+            Dynamics::SingleTrack { state, .. } => {
+                reader.f64s_into(state.as_mut_slice(), "vehicle state")
+            }
+        }
+    }
+}
+
+/// Everything that evolves during a simulation, built from the parameters at initialisation.
+#[derive(Clone, Debug)]
+struct Simulation {
+    dynamics: Dynamics,
+    integrator: Integrator,
+    integration_step: f64,
+    noise_on: bool,
+    process_noise_std: SVector<f64, STATE_DIM>,
+    sensor_noise_std: [f64; SENSORS],
+    quantum: [f64; SENSORS],
+    sample_period: f64,
+    rng: ChaCha20Rng,
+    /// The driver input applied during the steps (last finite values).
+    input: DriverInputVector,
+    /// Ring buffer of `latency_steps + 1` corrupted samples; `delay_head` is the newest.
+    delay_line: Vec<[f64; SENSORS]>,
+    delay_head: usize,
+    /// Sample-and-hold output of the sensor chain.
+    held: [f64; SENSORS],
+    next_sample_time: f64,
+    time: f64,
+}
+
+fn check_positive(name: &str, value: f64) -> Result<f64, String> {
+    if value > 0.0 && value.is_finite() {
+        Ok(value)
+    } else {
+        Err(format!(
+            "parameter {name} = {value}; expected a positive number"
+        ))
+    }
+}
+
+impl Simulation {
+    /// Builds the simulation from the parameters and starts it at `start_time`.
+    fn start(v: &Variables, start_time: f64) -> Result<Self, String> {
+        let vehicle = SingleTrackParams {
+            mass: check_positive("mass", v.mass)?,
+            cog_to_front_axle: check_positive("cog_to_front_axle", v.cog_to_front_axle)?,
+            cog_to_rear_axle: check_positive("cog_to_rear_axle", v.cog_to_rear_axle)?,
+            yaw_inertia: check_positive("yaw_inertia", v.yaw_inertia)?,
+            front_wheel_inertia: check_positive("wheel_inertia_front", v.wheel_inertia_front)?,
+            rear_wheel_inertia: check_positive("wheel_inertia_rear", v.wheel_inertia_rear)?,
+            brake_split_front: v.brake_distribution_front,
+            wheel_radius: check_positive("wheel_radius", v.wheel_radius)?,
+            front_wheel_load: check_positive("wheel_load_front", v.wheel_load_front)?,
+            rear_wheel_load: check_positive("wheel_load_rear", v.wheel_load_rear)?,
+            ..SingleTrackParams::default()
+        };
+        let tyre = HsriTyre::new(HsriParams {
+            reference_load: check_positive("tyre_reference_load", v.tyre_reference_load)?,
+            friction_base: v.tyre_f00,
+            friction_load: v.tyre_f01,
+            friction_decay_base: v.tyre_kr0,
+            friction_decay_load: v.tyre_kr1,
+            cornering_base: v.tyre_ca1,
+            cornering_load: v.tyre_ca2,
+            longitudinal_base: v.tyre_cs1,
+            longitudinal_load: v.tyre_cs2,
+            reference_sliding_speed: check_positive("tyre_v_mu", v.tyre_v_mu)?,
+            ..HsriParams::default()
+        });
+        let dynamics = match v.model {
+            vehicle_model::SINGLE_TRACK_HSRI => {
+                let model = SingleTrackHsri::new(vehicle, tyre);
+                let state = model.straight_rolling_state(v.vx0);
+                Dynamics::SingleTrack { model, state }
+            }
+            vehicle_model::TWO_TRACK_MAGIC_FORMULA => {
+                return Err(String::from(
+                    "parameter model = 2 (two-track with Magic Formula tyres) is not available in \
+                     this build: the two-track model of the vehicle-models crate does not exist yet; \
+                     expected model = 1",
+                ))
+            }
+            other => return Err(format!("parameter model = {other}; expected 1 or 2")),
+        };
+        let integrator = match v.integrator {
+            integrator_items::SEMI_IMPLICIT_EULER => Integrator::SemiImplicitEuler,
+            integrator_items::RUNGE_KUTTA4 => Integrator::RungeKutta4,
+            other => return Err(format!("parameter integrator = {other}; expected 1 or 2")),
+        };
+        let integration_step = check_positive("integration_step", v.integration_step)?;
+        let latency_steps = (v.sensor_latency / integration_step).round();
+        if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&latency_steps) {
+            return Err(format!(
+                "parameter sensor_latency = {} is {latency_steps} integration steps; expected 0 to {MAX_LATENCY_STEPS}",
+                v.sensor_latency
+            ));
+        }
+        let seed = u64::try_from(v.seed)
+            .map_err(|_| format!("parameter seed = {}; expected a value >= 0", v.seed))?;
+        let input = DriverInputVector::new(
+            finite_or(v.steering_angle, 0.0),
+            finite_or(v.drive_torque, 0.0),
+            finite_or(v.brake_torque, 0.0),
+        );
+        let initial = quantised_sensors(
+            &sensor_values(&dynamics.truth(&input)),
+            &[
+                v.quantum_yaw_rate_meas,
+                v.quantum_ay_meas,
+                v.quantum_omega_front_meas,
+                v.quantum_omega_rear_meas,
+                v.quantum_ax_meas,
+                v.quantum_vx_meas,
+            ],
+            v.noise,
+        );
+        Ok(Self {
+            dynamics,
+            integrator,
+            integration_step,
+            noise_on: v.noise,
+            process_noise_std: SVector::from([
+                v.process_noise_std_vx,
+                v.process_noise_std_vy,
+                v.process_noise_std_yaw_rate,
+                v.process_noise_std_omega_front,
+                v.process_noise_std_omega_rear,
+            ]),
+            sensor_noise_std: [
+                v.noise_std_yaw_rate_meas,
+                v.noise_std_ay_meas,
+                v.noise_std_omega_front_meas,
+                v.noise_std_omega_rear_meas,
+                v.noise_std_ax_meas,
+                v.noise_std_vx_meas,
+            ],
+            quantum: [
+                v.quantum_yaw_rate_meas,
+                v.quantum_ay_meas,
+                v.quantum_omega_front_meas,
+                v.quantum_omega_rear_meas,
+                v.quantum_ax_meas,
+                v.quantum_vx_meas,
+            ],
+            sample_period: v.sensor_sample_period,
+            rng: ChaCha20Rng::seed_from_u64(seed),
+            input,
+            delay_line: vec![initial; latency_steps as usize + 1],
+            delay_head: 0,
+            held: initial,
+            next_sample_time: start_time + v.sensor_sample_period,
+            time: start_time,
+        })
+    }
+
+    /// One integration step of length `dt` with the current input, then the sensor chain.
+    fn integration_step(&mut self, dt: f64) -> Result<(), String> {
+        self.dynamics.step(&self.input, dt, self.integrator);
+        if self.noise_on {
+            // Process noise per T_ref step (000 ch. 7); a shorter step gets the Wiener scaling.
+            let scale = if dt == self.integration_step {
+                1.0
+            } else {
+                (dt / self.integration_step).sqrt()
+            };
+            let mut noise = SVector::<f64, STATE_DIM>::zeros();
+            for (value, std) in noise.iter_mut().zip(self.process_noise_std.iter()) {
+                let draw: f64 = StandardNormal.sample(&mut self.rng);
+                *value = draw * std * scale;
+            }
+            self.dynamics.add_noise(&noise);
+        }
+        if !self.dynamics.is_finite() {
+            return Err(format!(
+                "the vehicle state became non-finite at t = {}; the model left its valid range",
+                self.time + dt
+            ));
+        }
+        self.time += dt;
+        let truth = sensor_values(&self.dynamics.truth(&self.input));
+        if !self.noise_on {
+            self.held = truth;
+            return Ok(());
+        }
+        let mut corrupted = [0.0; SENSORS];
+        for (i, value) in corrupted.iter_mut().enumerate() {
+            let draw: f64 = StandardNormal.sample(&mut self.rng);
+            *value = quantise(truth[i] + draw * self.sensor_noise_std[i], self.quantum[i]);
+        }
+        let length = self.delay_line.len();
+        self.delay_head = (self.delay_head + 1) % length;
+        self.delay_line[self.delay_head] = corrupted;
+        // The oldest entry is the one after the head: `length - 1` steps old.
+        let delayed = self.delay_line[(self.delay_head + 1) % length];
+        if self.sample_period <= 0.0 {
+            self.held = delayed;
+        } else {
+            let tolerance = 1e-9 * self.sample_period;
+            if self.time >= self.next_sample_time - tolerance {
+                self.held = delayed;
+                while self.next_sample_time <= self.time + tolerance {
+                    self.next_sample_time += self.sample_period;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn write_state(&self, writer: &mut StateWriter) {
+        self.dynamics.write_state(writer);
+        writer.f64s(self.input.as_slice());
+        for byte in self.rng.get_seed() {
+            writer.u8(byte);
+        }
+        writer.u64(self.rng.get_stream());
+        let word_position = self.rng.get_word_pos();
+        writer.u64(word_position as u64);
+        writer.u64((word_position >> 64) as u64);
+        writer.u64(self.delay_line.len() as u64);
+        for entry in &self.delay_line {
+            writer.f64s(entry);
+        }
+        writer.u64(self.delay_head as u64);
+        writer.f64s(&self.held);
+        writer.f64(self.next_sample_time);
+        writer.f64(self.time);
+    }
+
+    fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
+        self.dynamics.read_state(reader)?;
+        reader.f64s_into(self.input.as_mut_slice(), "driver input")?;
+        let mut seed = [0u8; 32];
+        for byte in seed.iter_mut() {
+            *byte = reader.u8("random generator seed")?;
+        }
+        let stream = reader.u64("random generator stream")?;
+        let low = reader.u64("random generator position")?;
+        let high = reader.u64("random generator position")?;
+        self.rng = ChaCha20Rng::from_seed(seed);
+        self.rng.set_stream(stream);
+        self.rng
+            .set_word_pos(u128::from(low) | (u128::from(high) << 64));
+        let length = reader.u64("delay line length")?;
+        if length != self.delay_line.len() as u64 {
+            return Err(StateError::new(format!(
+                "the delay line has {length} entries in the serialized state; the parameters give {}",
+                self.delay_line.len()
+            )));
+        }
+        for entry in self.delay_line.iter_mut() {
+            reader.f64s_into(entry, "delay line")?;
+        }
+        let head = reader.u64("delay line head")?;
+        if head >= length {
+            return Err(StateError::new(format!(
+                "delay line head {head} is outside the {length} entries"
+            )));
+        }
+        self.delay_head = head as usize;
+        reader.f64s_into(&mut self.held, "held sensor values")?;
+        self.next_sample_time = reader.f64("next sample time")?;
+        self.time = reader.f64("simulation time")?;
+        Ok(())
+    }
+}
+
+fn finite_or(value: f64, fallback: f64) -> f64 {
+    if value.is_finite() {
+        value
+    } else {
+        fallback
+    }
+}
+
+/// The initial sensor outputs: the noise-free truth, quantised when the chain is on.
+fn quantised_sensors(
+    truth: &[f64; SENSORS],
+    quantum: &[f64; SENSORS],
+    noise_on: bool,
+) -> [f64; SENSORS] {
+    if noise_on {
+        std::array::from_fn(|i| quantise(truth[i], quantum[i]))
+    } else {
+        *truth
+    }
+}
+
+/// The ReferenceVehicle FMU.
+#[derive(Clone, Debug)]
+pub struct ReferenceVehicle {
+    variables: Variables,
+    simulation: Option<Simulation>,
+}
+
+impl ReferenceVehicle {
+    /// Copies the truth and the sensor chain's output into the output variables.
+    fn publish(&mut self) {
+        let Some(simulation) = &self.simulation else {
+            return;
+        };
+        let truth = simulation.dynamics.truth(&simulation.input);
+        let v = &mut self.variables;
+        v.vx = truth.longitudinal_velocity;
+        v.vy = truth.lateral_velocity;
+        v.yaw_rate = truth.yaw_rate;
+        v.omega_front = truth.omega_front;
+        v.omega_rear = truth.omega_rear;
+        v.sideslip = truth.sideslip;
+        v.ay = truth.lateral_acceleration;
+        v.ax = truth.longitudinal_acceleration;
+        v.slip_angle_front = truth.slip_angle_front;
+        v.slip_angle_rear = truth.slip_angle_rear;
+        v.slip_front = truth.slip_front;
+        v.slip_rear = truth.slip_rear;
+        let [yaw_rate, ay, omega_front, omega_rear, ax, vx] = simulation.held;
+        v.yaw_rate_meas = yaw_rate;
+        v.ay_meas = ay;
+        v.omega_front_meas = omega_front;
+        v.omega_rear_meas = omega_rear;
+        v.ax_meas = ax;
+        v.vx_meas = vx;
+    }
+
+    /// The simulation's internal time (for tests).
+    pub fn simulation_time(&self) -> Option<f64> {
+        self.simulation.as_ref().map(|s| s.time)
+    }
+}
+
+impl CoSimulationModel for ReferenceVehicle {
+    type Variables = Variables;
+    const MODEL_IDENTIFIER: &'static str = model_description::MODEL_IDENTIFIER;
+    const GUID: &'static str = model_description::GUID;
+    const VARIABLES: &'static [fmi_export::VariableInfo] = model_description::VARIABLES;
+    const LOG_CATEGORIES: &'static [&'static str] = model_description::LOG_CATEGORIES;
+
+    fn instantiate(_context: &InstantiationContext) -> Self {
+        Self {
+            variables: Variables::default(),
+            simulation: None,
+        }
+    }
+
+    fn variables(&self) -> &Variables {
+        &self.variables
+    }
+
+    fn variables_mut(&mut self) -> &mut Variables {
+        &mut self.variables
+    }
+
+    fn initialize(&mut self, start_time: f64) -> Result<(), String> {
+        self.simulation = Some(Simulation::start(&self.variables, start_time)?);
+        self.publish();
+        Ok(())
+    }
+
+    fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome {
+        let v = &self.variables;
+        let requested = [v.steering_angle, v.drive_torque, v.brake_torque];
+        let Some(simulation) = self.simulation.as_mut() else {
+            return StepOutcome::Error(String::from("the simulation was not initialised"));
+        };
+        let mut warning = None;
+        for (i, value) in requested.into_iter().enumerate() {
+            if value.is_finite() {
+                simulation.input[i] = value;
+            } else {
+                let name = ["steering_angle", "drive_torque", "brake_torque"][i];
+                warning = Some(format!(
+                    "input {name} is {value}; the last finite value {} is held",
+                    simulation.input[i]
+                ));
+            }
+        }
+        // The FMU's own clock follows the master's communication points exactly.
+        simulation.time = current_time;
+        let steps = ((step_size / simulation.integration_step) * (1.0 - 1e-9))
+            .ceil()
+            .max(1.0);
+        let dt = if steps == 1.0 {
+            step_size
+        } else {
+            step_size / steps
+        };
+        let dt = if (dt - simulation.integration_step).abs() <= 1e-12 * simulation.integration_step
+        {
+            simulation.integration_step
+        } else {
+            dt
+        };
+        for _ in 0..steps as u64 {
+            if let Err(message) = simulation.integration_step(dt) {
+                return StepOutcome::Discard(message);
+            }
+        }
+        simulation.time = current_time + step_size;
+        self.publish();
+        match warning {
+            Some(message) => StepOutcome::Warning(message),
+            None => StepOutcome::Ok,
+        }
+    }
+
+    fn write_state(&self, writer: &mut StateWriter) {
+        match &self.simulation {
+            None => writer.bool(false),
+            Some(simulation) => {
+                writer.bool(true);
+                simulation.write_state(writer);
+            }
+        }
+    }
+
+    fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
+        if reader.bool("simulation present")? {
+            let mut simulation =
+                Simulation::start(&self.variables, 0.0).map_err(StateError::new)?;
+            simulation.read_state(reader)?;
+            self.simulation = Some(simulation);
+        } else {
+            self.simulation = None;
+        }
+        Ok(())
+    }
+}
+
+fmi_export::export_fmi2!(ReferenceVehicle);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantisation_rounds_to_the_nearest_multiple() {
+        assert_eq!(quantise(0.0149, 0.01), 0.01);
+        assert_eq!(quantise(-0.0151, 0.01), -0.02);
+        assert_eq!(quantise(0.123456, 0.0), 0.123456);
+    }
+}
