@@ -4,13 +4,25 @@
 //! `cargo run --release -p vehicle-models --example seed_manoeuvres`
 
 use vehicle_models::manoeuvre::{SeedManoeuvre, SEED_INITIAL_SPEED, SEED_MANOEUVRE_DURATION};
-use vehicle_models::{Integrator, SingleTrackHsri, VehicleTruth};
+use vehicle_models::{Integrator, SingleTrackHsri, TwoTrackMagicFormula, VehicleTruth};
 
 /// Sample time of the reference runs, s (000: ch. 7, T = 0.001 s).
 const SAMPLE_TIME: f64 = 1e-3;
 
 fn run_model_a(manoeuvre: SeedManoeuvre) -> VehicleTruth {
     let model = SingleTrackHsri::default();
+    let mut state = model.straight_rolling_state(SEED_INITIAL_SPEED);
+    let steps = (SEED_MANOEUVRE_DURATION / SAMPLE_TIME).round() as usize;
+    for k in 0..steps {
+        let input = manoeuvre.input_at(k as f64 * SAMPLE_TIME).to_vector();
+        state = model.step(&state, &input, SAMPLE_TIME, Integrator::SemiImplicitEuler);
+    }
+    let input = manoeuvre.input_at(SEED_MANOEUVRE_DURATION).to_vector();
+    model.truth(&state, &input)
+}
+
+fn run_model_b(manoeuvre: SeedManoeuvre) -> VehicleTruth {
+    let model = TwoTrackMagicFormula::default();
     let mut state = model.straight_rolling_state(SEED_INITIAL_SPEED);
     let steps = (SEED_MANOEUVRE_DURATION / SAMPLE_TIME).round() as usize;
     for k in 0..steps {
@@ -54,5 +66,6 @@ fn main() {
     );
     for manoeuvre in SeedManoeuvre::ALL {
         print_row("A", manoeuvre, &run_model_a(manoeuvre));
+        print_row("B", manoeuvre, &run_model_b(manoeuvre));
     }
 }

@@ -7,6 +7,9 @@
 //! - **Model C** ([`rear_axle`]): rear-axle-referenced single-track model with longitudinal load
 //!   transfer (seed 003, §2.1), the test bed of the particle filter and EM identification.
 //! - Tyres ([`tyre`]): HSRI, Magic Formula and linear behind one [`tyre::TyreModel`] trait.
+//! - [`reference::ReferenceVehicle`]: model A or B behind one interface (same input, same
+//!   [`VehicleTruth`]) for the ReferenceVehicle FMU.
+//! - [`manoeuvre`]: the seed-000 manoeuvre inputs.
 //!
 //! Conventions (everyone relies on them):
 //! - states, inputs and measurements are `nalgebra::SVector<f64, N>`; index constants name the
@@ -23,15 +26,23 @@ pub mod driver_input;
 pub mod integrator;
 pub mod manoeuvre;
 pub mod rear_axle;
+pub mod reference;
 pub mod scalar;
 pub mod single_track;
 pub mod truth;
+pub mod two_track;
+pub mod two_track_lateral;
 pub mod tyre;
 
 pub use driver_input::{DriverInput, DriverInputVector};
 pub use integrator::Integrator;
 pub use rear_axle::{RearAxleModel, RearAxleParams};
+pub use reference::{
+    ReferenceModelKind, ReferenceVehicle, ReferenceVehicleError, ReferenceVehicleParams,
+};
 pub use scalar::{Dual, Scalar};
 pub use single_track::{SingleTrackHsri, SingleTrackModel, SingleTrackParams, SingleTrackState};
 pub use truth::VehicleTruth;
+pub use two_track::{TwoTrackMagicFormula, TwoTrackModel, TwoTrackParams, TwoTrackState};
+pub use two_track_lateral::{TwoTrackLateralMagicFormula, TwoTrackLateralModel};
 pub use tyre::{HsriTyre, LinearTyre, MagicFormulaTyre, TyreModel};

@@ -1,0 +1,533 @@
+//! Model B: two-track model with lateral load transfer and Magic Formula tyres (seed 001,
+//! eqs 1-5), as a full reference vehicle driven by the same input as model A.
+//!
+//! - State `x = [vx, vy, r, ωFL, ωFR, ωRL, ωRR]` (m/s, m/s, rad/s, four wheel speeds in rad/s);
+//!   indices in [`state_index`].
+//! - Input `u = [steering_angle, drive_torque, brake_torque]`, exactly model A's
+//!   ([`crate::driver_input`]): drive torque split equally left/right on the front axle (open
+//!   differential), brake torque magnitude split `ν` front / `1 − ν` rear and equally left/right;
+//!   the seed's signed `M_B = −brake_torque`.
+//! - Truth quantities ([`VehicleTruth`]) as model A's; axle values (wheel speed, slip angle,
+//!   slip) are the mean of the left and right wheel.
+//!
+//! Seed 001 writes the lateral equations only (eqs 1-2: `m ay = ΣFy`, `Jz ψ̈ = ΣM`); the
+//! reference vehicle adds the longitudinal balance and the wheel spin equations exactly as model A
+//! does (000: 5.43, 5.45-5.46), per wheel. Both front wheels steer by the same angle `δ`.
+//!
+//! **Load transfer.** Wheel loads are the static loads of model A plus the lateral transfer of
+//! the roll moment `m ay h`, shared `ξ` front / `1 − ξ` rear (001: text before eq 1 — "Das
+//! Wankmoment ... wird ... zu unterschiedlichen Anteilen über Vorder- und Hinterachse
+//! abgestützt"): `ΔFz_axle = share · m ay h / s`, taken from the inner (left, for `ay > 0`) wheel
+//! and added to the outer one. Longitudinal load transfer is not modelled (seed 001 has none).
+//! Because `ay` depends on the tyre forces, which depend on the loads, the model solves this
+//! algebraic loop `ay = g(ay)` with a fixed number of Steffensen rounds (two fixed-point
+//! evaluations and a secant extrapolation each) starting from `ay ≈ vx r`; the default
+//! `load_transfer_rounds = 2` (5 force evaluations) reaches rounding level (measured: relative
+//! mismatch between the `ay` of the loads and the resulting `ay` < 1e-13 on the seed high ramp).
+//! A fixed count keeps the step deterministic and allocation-free.
+//!
+//! **Parameters for the same car as model A** ([`TwoTrackParams::default`]): mass, axle
+//! distances, yaw and wheel inertias, brake split, wheel radius and static wheel loads are model
+//! A's (000: table 5.1, after table 5.2); the tyres are [`crate::tyre::MagicFormulaTyre`] whose
+//! `B·C·D` at every load equals model A's HSRI cornering stiffness (000: 5.70) and whose peak
+//! friction equals model A's `f0` (000: 5.67). Seed 001 gives no numbers; the values model A
+//! lacks (track width 1.5 m, CoG height 0.55 m, front roll-moment share 0.6) are typical of a
+//! 1400 kg compact car and are the project's choice.
+//!
+//! Low speed is guarded as in model A (`low_speed_guard`).
+
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
+
+use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVector, INPUT_DIM};
+use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
+use crate::scalar::{Dual, Scalar};
+use crate::single_track::guarded_speed;
+use crate::truth::VehicleTruth;
+use crate::tyre::{MagicFormulaTyre, TyreKinematics, TyreModel};
+
+/// Number of states of the full model B.
+pub const STATE_DIM: usize = 7;
+/// Number of wheels.
+pub const WHEELS: usize = 4;
+
+/// Positions in model B's state vector.
+pub mod state_index {
+    /// Longitudinal CoG velocity, m/s.
+    pub const VX: usize = 0;
+    /// Lateral CoG velocity, m/s.
+    pub const VY: usize = 1;
+    /// Yaw rate, rad/s.
+    pub const YAW_RATE: usize = 2;
+    /// Front-left wheel speed, rad/s.
+    pub const OMEGA_FRONT_LEFT: usize = 3;
+    /// Front-right wheel speed, rad/s.
+    pub const OMEGA_FRONT_RIGHT: usize = 4;
+    /// Rear-left wheel speed, rad/s.
+    pub const OMEGA_REAR_LEFT: usize = 5;
+    /// Rear-right wheel speed, rad/s.
+    pub const OMEGA_REAR_RIGHT: usize = 6;
+}
+
+/// Positions of the wheels in per-wheel arrays.
+pub mod wheel_index {
+    pub const FRONT_LEFT: usize = 0;
+    pub const FRONT_RIGHT: usize = 1;
+    pub const REAR_LEFT: usize = 2;
+    pub const REAR_RIGHT: usize = 3;
+}
+
+/// First wheel speed in the state vector; wheel `i` is at `FIRST_WHEEL_STATE + i`.
+const FIRST_WHEEL_STATE: usize = state_index::OMEGA_FRONT_LEFT;
+
+/// Model B's state vector.
+pub type TwoTrackState = SVector<f64, STATE_DIM>;
+
+/// Changes of `ay` below this (m/s²) count as converged in the load-transfer loop.
+const CONVERGED_ACCELERATION: f64 = 1e-12;
+
+/// Share of a torque that goes to each wheel of an axle (equal left/right split).
+const PER_WHEEL_OF_AXLE: f64 = 0.5;
+
+/// Parameters of model B for the same car as model A (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TwoTrackParams {
+    /// Vehicle mass, kg (000: table 5.1).
+    pub mass: f64,
+    /// CoG to front axle, m (000: table 5.1).
+    pub cog_to_front_axle: f64,
+    /// CoG to rear axle, m (000: table 5.1).
+    pub cog_to_rear_axle: f64,
+    /// Yaw moment of inertia, kg m² (000: table 5.1).
+    pub yaw_inertia: f64,
+    /// Spin inertia of both front wheels together, kg m² (000: table 5.1).
+    pub front_wheel_inertia: f64,
+    /// Spin inertia of both rear wheels together, kg m² (000: table 5.1).
+    pub rear_wheel_inertia: f64,
+    /// Share `ν` of the brake torque on the front axle (000: table 5.1).
+    pub brake_split_front: f64,
+    /// Tyre radius, m (000: table 5.2).
+    pub wheel_radius: f64,
+    /// Static load of one front wheel, N (000: after table 5.2).
+    pub front_wheel_load: f64,
+    /// Static load of one rear wheel, N (000: after table 5.2).
+    pub rear_wheel_load: f64,
+    /// Steering ratio (000: table 5.1).
+    pub steering_ratio: f64,
+    /// Track width `s`, m (001: eq 2; value chosen by the project).
+    pub track_width: f64,
+    /// CoG height `h`, m (001: text before eq 1; value chosen by the project).
+    pub cog_height: f64,
+    /// Share `ξ` of the roll moment carried by the front axle (value chosen by the project).
+    pub front_roll_moment_share: f64,
+    /// Steffensen rounds of the load-transfer loop, 3 fixed-point evaluations each after the
+    /// first (see module docs).
+    pub load_transfer_rounds: u32,
+    /// Smallest longitudinal wheel-centre speed used as divisor in slip and slip angle, m/s.
+    pub low_speed_guard: f64,
+}
+
+impl Default for TwoTrackParams {
+    fn default() -> Self {
+        Self {
+            // model A's car (000: table 5.1, table 5.2, after table 5.2)
+            mass: 1400.0,
+            cog_to_front_axle: 1.4346,
+            cog_to_rear_axle: 1.4831,
+            yaw_inertia: 2978.7,
+            front_wheel_inertia: 10.3,
+            rear_wheel_inertia: 3.0,
+            brake_split_front: 0.6,
+            wheel_radius: 0.3,
+            front_wheel_load: 3492.0,
+            rear_wheel_load: 3374.0,
+            steering_ratio: 14.97,
+            // the project's choice for what model A does not have
+            track_width: 1.5,
+            cog_height: 0.55,
+            front_roll_moment_share: 0.6,
+            load_transfer_rounds: 2,
+            low_speed_guard: 1.0,
+        }
+    }
+}
+
+impl TwoTrackParams {
+    /// Longitudinal and lateral position of wheel `i` relative to the CoG (x forward, y left).
+    #[inline(always)]
+    pub fn wheel_position(&self, wheel: usize) -> (f64, f64) {
+        let half_track = 0.5 * self.track_width;
+        match wheel {
+            wheel_index::FRONT_LEFT => (self.cog_to_front_axle, half_track),
+            wheel_index::FRONT_RIGHT => (self.cog_to_front_axle, -half_track),
+            wheel_index::REAR_LEFT => (-self.cog_to_rear_axle, half_track),
+            _ => (-self.cog_to_rear_axle, -half_track),
+        }
+    }
+
+    /// Wheel loads `[FL, FR, RL, RR]` with the lateral load transfer of `ay` distributed by the
+    /// roll-moment share (001: text before eq 1).
+    #[inline(always)]
+    pub fn wheel_loads<S: Scalar>(&self, lateral_acceleration: S) -> [S; WHEELS] {
+        // roll moment m ay h, carried by the axles as ξ and 1 − ξ over the track width
+        let transfer_per_share =
+            lateral_acceleration * (self.mass * self.cog_height / self.track_width);
+        let front = transfer_per_share * self.front_roll_moment_share;
+        let rear = transfer_per_share * (1.0 - self.front_roll_moment_share);
+        // in a left turn (ay > 0) the right (outer) wheels gain load
+        [
+            -front + self.front_wheel_load,
+            front + self.front_wheel_load,
+            -rear + self.rear_wheel_load,
+            rear + self.rear_wheel_load,
+        ]
+    }
+
+    /// Whether wheel `i` is on the (steered) front axle.
+    #[inline(always)]
+    pub fn is_front(wheel: usize) -> bool {
+        wheel == wheel_index::FRONT_LEFT || wheel == wheel_index::FRONT_RIGHT
+    }
+}
+
+/// Per-wheel kinematics and forces at one `(x, u)`.
+#[derive(Clone, Copy, Debug)]
+struct WheelSet<S: Scalar> {
+    slip: [S; WHEELS],
+    tan_slip_angle: [S; WHEELS],
+    /// Tyre force in the wheel frame.
+    longitudinal_force: [S; WHEELS],
+    lateral_force: [S; WHEELS],
+}
+
+/// Forces, moment and lateral acceleration of one evaluation.
+#[derive(Clone, Copy, Debug)]
+struct Evaluation<S: Scalar> {
+    /// Wheel loads the forces were computed with.
+    loads: [S; WHEELS],
+    wheels: WheelSet<S>,
+    /// Sum of the wheel forces in the body frame.
+    force_x: S,
+    force_y: S,
+    yaw_moment: S,
+    /// `ay = ΣFy / m` consistent with the loads used (000: 5.40 with 001: eq 1).
+    lateral_acceleration: S,
+}
+
+/// Model B as a full reference vehicle, with tyre model `T` (Magic Formula by default).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TwoTrackModel<T: TyreModel = MagicFormulaTyre> {
+    pub vehicle: TwoTrackParams,
+    pub tyre: T,
+}
+
+/// Model B as in seed 001: two-track with Magic Formula tyres.
+pub type TwoTrackMagicFormula = TwoTrackModel<MagicFormulaTyre>;
+
+impl<T: TyreModel> TwoTrackModel<T> {
+    pub fn new(vehicle: TwoTrackParams, tyre: T) -> Self {
+        Self { vehicle, tyre }
+    }
+
+    /// Straight driving at `speed` with freely rolling wheels.
+    pub fn straight_rolling_state(&self, speed: f64) -> TwoTrackState {
+        let omega = speed / self.vehicle.wheel_radius;
+        TwoTrackState::from([speed, 0.0, 0.0, omega, omega, omega, omega])
+    }
+
+    /// Wheel kinematics and tyre forces for given loads (001: eqs 4-5 generalised to each wheel
+    /// like 000: 5.16-5.22).
+    #[inline(always)]
+    fn wheels<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        cos_steer: S,
+        sin_steer: S,
+        loads: &[S; WHEELS],
+    ) -> WheelSet<S> {
+        use state_index::*;
+        let p = &self.vehicle;
+        let zero = S::constant(0.0);
+        let mut set = WheelSet {
+            slip: [zero; WHEELS],
+            tan_slip_angle: [zero; WHEELS],
+            longitudinal_force: [zero; WHEELS],
+            lateral_force: [zero; WHEELS],
+        };
+        for wheel in 0..WHEELS {
+            let (position_x, position_y) = p.wheel_position(wheel);
+            // wheel-centre velocity in the body frame: v + ω × r
+            let body_x = x[VX] - x[YAW_RATE] * position_y;
+            let body_y = x[VY] + x[YAW_RATE] * position_x;
+            // rotate into the wheel frame (000: 5.16) for the steered front wheels
+            let (wheel_velocity, wheel_lateral_velocity) = if TwoTrackParams::is_front(wheel) {
+                (
+                    body_x * cos_steer + body_y * sin_steer,
+                    -(body_x * sin_steer) + body_y * cos_steer,
+                )
+            } else {
+                (body_x, body_y)
+            };
+            let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
+            // (001: eqs 4-5), (000: 5.17, 5.22)
+            let tan_slip_angle = -wheel_lateral_velocity / divisor;
+            // (000: 5.65)
+            let slip = (x[FIRST_WHEEL_STATE + wheel] * p.wheel_radius - wheel_velocity) / divisor;
+            let force = self.tyre.force(&TyreKinematics {
+                slip,
+                tan_slip_angle,
+                wheel_velocity,
+                vertical_load: loads[wheel],
+            });
+            set.slip[wheel] = slip;
+            set.tan_slip_angle[wheel] = tan_slip_angle;
+            set.longitudinal_force[wheel] = force.longitudinal;
+            set.lateral_force[wheel] = force.lateral;
+        }
+        set
+    }
+
+    /// Tyre forces, their sums and the resulting `ay` with the wheel loads of a given `ay`.
+    #[inline(always)]
+    fn evaluate_with_load_transfer<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        cos_steer: S,
+        sin_steer: S,
+        load_transfer_acceleration: S,
+    ) -> Evaluation<S> {
+        let p = &self.vehicle;
+        let loads = p.wheel_loads(load_transfer_acceleration);
+        let wheels = self.wheels(x, cos_steer, sin_steer, &loads);
+        let zero = S::constant(0.0);
+        let (mut force_x, mut force_y, mut yaw_moment) = (zero, zero, zero);
+        for wheel in 0..WHEELS {
+            let (position_x, position_y) = p.wheel_position(wheel);
+            let (fx, fy) = (
+                wheels.longitudinal_force[wheel],
+                wheels.lateral_force[wheel],
+            );
+            // wheel frame -> body frame
+            let (body_fx, body_fy) = if TwoTrackParams::is_front(wheel) {
+                (
+                    fx * cos_steer - fy * sin_steer,
+                    fx * sin_steer + fy * cos_steer,
+                )
+            } else {
+                (fx, fy)
+            };
+            force_x = force_x + body_fx;
+            // (001: eq 1) extended by the longitudinal forces like (000: 5.42)
+            force_y = force_y + body_fy;
+            // (001: eq 2) moment r × F about the CoG
+            yaw_moment = yaw_moment + body_fy * position_x - body_fx * position_y;
+        }
+        Evaluation {
+            loads,
+            wheels,
+            force_x,
+            force_y,
+            yaw_moment,
+            lateral_acceleration: force_y / p.mass,
+        }
+    }
+
+    /// Tyre forces with the load-transfer loop `ay = g(ay)` solved (module docs): Steffensen
+    /// rounds (two fixed-point evaluations, then the secant extrapolation to the fixed point),
+    /// because plain fixed-point iteration converges only linearly (factor ≈ −0.2 at 7.7 m/s²).
+    #[inline(always)]
+    fn evaluate<S: Scalar>(&self, x: &[S; STATE_DIM], u: &[S; INPUT_DIM]) -> Evaluation<S> {
+        use state_index::*;
+        let steer = u[input_index::STEERING_ANGLE];
+        let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
+        // steady-state estimate ay ≈ vx r starts the iteration
+        let mut guess = x[VX] * x[YAW_RATE];
+        let mut evaluation = self.evaluate_with_load_transfer(x, cos_steer, sin_steer, guess);
+        for _ in 0..self.vehicle.load_transfer_rounds {
+            let first = evaluation.lateral_acceleration;
+            let second = self
+                .evaluate_with_load_transfer(x, cos_steer, sin_steer, first)
+                .lateral_acceleration;
+            let first_change = first - guess;
+            let second_change = second - first;
+            let curvature = first_change - second_change;
+            guess = if curvature.value().abs() > CONVERGED_ACCELERATION {
+                // secant through (guess, first), (first, second): the fixed point of g
+                first + second_change * first_change / curvature
+            } else {
+                second
+            };
+            evaluation = self.evaluate_with_load_transfer(x, cos_steer, sin_steer, guess);
+        }
+        evaluation
+    }
+
+    /// Drive plus brake torque on wheel `i` (front drive split equally; brake split `ν`).
+    #[inline(always)]
+    fn wheel_torque<S: Scalar>(&self, wheel: usize, u: &[S; INPUT_DIM]) -> S {
+        let p = &self.vehicle;
+        let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
+        if TwoTrackParams::is_front(wheel) {
+            // (000: 5.45) per wheel
+            (u[input_index::DRIVE_TORQUE] + brake * p.brake_split_front) * PER_WHEEL_OF_AXLE
+        } else {
+            // (000: 5.46) per wheel
+            brake * ((1.0 - p.brake_split_front) * PER_WHEEL_OF_AXLE)
+        }
+    }
+
+    /// Spin inertia of one wheel.
+    #[inline(always)]
+    fn single_wheel_inertia(&self, wheel: usize) -> f64 {
+        let p = &self.vehicle;
+        if TwoTrackParams::is_front(wheel) {
+            p.front_wheel_inertia * PER_WHEEL_OF_AXLE
+        } else {
+            p.rear_wheel_inertia * PER_WHEEL_OF_AXLE
+        }
+    }
+
+    /// `[v̇x, v̇y, ṙ]` (000: 5.42-5.44 with the two-track sums of 001: eqs 1-2).
+    #[inline(always)]
+    fn body_derivatives<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        force_x: S,
+        force_y: S,
+        yaw_moment: S,
+    ) -> [S; 3] {
+        use state_index::*;
+        let p = &self.vehicle;
+        [
+            force_x / p.mass + x[VY] * x[YAW_RATE],
+            force_y / p.mass - x[VX] * x[YAW_RATE],
+            yaw_moment / p.yaw_inertia,
+        ]
+    }
+
+    /// Continuous-time right-hand side, generic over the scalar.
+    #[inline(always)]
+    pub fn derivatives_generic<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+    ) -> [S; STATE_DIM] {
+        let e = self.evaluate(x, u);
+        let body = self.body_derivatives(x, e.force_x, e.force_y, e.yaw_moment);
+        let mut derivative = [S::constant(0.0); STATE_DIM];
+        derivative[..3].copy_from_slice(&body);
+        for wheel in 0..WHEELS {
+            derivative[FIRST_WHEEL_STATE + wheel] = (self.wheel_torque(wheel, u)
+                - e.wheels.longitudinal_force[wheel] * self.vehicle.wheel_radius)
+                / self.single_wheel_inertia(wheel);
+        }
+        derivative
+    }
+
+    /// The seed-000 scheme per wheel (000: 6.1-6.5): explicit Euler for the body, semi-implicit
+    /// wheel speeds with `∂ω̇ᵢ/∂ωᵢ` from a 4-direction dual number (one direction per wheel).
+    #[inline(always)]
+    fn step_seed_scheme<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        dt: f64,
+    ) -> [S; STATE_DIM] {
+        type W<S> = Dual<S, WHEELS>;
+        let lifted: [W<S>; STATE_DIM] = core::array::from_fn(|i| {
+            if i >= FIRST_WHEEL_STATE {
+                W::<S>::variable(x[i], i - FIRST_WHEEL_STATE)
+            } else {
+                W::<S>::from_value(x[i])
+            }
+        });
+        let lifted_input: [W<S>; INPUT_DIM] = core::array::from_fn(|j| W::<S>::from_value(u[j]));
+        let e = self.evaluate(&lifted, &lifted_input);
+        let body = self.body_derivatives(x, e.force_x.value, e.force_y.value, e.yaw_moment.value);
+        let body_next = explicit_euler(&[x[0], x[1], x[2]], dt, &body);
+        let mut next = [S::constant(0.0); STATE_DIM];
+        next[..3].copy_from_slice(&body_next);
+        let p = &self.vehicle;
+        for wheel in 0..WHEELS {
+            let inertia = self.single_wheel_inertia(wheel);
+            let force = e.wheels.longitudinal_force[wheel];
+            // (000: 5.45-5.46) per wheel
+            let rate = (self.wheel_torque(wheel, u) - force.value * p.wheel_radius) / inertia;
+            let rate_derivative = -(force.gradient[wheel] * p.wheel_radius) / inertia;
+            // (000: 6.1-6.2)
+            next[FIRST_WHEEL_STATE + wheel] =
+                semi_implicit_update(x[FIRST_WHEEL_STATE + wheel], rate, rate_derivative, dt);
+        }
+        next
+    }
+
+    /// One discrete step with the chosen integrator, generic over the scalar.
+    #[inline(always)]
+    pub fn step_generic<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        dt: f64,
+        integrator: Integrator,
+    ) -> [S; STATE_DIM] {
+        match integrator {
+            Integrator::SemiImplicitEuler => self.step_seed_scheme(x, u, dt),
+            Integrator::RungeKutta4 => runge_kutta4(x, dt, |s| self.derivatives_generic(s, u)),
+        }
+    }
+
+    /// `ẋ = f(x, u)`.
+    pub fn derivatives(&self, x: &TwoTrackState, u: &DriverInputVector) -> TwoTrackState {
+        TwoTrackState::from(self.derivatives_generic(&x.data.0[0], &u.data.0[0]))
+    }
+
+    /// One discrete step of length `dt` with the same input vector as model A.
+    pub fn step(
+        &self,
+        x: &TwoTrackState,
+        u: &DriverInputVector,
+        dt: f64,
+        integrator: Integrator,
+    ) -> TwoTrackState {
+        TwoTrackState::from(self.step_generic(&x.data.0[0], &u.data.0[0], dt, integrator))
+    }
+
+    /// Wheel loads `[FL, FR, RL, RR]` at `(x, u)`, N.
+    pub fn wheel_loads(&self, x: &TwoTrackState, u: &DriverInputVector) -> [f64; WHEELS] {
+        self.evaluate::<f64>(&x.data.0[0], &u.data.0[0]).loads
+    }
+
+    /// Truth quantities; axle values are the mean of left and right.
+    pub fn truth(&self, x: &TwoTrackState, u: &DriverInputVector) -> VehicleTruth {
+        use state_index::*;
+        use wheel_index::*;
+        let xs: &[f64; STATE_DIM] = &x.data.0[0];
+        let e = self.evaluate(xs, &u.data.0[0]);
+        let [vx_dot, vy_dot, _] = self.body_derivatives(xs, e.force_x, e.force_y, e.yaw_moment);
+        let mean = |a: f64, b: f64| 0.5 * (a + b);
+        let w = &e.wheels;
+        VehicleTruth {
+            longitudinal_velocity: xs[VX],
+            lateral_velocity: xs[VY],
+            yaw_rate: xs[YAW_RATE],
+            omega_front: mean(xs[OMEGA_FRONT_LEFT], xs[OMEGA_FRONT_RIGHT]),
+            omega_rear: mean(xs[OMEGA_REAR_LEFT], xs[OMEGA_REAR_RIGHT]),
+            sideslip: xs[VY].atan2(xs[VX]),
+            // (000: 5.40)
+            lateral_acceleration: vy_dot + xs[VX] * xs[YAW_RATE],
+            // (000: 5.41)
+            longitudinal_acceleration: vx_dot - xs[VY] * xs[YAW_RATE],
+            slip_angle_front: mean(
+                w.tan_slip_angle[FRONT_LEFT].atan(),
+                w.tan_slip_angle[FRONT_RIGHT].atan(),
+            ),
+            slip_angle_rear: mean(
+                w.tan_slip_angle[REAR_LEFT].atan(),
+                w.tan_slip_angle[REAR_RIGHT].atan(),
+            ),
+            slip_front: mean(w.slip[FRONT_LEFT], w.slip[FRONT_RIGHT]),
+            slip_rear: mean(w.slip[REAR_LEFT], w.slip[REAR_RIGHT]),
+        }
+    }
+}
