@@ -45,6 +45,8 @@ pub mod api;
 pub mod ffi;
 mod instance;
 mod state;
+#[cfg(feature = "testing")]
+pub mod testing;
 mod variables;
 
 pub use instance::{Instance, MachineState};
