@@ -81,7 +81,7 @@ def test_estimator_alone_on_recorded_signals(vehicle_fmu, vehicle, estimator_fmu
     zeros = np.zeros_like(times)
     table = support.input_table(times, steering_angle=support.steering_ramp(times, support.HIGH_RAMP_ANGLE),
                                 drive_torque=zeros, brake_torque=zeros, **signals)
-    result = simulate_fmu(str(estimator_fmu), start_time=0.0, stop_time=times[-1] + STEP,
+    result = simulate_fmu(str(estimator_fmu), start_time=0.0, stop_time=support.MANOEUVRE_DURATION,
                           output_interval=STEP, input=table,
                           start_values=support.seed000_estimator_parameters(estimator, vehicle, "ekf"),
                           output=support.ESTIMATE_OUTPUTS)
