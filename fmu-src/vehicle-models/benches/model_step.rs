@@ -1,4 +1,4 @@
-//! One discrete step (and the exact Jacobians) of the vehicle models, in ns.
+//! One discrete step (and the exact Jacobians) of models A, B (full and 3-state) and C, in ns.
 //!
 //! Run with:
 //! `CARGO_TARGET_DIR=target/models cargo bench -p vehicle-models --bench model_step`
@@ -62,4 +62,60 @@ fn model_a_step_jacobians(bencher: divan::Bencher) {
             Integrator::SemiImplicitEuler,
         )
     });
+}
+
+#[divan::bench]
+fn model_b_step_seed_scheme(bencher: divan::Bencher) {
+    let model = vehicle_models::TwoTrackMagicFormula::default();
+    let x = vehicle_models::TwoTrackState::from([17.48, -0.041, 0.2058, 58.2, 58.5, 58.0, 58.6]);
+    let u = DriverInputVector::new(0.035, 0.0, 0.0);
+    bencher.bench_local(|| {
+        model.step(
+            black_box(&x),
+            black_box(&u),
+            1e-3,
+            Integrator::SemiImplicitEuler,
+        )
+    });
+}
+
+#[divan::bench]
+fn model_b_three_state_step(bencher: divan::Bencher) {
+    use vehicle_models::two_track_lateral::{TwoTrackLateralInput, TwoTrackLateralState};
+    let model = vehicle_models::TwoTrackLateralMagicFormula::default();
+    let x = TwoTrackLateralState::new(-0.0024, 0.2058, 3.6);
+    let u = TwoTrackLateralInput::new(0.035, 17.48);
+    bencher.bench_local(|| {
+        model.step(
+            black_box(&x),
+            black_box(&u),
+            1e-3,
+            Integrator::SemiImplicitEuler,
+        )
+    });
+}
+
+#[divan::bench]
+fn model_b_three_state_step_jacobians(bencher: divan::Bencher) {
+    use vehicle_models::two_track_lateral::{TwoTrackLateralInput, TwoTrackLateralState};
+    let model = vehicle_models::TwoTrackLateralMagicFormula::default();
+    let x = TwoTrackLateralState::new(-0.0024, 0.2058, 3.6);
+    let u = TwoTrackLateralInput::new(0.035, 17.48);
+    bencher.bench_local(|| {
+        model.step_jacobians(
+            black_box(&x),
+            black_box(&u),
+            1e-3,
+            Integrator::SemiImplicitEuler,
+        )
+    });
+}
+
+#[divan::bench]
+fn model_c_step_rk4(bencher: divan::Bencher) {
+    use vehicle_models::rear_axle::{RearAxleInput, RearAxleState};
+    let model = vehicle_models::RearAxleModel::default();
+    let x = RearAxleState::new(0.2285, -0.4463, 0.1199);
+    let u = RearAxleInput::new(0.1, 0.02, 15.0);
+    bencher.bench_local(|| model.step(black_box(&x), black_box(&u), 0.01, Integrator::RungeKutta4));
 }

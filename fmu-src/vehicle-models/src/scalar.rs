@@ -182,8 +182,10 @@ impl<S: Scalar, const K: usize> Div for Dual<S, K> {
     type Output = Self;
     #[inline(always)]
     fn div(self, rhs: Self) -> Self {
+        // the value by true division, so a dual evaluation has bit-identical values to the
+        // plain `f64` one
+        let value = self.value / rhs.value;
         let inverse = rhs.value.recip();
-        let value = self.value * inverse;
         let mut gradient = self.gradient;
         for (g, r) in gradient.iter_mut().zip(rhs.gradient.iter()) {
             *g = (*g - value * *r) * inverse;
