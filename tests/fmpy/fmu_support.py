@@ -57,6 +57,13 @@ def archive_path(file_name: str) -> pathlib.Path:
     return fmu_directory() / file_name
 
 
+def interface_and_directory(request, which):
+    """The Interface and the extracted directory of one FMU, from the conftest fixtures; only that
+    FMU's archive is required."""
+    prefix = {VEHICLE: "vehicle", ESTIMATOR: "estimator"}[which]
+    return request.getfixturevalue(prefix), request.getfixturevalue(f"{prefix}_dir")
+
+
 def steering_ramp(time, limit):
     """Road-wheel steering angle of a seed-000 ramp: 0 until 4 s, then 0.07 rad/s up to `limit`."""
     return np.minimum(np.maximum(np.asarray(time, dtype=float) - STEER_START_TIME, 0.0) * STEER_RAMP_RATE, limit)

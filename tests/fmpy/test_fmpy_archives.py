@@ -11,8 +11,8 @@ import fmu_support as support
 
 
 @pytest.fixture(params=[support.VEHICLE, support.ESTIMATOR])
-def fmu(request, vehicle_fmu, estimator_fmu):
-    return {support.VEHICLE: vehicle_fmu, support.ESTIMATOR: estimator_fmu}[request.param]
+def fmu(request):
+    return request.getfixturevalue({support.VEHICLE: "vehicle_fmu", support.ESTIMATOR: "estimator_fmu"}[request.param])
 
 
 def test_fmpy_validation_reports_no_problem(fmu):

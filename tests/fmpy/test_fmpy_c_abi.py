@@ -124,9 +124,8 @@ EXPECTATIONS = {
 
 @pytest.mark.parametrize("scenario", sorted(EXPECTATIONS))
 @pytest.mark.parametrize("which", [support.VEHICLE, support.ESTIMATOR])
-def test_misuse_is_refused_with_a_log_line(scenario, which, vehicle, estimator, vehicle_dir, estimator_dir):
-    interface, directory = {support.VEHICLE: (vehicle, vehicle_dir),
-                            support.ESTIMATOR: (estimator, estimator_dir)}[which]
+def test_misuse_is_refused_with_a_log_line(scenario, which, request):
+    interface, directory = support.interface_and_directory(request, which)
     result = run_scenario(interface, directory, scenario)
     assert result["calls"], "the scenario recorded no call"
     check_run(which, result, EXPECTATIONS[scenario])

@@ -16,9 +16,8 @@ RUNNER = pathlib.Path(__file__).with_name("fmpy_load_cycles_runner.py")
 
 
 @pytest.mark.parametrize("which", [support.VEHICLE, support.ESTIMATOR])
-def test_thousand_load_unload_cycles_in_one_process(which, vehicle, estimator, vehicle_dir, estimator_dir):
-    interface, directory = {support.VEHICLE: (vehicle, vehicle_dir),
-                            support.ESTIMATOR: (estimator, estimator_dir)}[which]
+def test_thousand_load_unload_cycles_in_one_process(which, request):
+    interface, directory = support.interface_and_directory(request, which)
     process = subprocess.run([sys.executable, str(RUNNER), str(directory), interface.description.guid,
                               interface.description.coSimulation.modelIdentifier, str(CYCLES)],
                              capture_output=True, text=True, timeout=600)
