@@ -187,14 +187,15 @@ pub fn build_release_libraries(
     Ok(found)
 }
 
-/// `name version license` of every crate linked into `package` (normal dependencies, no build or
-/// dev dependencies), sorted and without duplicates — the third-party notice of a binary.
+/// `name version  license` of every third-party crate linked into `package`: normal dependencies
+/// only (no build, dev or proc-macro dependencies, which never reach the binary), sorted, without
+/// duplicates, and without the workspace's own crates (their license is LICENSE.txt).
 pub fn linked_crates(workspace: &Workspace, package: &str) -> Result<Vec<String>> {
     let output = cargo()
         .args([
             "tree",
             "--edges",
-            "normal",
+            "normal,no-proc-macro",
             "--prefix",
             "none",
             "--format",
@@ -209,12 +210,21 @@ pub fn linked_crates(workspace: &Workspace, package: &str) -> Result<Vec<String>
     if !output.status.success() {
         bail!("`cargo tree -p {package}` failed");
     }
+    Ok(third_party_crates(&String::from_utf8_lossy(&output.stdout)))
+}
+
+/// Reads `cargo tree --format "{p} | {l}" --prefix none` output into sorted, unique
+/// `name version  license` lines, leaving out the workspace's own (path) crates.
+pub(crate) fn third_party_crates(tree: &str) -> Vec<String> {
     let mut crates = BTreeSet::new();
-    for line in String::from_utf8_lossy(&output.stdout).lines() {
+    for line in tree.lines() {
         let Some((package_part, license)) = line.split_once(" | ") else {
             continue;
         };
         // "{p}" is "name vX.Y.Z" plus " (path)" for local crates and " (*)" for repeats.
+        if package_part.contains(" (/") {
+            continue;
+        }
         let mut words = package_part.split_whitespace();
         let (Some(name), Some(version)) = (words.next(), words.next()) else {
             continue;
@@ -227,12 +237,31 @@ pub fn linked_crates(workspace: &Workspace, package: &str) -> Result<Vec<String>
         };
         crates.insert(format!("{name} {version}  {license}"));
     }
-    Ok(crates.into_iter().collect())
+    crates.into_iter().collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn third_party_list_skips_repeats_and_workspace_crates() {
+        let tree =
+            "reference-vehicle v0.1.0 (/work/main/fmu-src/reference-vehicle) | MIT OR Apache-2.0\n\
+                    nalgebra v0.35.0 | Apache-2.0\n\
+                    approx v0.5.1 | Apache-2.0\n\
+                    nalgebra v0.35.0 | Apache-2.0 (*)\n\
+                    odd v1.0.0 | \n\
+                    not a tree line\n";
+        assert_eq!(
+            third_party_crates(tree),
+            vec![
+                "approx v0.5.1  Apache-2.0".to_string(),
+                "nalgebra v0.35.0  Apache-2.0".to_string(),
+                "odd v1.0.0  see crate".to_string(),
+            ]
+        );
+    }
 
     #[test]
     fn json_fields_and_arrays_are_read_with_escapes() {
