@@ -139,10 +139,9 @@ impl Drop for TemporaryFile {
     }
 }
 
-/// Replaces `destination` with `bytes` atomically: the bytes go to a temporary file in the same
-/// directory, are flushed to disk and only then renamed over the destination, so a reader (or a
-/// failure half-way) never sees a half-written archive.
-pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
+/// Writes `bytes` to a temporary file next to `destination` and flushes it to disk; the guard
+/// removes it again unless [`commit`] renamed it into place.
+fn stage(destination: &Path, bytes: &[u8]) -> Result<TemporaryFile> {
     let directory = destination
         .parent()
         .filter(|parent| !parent.as_os_str().is_empty())
@@ -153,28 +152,59 @@ pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
         .file_name()
         .with_context(|| format!("{} has no file name", destination.display()))?
         .to_string_lossy();
-    let temporary = TemporaryFile {
+    let guard = TemporaryFile {
         path: directory.join(format!(".{file_name}.tmp-{}", std::process::id())),
         keep: false,
     };
-    let mut guard = temporary;
-    {
-        let mut file = fs::File::create(&guard.path)
-            .with_context(|| format!("creating {}", guard.path.display()))?;
-        file.write_all(bytes)
-            .with_context(|| format!("writing {}", guard.path.display()))?;
-        file.sync_all()
-            .with_context(|| format!("flushing {}", guard.path.display()))?;
-    }
-    fs::rename(&guard.path, destination).with_context(|| {
+    let mut file = fs::File::create(&guard.path)
+        .with_context(|| format!("creating {}", guard.path.display()))?;
+    file.write_all(bytes)
+        .with_context(|| format!("writing {}", guard.path.display()))?;
+    file.sync_all()
+        .with_context(|| format!("flushing {}", guard.path.display()))?;
+    Ok(guard)
+}
+
+/// Renames a staged file over its destination (atomic within one file system).
+fn commit(mut staged: TemporaryFile, destination: &Path) -> Result<()> {
+    fs::rename(&staged.path, destination).with_context(|| {
         format!(
             "renaming {} to {}",
-            guard.path.display(),
+            staged.path.display(),
             destination.display()
         )
     })?;
-    guard.keep = true;
+    staged.keep = true;
     Ok(())
+}
+
+/// Replaces `destination` with `bytes` atomically: the bytes go to a temporary file in the same
+/// directory, are flushed to disk and only then renamed over the destination, so a reader (or a
+/// failure half-way) never sees a half-written archive.
+pub fn write_atomically(destination: &Path, bytes: &[u8]) -> Result<()> {
+    let staged = stage(destination, bytes)?;
+    commit(staged, destination)
+}
+
+/// Writes several files as one update: every changed file is staged (written and flushed) first,
+/// and only when all are staged are they renamed into place, so a failure while writing (disk
+/// full, permissions) leaves all destinations as they were. Files whose bytes did not change are
+/// not touched.
+pub fn write_all_if_changed(files: &[(PathBuf, Vec<u8>)]) -> Result<Vec<WriteOutcome>> {
+    let mut outcomes = Vec::new();
+    let mut staged = Vec::new();
+    for (destination, bytes) in files {
+        if fs::read(destination).is_ok_and(|existing| existing == *bytes) {
+            outcomes.push(WriteOutcome::Unchanged);
+        } else {
+            staged.push((stage(destination, bytes)?, destination));
+            outcomes.push(WriteOutcome::Written);
+        }
+    }
+    for (file, destination) in staged {
+        commit(file, destination)?;
+    }
+    Ok(outcomes)
 }
 
 /// Writes atomically unless the destination already holds exactly these bytes.

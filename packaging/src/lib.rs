@@ -5,7 +5,8 @@
 //!    written yet; every problem is reported with file and line);
 //! 2. build the cdylibs in release mode and check their FMI exports;
 //! 3. assemble all three archives in memory;
-//! 4. write each archive atomically, skipping those whose bytes did not change.
+//! 4. stage every changed archive in a temporary file, then rename them all into place (each
+//!    replacement atomic; a failure while writing replaces nothing); unchanged archives stay.
 
 pub mod archive;
 pub mod cargo;
@@ -225,15 +226,20 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
     let ssp_bytes = archive::zip_bytes(&ssp_entries).context("assembling the SSP")?;
     archives.push((workspace.fmu_directory().join(SSP_FILE_NAME), ssp_bytes));
 
-    let mut written = Vec::new();
-    for (path, bytes) in archives {
-        let outcome = archive::write_if_changed(&path, &bytes)
-            .with_context(|| format!("writing {}", path.display()))?;
-        written.push(Written {
-            path,
+    let outcomes = archive::write_all_if_changed(&archives).with_context(|| {
+        format!(
+            "writing the archives to {}",
+            workspace.fmu_directory().display()
+        )
+    })?;
+    let written = archives
+        .iter()
+        .zip(outcomes)
+        .map(|((path, bytes), outcome)| Written {
+            path: path.clone(),
             bytes: bytes.len(),
             outcome,
-        });
-    }
+        })
+        .collect();
     Ok((written, plan))
 }

@@ -531,3 +531,73 @@ fn documentation_is_generated_from_every_variable() {
     assert!(html.contains("<code>logStatusError</code>: errors"));
     assert!(html.contains("href=\"licenses/LICENSE.txt\""));
 }
+
+#[test]
+fn writing_a_set_stages_everything_before_replacing_anything() {
+    let directory = temporary_directory("set");
+    let first = directory.join("a.fmu");
+    let second = directory.join("b.fmu");
+    std::fs::write(&first, b"old a").unwrap();
+    std::fs::write(&second, b"same b").unwrap();
+    let outcomes = archive::write_all_if_changed(&[
+        (first.clone(), b"new a".to_vec()),
+        (second.clone(), b"same b".to_vec()),
+    ])
+    .unwrap();
+    assert_eq!(
+        outcomes,
+        vec![WriteOutcome::Written, WriteOutcome::Unchanged]
+    );
+    assert_eq!(std::fs::read(&first).unwrap(), b"new a");
+
+    // The second destination's directory cannot be created (a file is in the way): staging fails,
+    // and the first destination must keep its old content.
+    std::fs::write(directory.join("blocker"), b"file").unwrap();
+    let error = archive::write_all_if_changed(&[
+        (first.clone(), b"newer a".to_vec()),
+        (directory.join("blocker/c.fmu"), b"c".to_vec()),
+    ])
+    .unwrap_err();
+    assert!(format!("{error:#}").contains("blocker"), "{error:#}");
+    assert_eq!(std::fs::read(&first).unwrap(), b"new a");
+    let mut names: Vec<_> = std::fs::read_dir(&directory)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        vec!["a.fmu", "b.fmu", "blocker"],
+        "temporary files left behind"
+    );
+}
+
+/// The project's own model descriptions pass, and the SSP connects every sensor signal by name.
+#[test]
+fn workspace_model_descriptions_connect_every_sensor() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let checked = packaging::check_descriptions(&root).unwrap();
+    let plan = ssp::plan(&checked[0].description, &checked[1].description).unwrap();
+    for sensor in [
+        "yaw_rate_meas",
+        "ay_meas",
+        "omega_front_meas",
+        "omega_rear_meas",
+        "ax_meas",
+        "vx_meas",
+    ] {
+        assert!(
+            plan.connections
+                .iter()
+                .any(|c| c.start_element.as_deref() == Some("ReferenceVehicle")
+                    && c.start_connector == sensor
+                    && c.end_connector == sensor),
+            "{sensor} is not connected"
+        );
+    }
+    assert!(plan.unconnected_estimator_inputs.is_empty());
+    // Every page the archives ship has its prose.
+    for c in &checked {
+        assert!(packaging::prose_path(&root, c.spec).is_file());
+    }
+}
