@@ -10,9 +10,19 @@ pub enum Integrator {
     /// The seed-000 scheme (000: 6.1-6.5): explicit Euler for the body states, semi-implicit
     /// Euler `ω(k+1) = ω(k) + T ω̇(k) / (1 − T ∂ω̇/∂ω)` for the stiff wheel speeds. For models
     /// without wheel speeds (B in its 3-state form, C) this is plain explicit Euler.
+    ///
+    /// Stable at the seed's filter sample times (10 ms, 50 ms) for steering manoeuvres. Under
+    /// hard braking a sliding tyre gives the wheel little damping (`∂ω̇/∂ω → 0`), so at 50 ms the
+    /// wheel speeds overshoot; the seed only brakes at 1 ms (000: 7.2.1-7.2.2).
     #[default]
     SemiImplicitEuler,
     /// Classical 4-stage Runge-Kutta (003: A.25-A.32), inputs held over the step.
+    ///
+    /// Explicit, so for model A's and model B's stiff wheel speeds (eigenvalue
+    /// `≈ −2 r_w² Cs / (I vx)`, about −370 1/s for the rear wheels at 18 m/s) it needs
+    /// `T ≲ 5 ms` at 18 m/s and less at lower speed; at filter sample times of 10-50 ms use the
+    /// seed scheme, which stays stable there (tests/model_a.rs). For models without wheel
+    /// speeds (model C, model B's 3-state form) RK4 is the accurate choice.
     RungeKutta4,
 }
 

@@ -125,6 +125,106 @@ fn runge_kutta_and_seed_scheme_agree_on_the_moderate_ramp() {
     assert!(difference[state_index::YAW_RATE] < 1e-3, "{difference}");
 }
 
+/// Runs a manoeuvre with step `dt` up to `duration`.
+fn simulate_with_step(
+    model: &SingleTrackHsri,
+    manoeuvre: SeedManoeuvre,
+    integrator: Integrator,
+    dt: f64,
+    duration: f64,
+) -> SingleTrackState {
+    let mut state = model.straight_rolling_state(SEED_INITIAL_SPEED);
+    for k in 0..(duration / dt).round() as usize {
+        let u = manoeuvre.input_at(k as f64 * dt).to_vector();
+        state = model.step(&state, &u, dt, integrator);
+    }
+    state
+}
+
+#[test]
+fn runge_kutta_converges_to_the_fine_solution() {
+    // RK4 at 1 ms agrees with RK4 at 0.25 ms to far better than the seed scheme's O(T) error.
+    let model = SingleTrackHsri::default();
+    let duration = 6.0;
+    let fine = simulate_with_step(
+        &model,
+        SeedManoeuvre::StepSteer,
+        Integrator::RungeKutta4,
+        2.5e-4,
+        duration,
+    );
+    let rk4 = simulate_with_step(
+        &model,
+        SeedManoeuvre::StepSteer,
+        Integrator::RungeKutta4,
+        1e-3,
+        duration,
+    );
+    let euler = simulate_with_step(
+        &model,
+        SeedManoeuvre::StepSteer,
+        Integrator::SemiImplicitEuler,
+        1e-3,
+        duration,
+    );
+    let rk4_error = (rk4 - fine).amax();
+    let euler_error = (euler - fine).amax();
+    assert!(rk4_error < 1e-4, "{rk4_error}");
+    assert!(
+        euler_error > 10.0 * rk4_error,
+        "{euler_error} vs {rk4_error}"
+    );
+}
+
+#[test]
+fn seed_scheme_stays_stable_at_filter_sample_times() {
+    // The filters predict with model A at 10 ms and 50 ms on the high ramp and the step steer
+    // without braking (000: 7.2.2, 7.3); the semi-implicit wheel step keeps the stiff wheel
+    // speeds stable there (000: ch. 6).
+    let model = SingleTrackHsri::default();
+    let reference = simulate_with_step(
+        &model,
+        SeedManoeuvre::StepSteer,
+        Integrator::SemiImplicitEuler,
+        1e-3,
+        12.0,
+    );
+    let reference_ay = model
+        .outputs(
+            &reference,
+            &SeedManoeuvre::StepSteer.input_at(12.0).to_vector(),
+        )
+        .lateral_acceleration;
+    for dt in [0.01, 0.05] {
+        for manoeuvre in [SeedManoeuvre::StepSteer, SeedManoeuvre::HighRamp] {
+            let x = simulate_with_step(&model, manoeuvre, Integrator::SemiImplicitEuler, dt, 12.0);
+            assert!(
+                x.iter().all(|v| v.is_finite()),
+                "{manoeuvre:?} at {dt}: {x}"
+            );
+            let o = model.outputs(&x, &manoeuvre.input_at(12.0).to_vector());
+            assert!(
+                o.slip_front.abs() < 0.05 && o.slip_rear.abs() < 0.05,
+                "{o:?}"
+            );
+        }
+        let x = simulate_with_step(
+            &model,
+            SeedManoeuvre::StepSteer,
+            Integrator::SemiImplicitEuler,
+            dt,
+            12.0,
+        );
+        let ay = model
+            .outputs(&x, &SeedManoeuvre::StepSteer.input_at(12.0).to_vector())
+            .lateral_acceleration;
+        assert!(
+            ((ay - reference_ay) / reference_ay).abs() < 0.05,
+            "dt {dt}: {ay} vs {reference_ay}"
+        );
+    }
+}
+
 #[test]
 fn braking_reaches_the_seed_deceleration() {
     // 000: fig. 7.11 text: about 4 m/s² deceleration from 11 s with M_B = −2000 N·m.
@@ -258,7 +358,27 @@ fn check_model_jacobians<T: TyreModel>(model: &SingleTrackModel<T>) {
 
 #[test]
 fn exact_jacobians_match_central_differences_hsri() {
-    check_model_jacobians(&SingleTrackHsri::default());
+    let model = SingleTrackHsri::default();
+    // the points cover both HSRI branches: at the third (braking) and fourth (large front slip
+    // angle) point the front tyre slides, i.e. its force is below the linear one
+    let points = operating_points();
+    let (x, u) = &points[0];
+    let o = model.outputs(x, u);
+    assert_eq!(o.longitudinal_force_front, 0.0);
+    for (x, u) in &points[2..] {
+        let o = model.outputs(x, u);
+        let load = model.vehicle.front_wheel_load;
+        let linear_demand = 2.0
+            * (model.tyre.cornering_stiffness(load) * o.slip_angle_front.tan())
+                .hypot(model.tyre.longitudinal_stiffness(load) * o.slip_front)
+            / (1.0 + o.slip_front);
+        let force = o.lateral_force_front.hypot(o.longitudinal_force_front);
+        assert!(
+            force < 0.9 * linear_demand,
+            "not sliding at {x}: {force} vs {linear_demand}"
+        );
+    }
+    check_model_jacobians(&model);
 }
 
 #[test]
