@@ -1,1 +1,671 @@
-// placeholder: filled by its owner
+//! SIR particle filter (003: §2.2.4) with multinomial, systematic and stratified resampling
+//! (003: A.4), generic over [`StateSpaceModel`].
+//!
+//! One step is the seed's loop body (003: §2.2.4, "Prozess"): every particle is moved through the
+//! transition plus a process-noise draw, weighted by the measurement likelihood
+//! `w = N(y; h(x, u), R)` (003: 2.58-2.61), the weights are normalised (003: 2.62) and the set is
+//! resampled. Weights are kept as logarithms so that the product of many small likelihoods never
+//! underflows to zero; the estimate is the weighted particle mean and the covariance the weighted
+//! sample covariance (taken before resampling, which removes the resampling noise from the
+//! estimate; the seed takes the plain mean after resampling, which has the same expectation).
+//!
+//! All particle storage is allocated once, when the filter is built with its run-time particle
+//! count; `predict` and `update` never allocate. The random stream is a ChaCha generator seeded
+//! by the caller, so one seed gives bit-identical results in any thread.
+
+use nalgebra::{SMatrix, SVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use crate::estimator::{Estimator, FilterIssue, MeasurementMask, UpdateReport};
+use crate::model::StateSpaceModel;
+
+/// How a weighted particle set is turned into an equally weighted one (003: A.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ResamplingScheme {
+    /// `N` independent uniforms, each picks the particle whose cumulative-weight interval holds it.
+    Multinomial,
+    /// One uniform `u ∈ [0, 1/N)`, then `u_i = u + (i-1)/N`.
+    Systematic,
+    /// One uniform per stratum: `u_i = ((i-1) + ũ_i)/N`. The seed's choice (003: §3.1).
+    #[default]
+    Stratified,
+}
+
+/// When to resample.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum ResamplingPolicy {
+    /// After every update, as the seed does (003: §2.2.4, "Resampling" in every step).
+    #[default]
+    EveryStep,
+    /// Only when the effective sample size `1/Σw²` falls below this fraction of the particle count.
+    EffectiveSampleSizeBelow(f64),
+}
+
+/// Settings of a particle filter. The particle count is a run-time value (the FMU sets it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParticleFilterConfig {
+    pub particle_count: usize,
+    pub scheme: ResamplingScheme,
+    pub policy: ResamplingPolicy,
+    /// Seed of the ChaCha random stream (initial draw, process noise, resampling).
+    pub seed: u64,
+}
+
+impl Default for ParticleFilterConfig {
+    fn default() -> Self {
+        Self {
+            particle_count: 1000,
+            scheme: ResamplingScheme::Stratified,
+            policy: ResamplingPolicy::EveryStep,
+            seed: 0,
+        }
+    }
+}
+
+/// Bad settings given to a particle filter.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParticleFilterError {
+    #[error("particle_count must be at least 1, got {0}")]
+    NoParticles(usize),
+    #[error("the resampling threshold must be a fraction in (0, 1], got {0}")]
+    BadResamplingThreshold(f64),
+    #[error("the initial state must be finite, got {0:?}")]
+    NonFiniteInitialState(Vec<f64>),
+    #[error(
+        "the {0} covariance must be finite, symmetric and positive semi-definite (smallest eigenvalue {1})"
+    )]
+    NotPositiveSemiDefinite(&'static str, f64),
+}
+
+/// A lower-triangular square root `S` with `S Sᵀ = P` of a symmetric positive semi-definite
+/// matrix: the Cholesky factor, computed so that a singular `P` (e.g. a state without process
+/// noise, or an exactly known initial state) is legitimate: a pivot that is zero up to rounding
+/// gives a zero column instead of a failure. A clearly negative pivot is an error.
+pub fn covariance_square_root<const N: usize>(
+    covariance: &SMatrix<f64, N, N>,
+    what: &'static str,
+) -> Result<SMatrix<f64, N, N>, ParticleFilterError> {
+    if covariance.iter().any(|value| !value.is_finite()) {
+        return Err(ParticleFilterError::NotPositiveSemiDefinite(what, f64::NAN));
+    }
+    let symmetric = (covariance + covariance.transpose()) * 0.5;
+    let tolerance = 1e-12 * symmetric.amax().max(f64::MIN_POSITIVE);
+    let mut root = SMatrix::<f64, N, N>::zeros();
+    for column in 0..N {
+        let mut pivot = symmetric[(column, column)];
+        for k in 0..column {
+            pivot -= root[(column, k)] * root[(column, k)];
+        }
+        if pivot < -tolerance {
+            return Err(ParticleFilterError::NotPositiveSemiDefinite(what, pivot));
+        }
+        if pivot <= tolerance {
+            continue;
+        }
+        let diagonal = pivot.sqrt();
+        root[(column, column)] = diagonal;
+        for row in column + 1..N {
+            let mut value = symmetric[(row, column)];
+            for k in 0..column {
+                value -= root[(row, k)] * root[(column, k)];
+            }
+            root[(row, column)] = value / diagonal;
+        }
+    }
+    Ok(root)
+}
+
+/// Effective sample size `1 / Σ w_i²` of normalised weights.
+pub fn effective_sample_size(weights: &[f64]) -> f64 {
+    let sum_of_squares: f64 = weights.iter().map(|w| w * w).sum();
+    if sum_of_squares > 0.0 {
+        1.0 / sum_of_squares
+    } else {
+        0.0
+    }
+}
+
+/// Draws `ancestors.len()` indices from `weights` (non-negative, not necessarily normalised,
+/// positive sum) with the given scheme (003: A.4). `cumulative` is scratch of the same length as
+/// `weights`; nothing is allocated.
+pub fn resample_indices<R: Rng + ?Sized>(
+    scheme: ResamplingScheme,
+    weights: &[f64],
+    cumulative: &mut [f64],
+    ancestors: &mut [usize],
+    rng: &mut R,
+) {
+    assert_eq!(weights.len(), cumulative.len(), "cumulative scratch length");
+    assert!(!weights.is_empty(), "resampling needs at least one weight");
+    // s_i = Σ_{j≤i} w_j (003: A.4, multinomial).
+    let mut running = 0.0;
+    for (sum, weight) in cumulative.iter_mut().zip(weights) {
+        running += weight;
+        *sum = running;
+    }
+    let total = running;
+    let last = weights.len() - 1;
+    let count = ancestors.len();
+    match scheme {
+        ResamplingScheme::Multinomial => {
+            for ancestor in ancestors.iter_mut() {
+                let u = rng.random::<f64>() * total;
+                // The first i with u < s_i, i.e. u ∈ [s_{i-1}, s_i).
+                let index = cumulative.partition_point(|&sum| sum <= u);
+                *ancestor = index.min(last);
+            }
+        }
+        ResamplingScheme::Systematic | ResamplingScheme::Stratified => {
+            let stride = total / count as f64;
+            let offset = rng.random::<f64>();
+            let mut index = 0;
+            for (k, ancestor) in ancestors.iter_mut().enumerate() {
+                let fraction = match scheme {
+                    ResamplingScheme::Systematic => offset,
+                    _ if k == 0 => offset,
+                    _ => rng.random::<f64>(),
+                };
+                let u = (k as f64 + fraction) * stride;
+                while index < last && cumulative[index] <= u {
+                    index += 1;
+                }
+                *ancestor = index;
+            }
+        }
+    }
+}
+
+/// Weighted mean and weighted sample covariance `Σ w_i (x_i - x̄)(x_i - x̄)ᵀ` of normalised weights.
+pub fn weighted_moments<const N: usize>(
+    particles: &[SVector<f64, N>],
+    weights: &[f64],
+) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+    let mut mean = SVector::<f64, N>::zeros();
+    for (particle, &weight) in particles.iter().zip(weights) {
+        if weight > 0.0 {
+            mean += particle * weight;
+        }
+    }
+    let mut covariance = SMatrix::<f64, N, N>::zeros();
+    for (particle, &weight) in particles.iter().zip(weights) {
+        if weight > 0.0 {
+            let deviation = particle - mean;
+            covariance.ger(weight, &deviation, &deviation, 1.0);
+        }
+    }
+    (mean, covariance)
+}
+
+/// Normalises log-weights in place (max-shift, so the largest weight is exp(0) before
+/// normalising) and writes the linear normalised weights. Returns `None` when no weight is
+/// positive and finite (every particle impossible or non-finite).
+fn normalise_log_weights(log_weights: &mut [f64], weights: &mut [f64]) -> Option<()> {
+    let largest = log_weights
+        .iter()
+        .copied()
+        .filter(|value| !value.is_nan())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if !largest.is_finite() {
+        return None;
+    }
+    let mut total = 0.0;
+    for (weight, log_weight) in weights.iter_mut().zip(log_weights.iter()) {
+        *weight = if log_weight.is_nan() {
+            0.0
+        } else {
+            (log_weight - largest).exp()
+        };
+        total += *weight;
+    }
+    let log_total = total.ln();
+    for (weight, log_weight) in weights.iter_mut().zip(log_weights.iter_mut()) {
+        *weight /= total;
+        *log_weight = if *weight > 0.0 {
+            *log_weight - largest - log_total
+        } else {
+            f64::NEG_INFINITY
+        };
+    }
+    Some(())
+}
+
+/// The measurement rows used in one update: masked in and finite.
+pub(crate) fn used_rows<const M: usize>(
+    measurement: &SVector<f64, M>,
+    mask: &MeasurementMask<M>,
+) -> MeasurementMask<M> {
+    let mut used = [false; M];
+    for (row, flag) in used.iter_mut().enumerate() {
+        *flag = mask[row] && measurement[row].is_finite();
+    }
+    used
+}
+
+/// `R` restricted to the used rows, padded to full size: unused rows and columns become those of
+/// the identity, so a Cholesky of the padded matrix is the Cholesky of the used block, and a
+/// residual that is zero in unused rows gives the used-rows quadratic form. No allocation.
+pub(crate) fn masked_covariance<const M: usize>(
+    covariance: &SMatrix<f64, M, M>,
+    used: &MeasurementMask<M>,
+) -> SMatrix<f64, M, M> {
+    let mut masked = *covariance;
+    for row in 0..M {
+        for column in 0..M {
+            if !used[row] || !used[column] {
+                masked[(row, column)] = if row == column { 1.0 } else { 0.0 };
+            }
+        }
+    }
+    masked
+}
+
+/// The SIR particle filter of 003: §2.2.4 on any [`StateSpaceModel`].
+#[derive(Debug, Clone)]
+pub struct ParticleFilter<Model, const N: usize, const M: usize, const U: usize> {
+    model: Model,
+    config: ParticleFilterConfig,
+    rng: ChaCha8Rng,
+    particles: Vec<SVector<f64, N>>,
+    resampled: Vec<SVector<f64, N>>,
+    log_weights: Vec<f64>,
+    weights: Vec<f64>,
+    cumulative: Vec<f64>,
+    ancestors: Vec<usize>,
+    predicted_measurements: Vec<SVector<f64, M>>,
+    process_noise_root: SMatrix<f64, N, N>,
+    measurement_noise: SMatrix<f64, M, M>,
+    estimate: SVector<f64, N>,
+    covariance: SMatrix<f64, N, N>,
+    effective_sample_size: f64,
+    resampled_in_last_update: bool,
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> ParticleFilter<Model, N, M, U>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    /// Builds the filter and draws the initial particles from `N(initial_state,
+    /// initial_covariance)` with equal weights `1/N` (003: §2.2.4, "Initialisierung"). All
+    /// storage for `config.particle_count` particles is allocated here, once.
+    pub fn new(
+        model: Model,
+        config: ParticleFilterConfig,
+        initial_state: SVector<f64, N>,
+        initial_covariance: SMatrix<f64, N, N>,
+    ) -> Result<Self, ParticleFilterError> {
+        if config.particle_count == 0 {
+            return Err(ParticleFilterError::NoParticles(0));
+        }
+        if let ResamplingPolicy::EffectiveSampleSizeBelow(fraction) = config.policy {
+            if !(fraction > 0.0 && fraction <= 1.0) {
+                return Err(ParticleFilterError::BadResamplingThreshold(fraction));
+            }
+        }
+        if initial_state.iter().any(|value| !value.is_finite()) {
+            return Err(ParticleFilterError::NonFiniteInitialState(
+                initial_state.iter().copied().collect(),
+            ));
+        }
+        let initial_root = covariance_square_root(&initial_covariance, "initial state")?;
+        let process_noise_root = covariance_square_root(&model.process_noise(), "process noise")?;
+        let measurement_noise = model.measurement_noise();
+        let count = config.particle_count;
+        let mut filter = Self {
+            model,
+            config,
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            particles: vec![initial_state; count],
+            resampled: vec![initial_state; count],
+            log_weights: vec![-(count as f64).ln(); count],
+            weights: vec![1.0 / count as f64; count],
+            cumulative: vec![0.0; count],
+            ancestors: vec![0; count],
+            predicted_measurements: vec![SVector::zeros(); count],
+            process_noise_root,
+            measurement_noise,
+            estimate: initial_state,
+            covariance: initial_covariance,
+            effective_sample_size: count as f64,
+            resampled_in_last_update: false,
+        };
+        for particle in filter.particles.iter_mut() {
+            *particle = initial_state + initial_root * standard_normal_vector(&mut filter.rng);
+        }
+        filter.refresh_estimate();
+        Ok(filter)
+    }
+
+    /// The model the filter runs on.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The settings the filter was built with.
+    pub fn config(&self) -> &ParticleFilterConfig {
+        &self.config
+    }
+
+    /// The current particles (after the last resampling, if any).
+    pub fn particles(&self) -> &[SVector<f64, N>] {
+        &self.particles
+    }
+
+    /// The current normalised weights of [`Self::particles`].
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// The effective sample size `1/Σw²` after the last update, before resampling.
+    pub fn effective_sample_size(&self) -> f64 {
+        self.effective_sample_size
+    }
+
+    /// Whether the last update resampled the set.
+    pub fn resampled_in_last_update(&self) -> bool {
+        self.resampled_in_last_update
+    }
+
+    /// Time update: `x_i ← f(x_i, u) + w_i`, `w_i ~ N(0, Q)` (003: §2.2.4, "Prädiktion").
+    /// A particle that becomes non-finite gets weight zero; if every particle does, the set is
+    /// redrawn around the last estimate and [`FilterIssue::WeightsReset`] is reported.
+    pub fn propagate(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
+        for (particle, log_weight) in self.particles.iter_mut().zip(self.log_weights.iter_mut()) {
+            let noise = self.process_noise_root * standard_normal_vector::<N, _>(&mut self.rng);
+            *particle = self.model.transition(particle, input) + noise;
+            if particle.iter().any(|value| !value.is_finite()) {
+                *log_weight = f64::NEG_INFINITY;
+            }
+        }
+        if normalise_log_weights(&mut self.log_weights, &mut self.weights).is_none() {
+            self.reset_around_estimate();
+            return Err(FilterIssue::WeightsReset);
+        }
+        self.refresh_estimate();
+        Ok(())
+    }
+
+    /// Measurement weighting without resampling: `log w_i += log N(y; h(x_i, u), R)` over the
+    /// used rows (003: 2.58-2.61), then normalisation (003: 2.62). Reports the innovation against
+    /// the predicted-particle measurement mean and the NIS with `S` = predicted-particle
+    /// measurement spread + `R`.
+    pub fn reweight(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        mask: &MeasurementMask<M>,
+    ) -> Result<UpdateReport<M>, FilterIssue> {
+        self.resampled_in_last_update = false;
+        let used = used_rows(measurement, mask);
+        let rows_used = used.iter().filter(|&&flag| flag).count();
+        if rows_used == 0 {
+            return Ok(UpdateReport::skipped());
+        }
+        let Some(noise_cholesky) = masked_covariance(&self.measurement_noise, &used).cholesky()
+        else {
+            return Err(FilterIssue::UpdateSkipped);
+        };
+
+        // Predicted measurement mean and spread with the prior weights.
+        let mut predicted_mean = SVector::<f64, M>::zeros();
+        for ((particle, predicted), &weight) in self
+            .particles
+            .iter()
+            .zip(self.predicted_measurements.iter_mut())
+            .zip(&self.weights)
+        {
+            *predicted = self.model.measurement(particle, input);
+            if weight > 0.0 {
+                predicted_mean += *predicted * weight;
+            }
+        }
+        let mut innovation_covariance = self.measurement_noise;
+        for (predicted, &weight) in self.predicted_measurements.iter().zip(&self.weights) {
+            if weight > 0.0 {
+                let deviation = predicted - predicted_mean;
+                innovation_covariance.ger(weight, &deviation, &deviation, 1.0);
+            }
+        }
+        let mut innovation = measurement - predicted_mean;
+        for (row, &flag) in used.iter().enumerate() {
+            if !flag {
+                innovation[row] = 0.0;
+            }
+        }
+        let nis = masked_covariance(&innovation_covariance, &used)
+            .cholesky()
+            .map(|cholesky| innovation.dot(&cholesky.solve(&innovation)))
+            .filter(|value| value.is_finite())
+            .unwrap_or(0.0);
+
+        // log N(y; h(x_i), R) up to a constant shared by all particles (003: 2.60).
+        for (predicted, log_weight) in self
+            .predicted_measurements
+            .iter()
+            .zip(self.log_weights.iter_mut())
+        {
+            let mut residual = measurement - predicted;
+            for (row, &flag) in used.iter().enumerate() {
+                if !flag {
+                    residual[row] = 0.0;
+                }
+            }
+            let whitened = noise_cholesky
+                .l_dirty()
+                .solve_lower_triangular(&residual)
+                .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
+            let log_likelihood = -0.5 * whitened.norm_squared();
+            *log_weight += if log_likelihood.is_nan() {
+                f64::NEG_INFINITY
+            } else {
+                log_likelihood
+            };
+        }
+        if normalise_log_weights(&mut self.log_weights, &mut self.weights).is_none() {
+            self.reset_around_estimate();
+            return Err(FilterIssue::WeightsReset);
+        }
+        self.effective_sample_size = effective_sample_size(&self.weights);
+        self.refresh_estimate();
+        Ok(UpdateReport {
+            innovation,
+            nis,
+            rows_used,
+            used,
+        })
+    }
+
+    /// Resamples when the policy asks for it (003: A.4); afterwards all weights are `1/N`.
+    pub fn resample_if_due(&mut self) {
+        let due = match self.config.policy {
+            ResamplingPolicy::EveryStep => true,
+            ResamplingPolicy::EffectiveSampleSizeBelow(fraction) => {
+                self.effective_sample_size < fraction * self.config.particle_count as f64
+            }
+        };
+        if due {
+            self.resample();
+        }
+    }
+
+    /// Resamples now with the configured scheme.
+    pub fn resample(&mut self) {
+        resample_indices(
+            self.config.scheme,
+            &self.weights,
+            &mut self.cumulative,
+            &mut self.ancestors,
+            &mut self.rng,
+        );
+        for (target, &ancestor) in self.resampled.iter_mut().zip(&self.ancestors) {
+            *target = self.particles[ancestor];
+        }
+        std::mem::swap(&mut self.particles, &mut self.resampled);
+        let count = self.config.particle_count as f64;
+        self.weights.fill(1.0 / count);
+        self.log_weights.fill(-count.ln());
+        self.resampled_in_last_update = true;
+    }
+
+    /// The ancestor of every particle in the last resampling (identity if none happened yet).
+    pub fn ancestors(&self) -> &[usize] {
+        &self.ancestors
+    }
+
+    fn refresh_estimate(&mut self) {
+        let (mean, covariance) = weighted_moments(&self.particles, &self.weights);
+        if mean.iter().all(|value| value.is_finite())
+            && covariance.iter().all(|value| value.is_finite())
+        {
+            self.estimate = mean;
+            self.covariance = (covariance + covariance.transpose()) * 0.5;
+        }
+    }
+
+    /// Every weight vanished: keep the finite particles, redraw the others around the last
+    /// (finite) estimate with the process noise, and make all weights equal.
+    fn reset_around_estimate(&mut self) {
+        for particle in self.particles.iter_mut() {
+            if particle.iter().any(|value| !value.is_finite()) {
+                let noise = self.process_noise_root * standard_normal_vector::<N, _>(&mut self.rng);
+                *particle = self.estimate + noise;
+            }
+        }
+        let count = self.config.particle_count as f64;
+        self.weights.fill(1.0 / count);
+        self.log_weights.fill(-count.ln());
+        self.effective_sample_size = count;
+        self.refresh_estimate();
+    }
+}
+
+/// A vector of independent standard normal draws.
+fn standard_normal_vector<const N: usize, R: Rng + ?Sized>(rng: &mut R) -> SVector<f64, N> {
+    SVector::from_fn(|_, _| rng.sample(StandardNormal))
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> Estimator<N, M, U>
+    for ParticleFilter<Model, N, M, U>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    fn predict(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
+        self.propagate(input)
+    }
+
+    fn update(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        mask: &MeasurementMask<M>,
+    ) -> Result<UpdateReport<M>, FilterIssue> {
+        let report = self.reweight(measurement, input, mask)?;
+        if report.rows_used > 0 {
+            self.resample_if_due();
+        }
+        Ok(report)
+    }
+
+    fn state(&self) -> &SVector<f64, N> {
+        &self.estimate
+    }
+
+    fn covariance(&self) -> &SMatrix<f64, N, N> {
+        &self.covariance
+    }
+}
+
+/// A recorded run: the input `u(k)` and the measurement `y(k)` of every sample `k = 0..T-1`.
+/// A non-finite measurement entry is a missing sample and is skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedRun<const M: usize, const U: usize> {
+    pub inputs: Vec<SVector<f64, U>>,
+    pub measurements: Vec<SVector<f64, M>>,
+}
+
+impl<const M: usize, const U: usize> RecordedRun<M, U> {
+    /// Number of samples `T`.
+    pub fn len(&self) -> usize {
+        self.measurements.len().min(self.inputs.len())
+    }
+
+    /// Whether there is no sample.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// The filter's weighted particle sets of a whole run, as the smoother needs them: for each
+/// sample `t`, the particles after the update with `y(t)` and before resampling, with their
+/// normalised filter weights `w̃_t` (003: 2.68). Flat storage, sample-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParticleHistory<const N: usize> {
+    pub particle_count: usize,
+    pub particles: Vec<SVector<f64, N>>,
+    pub weights: Vec<f64>,
+    /// The filter estimate (weighted mean) of each sample.
+    pub estimates: Vec<SVector<f64, N>>,
+    /// How many updates ended in [`FilterIssue::WeightsReset`] or were skipped.
+    pub issues: usize,
+}
+
+impl<const N: usize> ParticleHistory<N> {
+    /// Number of samples `T`.
+    pub fn len(&self) -> usize {
+        self.estimates.len()
+    }
+
+    /// Whether nothing was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.estimates.is_empty()
+    }
+
+    /// The particles of sample `t`.
+    pub fn particles_at(&self, t: usize) -> &[SVector<f64, N>] {
+        &self.particles[t * self.particle_count..(t + 1) * self.particle_count]
+    }
+
+    /// The normalised filter weights of sample `t`.
+    pub fn weights_at(&self, t: usize) -> &[f64] {
+        &self.weights[t * self.particle_count..(t + 1) * self.particle_count]
+    }
+}
+
+/// Runs the filter over a recorded run and keeps every weighted particle set: update with
+/// `y(0)` first, then for `k ≥ 1` predict with `u(k-1)` and update with `y(k)`, `u(k)` (the
+/// timing of [`Estimator`]).
+pub fn filter_run<Model, const N: usize, const M: usize, const U: usize>(
+    filter: &mut ParticleFilter<Model, N, M, U>,
+    run: &RecordedRun<M, U>,
+) -> ParticleHistory<N>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    let steps = run.len();
+    let count = filter.config.particle_count;
+    let mut history = ParticleHistory {
+        particle_count: count,
+        particles: Vec::with_capacity(steps * count),
+        weights: Vec::with_capacity(steps * count),
+        estimates: Vec::with_capacity(steps),
+        issues: 0,
+    };
+    let all_rows = [true; M];
+    for k in 0..steps {
+        if k > 0 && filter.propagate(&run.inputs[k - 1]).is_err() {
+            history.issues += 1;
+        }
+        match filter.reweight(&run.measurements[k], &run.inputs[k], &all_rows) {
+            Ok(_) => {}
+            Err(_) => history.issues += 1,
+        }
+        history.particles.extend_from_slice(&filter.particles);
+        history.weights.extend_from_slice(&filter.weights);
+        history.estimates.push(filter.estimate);
+        if k + 1 < steps {
+            filter.resample_if_due();
+        }
+    }
+    history
+}

@@ -1,0 +1,467 @@
+//! The SIR particle filter against the exact Kalman filter on a linear-Gaussian model, the
+//! resampling schemes against their defining properties, missing data, resets and determinism.
+
+use estimation::particle::{
+    effective_sample_size, filter_run, resample_indices, ParticleFilter, ParticleFilterConfig,
+    RecordedRun, ResamplingPolicy, ResamplingScheme,
+};
+use estimation::{Estimator, FilterIssue, StateSpaceModel};
+use nalgebra::{SMatrix, SVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+/// A damped oscillator sampled at 0.1 s with a force input, position measured:
+/// `x' = A x + B u + w`, `y = C x + v`.
+#[derive(Clone, Copy)]
+struct LinearOscillator {
+    a: SMatrix<f64, 2, 2>,
+    b: SMatrix<f64, 2, 1>,
+    c: SMatrix<f64, 1, 2>,
+    q: SMatrix<f64, 2, 2>,
+    r: SMatrix<f64, 1, 1>,
+}
+
+impl LinearOscillator {
+    fn new() -> Self {
+        Self {
+            a: SMatrix::<f64, 2, 2>::new(0.995, 0.0998, -0.0998, 0.975),
+            b: SMatrix::<f64, 2, 1>::new(0.005, 0.1),
+            c: SMatrix::<f64, 1, 2>::new(1.0, 0.0),
+            q: SMatrix::<f64, 2, 2>::new(0.01, 0.002, 0.002, 0.02),
+            r: SMatrix::<f64, 1, 1>::new(0.05),
+        }
+    }
+}
+
+impl StateSpaceModel<2, 1, 1> for LinearOscillator {
+    fn state_names(&self) -> [&'static str; 2] {
+        ["position", "velocity"]
+    }
+    fn measurement_names(&self) -> [&'static str; 1] {
+        ["measured_position"]
+    }
+    fn transition(&self, state: &SVector<f64, 2>, input: &SVector<f64, 1>) -> SVector<f64, 2> {
+        self.a * state + self.b * input
+    }
+    fn transition_jacobian(&self, _: &SVector<f64, 2>, _: &SVector<f64, 1>) -> SMatrix<f64, 2, 2> {
+        self.a
+    }
+    fn transition_input_jacobian(
+        &self,
+        _: &SVector<f64, 2>,
+        _: &SVector<f64, 1>,
+    ) -> SMatrix<f64, 2, 1> {
+        self.b
+    }
+    fn measurement(&self, state: &SVector<f64, 2>, _: &SVector<f64, 1>) -> SVector<f64, 1> {
+        self.c * state
+    }
+    fn measurement_jacobian(&self, _: &SVector<f64, 2>, _: &SVector<f64, 1>) -> SMatrix<f64, 1, 2> {
+        self.c
+    }
+    fn measurement_input_jacobian(
+        &self,
+        _: &SVector<f64, 2>,
+        _: &SVector<f64, 1>,
+    ) -> SMatrix<f64, 1, 1> {
+        SMatrix::zeros()
+    }
+    fn process_noise(&self) -> SMatrix<f64, 2, 2> {
+        self.q
+    }
+    fn measurement_noise(&self) -> SMatrix<f64, 1, 1> {
+        self.r
+    }
+}
+
+/// Truth and measurements of the oscillator under a sine force.
+fn simulate_oscillator(model: &LinearOscillator, steps: usize, seed: u64) -> RecordedRun<1, 1> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let q_root = model.q.cholesky().unwrap().l();
+    let mut state = SVector::<f64, 2>::new(1.0, 0.0);
+    let mut inputs = Vec::new();
+    let mut measurements = Vec::new();
+    for k in 0..steps {
+        let input = SVector::<f64, 1>::new((0.3 * k as f64).sin());
+        let noise: f64 = rng.sample(StandardNormal);
+        measurements.push(model.c * state + SVector::<f64, 1>::new(noise * model.r[0].sqrt()));
+        inputs.push(input);
+        let w = SVector::<f64, 2>::new(rng.sample(StandardNormal), rng.sample(StandardNormal));
+        state = model.a * state + model.b * input + q_root * w;
+    }
+    RecordedRun {
+        inputs,
+        measurements,
+    }
+}
+
+/// The exact Kalman filter, written out here as the reference (000: 4.64-4.75).
+fn kalman_reference(
+    model: &LinearOscillator,
+    run: &RecordedRun<1, 1>,
+    mean: SVector<f64, 2>,
+    covariance: SMatrix<f64, 2, 2>,
+) -> Vec<(SVector<f64, 2>, SMatrix<f64, 2, 2>)> {
+    let (mut x, mut p) = (mean, covariance);
+    let mut out = Vec::new();
+    for k in 0..run.len() {
+        if k > 0 {
+            x = model.a * x + model.b * run.inputs[k - 1];
+            p = model.a * p * model.a.transpose() + model.q;
+        }
+        let s = model.c * p * model.c.transpose() + model.r;
+        let gain = p * model.c.transpose() / s[0];
+        x += gain * (run.measurements[k] - model.c * x);
+        let i_kc = SMatrix::<f64, 2, 2>::identity() - gain * model.c;
+        p = i_kc * p * i_kc.transpose() + gain * model.r * gain.transpose();
+        out.push((x, p));
+    }
+    out
+}
+
+#[test]
+fn particle_filter_agrees_with_the_exact_kalman_filter_within_monte_carlo_error() {
+    let model = LinearOscillator::new();
+    let run = simulate_oscillator(&model, 40, 7);
+    let prior_mean = SVector::<f64, 2>::new(0.8, 0.1);
+    let prior_covariance = SMatrix::<f64, 2, 2>::new(0.2, 0.0, 0.0, 0.2);
+    let reference = kalman_reference(&model, &run, prior_mean, prior_covariance);
+    // Independent filters with different seeds: their spread is the Monte-Carlo error (the
+    // error of one SIR filter is correlated in time, so the spread across runs, not the
+    // particle spread of one run, is the honest yardstick).
+    let runs = 16;
+    for scheme in [
+        ResamplingScheme::Multinomial,
+        ResamplingScheme::Systematic,
+        ResamplingScheme::Stratified,
+    ] {
+        let mut errors = vec![vec![SVector::<f64, 2>::zeros(); reference.len()]; runs];
+        let mut variances = vec![SVector::<f64, 2>::zeros(); reference.len()];
+        for (r, run_errors) in errors.iter_mut().enumerate() {
+            let config = ParticleFilterConfig {
+                particle_count: 1000,
+                scheme,
+                policy: ResamplingPolicy::EveryStep,
+                seed: 100 + r as u64,
+            };
+            let mut filter =
+                ParticleFilter::new(model, config, prior_mean, prior_covariance).unwrap();
+            for (k, (kf_mean, _)) in reference.iter().enumerate() {
+                if k > 0 {
+                    filter.predict(&run.inputs[k - 1]).unwrap();
+                }
+                filter
+                    .update(&run.measurements[k], &run.inputs[k], &[true])
+                    .unwrap();
+                run_errors[k] = filter.state() - kf_mean;
+                variances[k] += filter.covariance().diagonal() / runs as f64;
+            }
+        }
+        let mut worst_t: f64 = 0.0;
+        for (k, (_, kf_cov)) in reference.iter().enumerate() {
+            for i in 0..2 {
+                let mean = errors.iter().map(|e| e[k][i]).sum::<f64>() / runs as f64;
+                let spread = (errors.iter().map(|e| (e[k][i] - mean).powi(2)).sum::<f64>()
+                    / (runs - 1) as f64)
+                    .sqrt();
+                // The Monte-Carlo error must be small against the posterior itself (the weakly
+                // observed velocity keeps resampling noise for many steps, hence not 1/√N) ...
+                assert!(
+                    spread < 0.3 * kf_cov[(i, i)].sqrt(),
+                    "{scheme:?} step {k}: run-to-run spread {spread} too large"
+                );
+                // ... and the mean error zero within it (no bias).
+                worst_t = worst_t.max(mean.abs() / (spread / (runs as f64).sqrt()));
+                let relative = (variances[k][i] - kf_cov[(i, i)]).abs() / kf_cov[(i, i)];
+                assert!(
+                    relative < 0.15,
+                    "{scheme:?} step {k}: variance {} vs Kalman {}",
+                    variances[k][i],
+                    kf_cov[(i, i)]
+                );
+            }
+        }
+        assert!(
+            worst_t < 5.0,
+            "{scheme:?}: mean error {worst_t} standard errors from the Kalman filter"
+        );
+    }
+}
+
+fn random_weights(count: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let raw: Vec<f64> = (0..count).map(|_| rng.random::<f64>().powi(3)).collect();
+    let total: f64 = raw.iter().sum();
+    raw.iter().map(|w| w / total).collect()
+}
+
+fn counts(ancestors: &[usize], count: usize) -> Vec<usize> {
+    let mut result = vec![0; count];
+    for &a in ancestors {
+        result[a] += 1;
+    }
+    result
+}
+
+#[test]
+fn resampling_schemes_are_unbiased_and_systematic_and_stratified_have_low_variance() {
+    let count = 25;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let weights = random_weights(count, &mut rng);
+    let repetitions = 4000;
+    let mut variances = Vec::new();
+    for scheme in [
+        ResamplingScheme::Multinomial,
+        ResamplingScheme::Systematic,
+        ResamplingScheme::Stratified,
+    ] {
+        let mut cumulative = vec![0.0; count];
+        let mut ancestors = vec![0; count];
+        let mut sum = vec![0.0; count];
+        let mut sum_sq = vec![0.0; count];
+        for _ in 0..repetitions {
+            resample_indices(scheme, &weights, &mut cumulative, &mut ancestors, &mut rng);
+            for (i, &c) in counts(&ancestors, count).iter().enumerate() {
+                let expected = count as f64 * weights[i];
+                if scheme == ResamplingScheme::Systematic {
+                    // Systematic: every count is floor or ceil of N w_i.
+                    assert!(
+                        (c as f64) >= expected.floor() && (c as f64) <= expected.ceil(),
+                        "systematic count {c} for expected {expected}"
+                    );
+                }
+                if scheme == ResamplingScheme::Stratified {
+                    assert!(
+                        (c as f64) >= expected.floor() - 1.0 && (c as f64) <= expected.ceil() + 1.0,
+                        "stratified count {c} for expected {expected}"
+                    );
+                }
+                sum[i] += c as f64;
+                sum_sq[i] += (c * c) as f64;
+            }
+        }
+        let mut total_variance = 0.0;
+        for i in 0..count {
+            let expected = count as f64 * weights[i];
+            let mean = sum[i] / repetitions as f64;
+            let variance = sum_sq[i] / repetitions as f64 - mean * mean;
+            total_variance += variance;
+            // Multinomial count variance is N w (1 - w); the mean of `repetitions` draws is
+            // within 5 standard errors of N w_i.
+            let bound = 5.0 * (expected * (1.0 - weights[i]) / repetitions as f64).sqrt() + 1e-9;
+            assert!(
+                (mean - expected).abs() < bound,
+                "{scheme:?} particle {i}: mean count {mean}, expected {expected}"
+            );
+            if scheme == ResamplingScheme::Multinomial {
+                let theory = expected * (1.0 - weights[i]);
+                assert!(
+                    (variance - theory).abs() < 0.15 * theory + 0.02,
+                    "multinomial variance {variance} vs {theory}"
+                );
+            }
+        }
+        variances.push(total_variance);
+    }
+    assert!(
+        variances[1] < 0.5 * variances[0] && variances[2] < 0.5 * variances[0],
+        "systematic/stratified must reduce the count variance: {variances:?}"
+    );
+}
+
+#[test]
+fn resampling_degenerate_weights_copies_the_only_particle() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut weights = vec![0.0; 10];
+    weights[6] = 1.0;
+    for scheme in [
+        ResamplingScheme::Multinomial,
+        ResamplingScheme::Systematic,
+        ResamplingScheme::Stratified,
+    ] {
+        let mut cumulative = vec![0.0; 10];
+        let mut ancestors = vec![0; 10];
+        resample_indices(scheme, &weights, &mut cumulative, &mut ancestors, &mut rng);
+        assert!(
+            ancestors.iter().all(|&a| a == 6),
+            "{scheme:?}: {ancestors:?}"
+        );
+    }
+    assert!((effective_sample_size(&weights) - 1.0).abs() < 1e-12);
+}
+
+fn run_filter(seed: u64) -> Vec<SVector<f64, 2>> {
+    let model = LinearOscillator::new();
+    let run = simulate_oscillator(&model, 30, 1);
+    let config = ParticleFilterConfig {
+        particle_count: 300,
+        seed,
+        ..Default::default()
+    };
+    let mut filter = ParticleFilter::new(
+        model,
+        config,
+        SVector::<f64, 2>::new(1.0, 0.0),
+        SMatrix::<f64, 2, 2>::identity() * 0.1,
+    )
+    .unwrap();
+    filter_run(&mut filter, &run).estimates
+}
+
+#[test]
+fn same_seed_gives_bit_identical_results_in_any_thread() {
+    let reference = run_filter(42);
+    let handles: Vec<_> = (0..4)
+        .map(|_| std::thread::spawn(|| run_filter(42)))
+        .collect();
+    for handle in handles {
+        let other = handle.join().unwrap();
+        for (a, b) in reference.iter().zip(&other) {
+            for (x, y) in a.iter().zip(b.iter()) {
+                assert_eq!(x.to_bits(), y.to_bits());
+            }
+        }
+    }
+    let different = run_filter(43);
+    assert_ne!(
+        reference, different,
+        "another seed must give another random stream"
+    );
+}
+
+#[test]
+fn missing_measurement_rows_are_skipped_and_never_produce_nan() {
+    let model = LinearOscillator::new();
+    let config = ParticleFilterConfig {
+        particle_count: 200,
+        ..Default::default()
+    };
+    let mut filter = ParticleFilter::new(
+        model,
+        config,
+        SVector::<f64, 2>::zeros(),
+        SMatrix::<f64, 2, 2>::identity(),
+    )
+    .unwrap();
+    let input = SVector::<f64, 1>::new(0.0);
+    let before = *filter.state();
+    let report = filter
+        .update(&SVector::<f64, 1>::new(f64::NAN), &input, &[true])
+        .unwrap();
+    assert_eq!(report.rows_used, 0);
+    assert_eq!(
+        *filter.state(),
+        before,
+        "a NaN sample must not move the estimate"
+    );
+    let report = filter
+        .update(&SVector::<f64, 1>::new(0.5), &input, &[false])
+        .unwrap();
+    assert_eq!(report.rows_used, 0);
+    let report = filter
+        .update(&SVector::<f64, 1>::new(0.5), &input, &[true])
+        .unwrap();
+    assert_eq!(report.rows_used, 1);
+    assert!(report.nis > 0.0 && report.nis.is_finite());
+    assert!((report.innovation[0] - (0.5 - before[0])).abs() < 1e-12);
+    assert!(filter.state().iter().all(|v| v.is_finite()));
+}
+
+/// A model whose transition blows up to NaN: every particle dies.
+#[derive(Clone, Copy)]
+struct Exploding;
+
+impl StateSpaceModel<1, 1, 1> for Exploding {
+    fn state_names(&self) -> [&'static str; 1] {
+        ["x"]
+    }
+    fn measurement_names(&self) -> [&'static str; 1] {
+        ["y"]
+    }
+    fn transition(&self, state: &SVector<f64, 1>, input: &SVector<f64, 1>) -> SVector<f64, 1> {
+        if input[0] > 0.0 {
+            SVector::<f64, 1>::new(f64::NAN)
+        } else {
+            *state
+        }
+    }
+    fn transition_jacobian(&self, _: &SVector<f64, 1>, _: &SVector<f64, 1>) -> SMatrix<f64, 1, 1> {
+        SMatrix::identity()
+    }
+    fn transition_input_jacobian(
+        &self,
+        _: &SVector<f64, 1>,
+        _: &SVector<f64, 1>,
+    ) -> SMatrix<f64, 1, 1> {
+        SMatrix::zeros()
+    }
+    fn measurement(&self, state: &SVector<f64, 1>, _: &SVector<f64, 1>) -> SVector<f64, 1> {
+        *state
+    }
+    fn measurement_jacobian(&self, _: &SVector<f64, 1>, _: &SVector<f64, 1>) -> SMatrix<f64, 1, 1> {
+        SMatrix::identity()
+    }
+    fn measurement_input_jacobian(
+        &self,
+        _: &SVector<f64, 1>,
+        _: &SVector<f64, 1>,
+    ) -> SMatrix<f64, 1, 1> {
+        SMatrix::zeros()
+    }
+    fn process_noise(&self) -> SMatrix<f64, 1, 1> {
+        SMatrix::identity() * 0.01
+    }
+    fn measurement_noise(&self) -> SMatrix<f64, 1, 1> {
+        SMatrix::identity() * 0.01
+    }
+}
+
+#[test]
+fn vanishing_weights_reset_the_filter_and_keep_the_estimate_finite() {
+    let config = ParticleFilterConfig {
+        particle_count: 50,
+        ..Default::default()
+    };
+    let mut filter = ParticleFilter::new(
+        Exploding,
+        config,
+        SVector::<f64, 1>::new(2.0),
+        SMatrix::identity() * 0.01,
+    )
+    .unwrap();
+    let issue = filter.predict(&SVector::<f64, 1>::new(1.0));
+    assert_eq!(issue, Err(FilterIssue::WeightsReset));
+    assert!(filter.state()[0].is_finite());
+    assert!(filter.particles().iter().all(|p| p[0].is_finite()));
+    // A measurement 10⁶ standard deviations away still gives finite weights (log domain).
+    filter.predict(&SVector::<f64, 1>::new(0.0)).unwrap();
+    let report = filter
+        .update(&SVector::<f64, 1>::new(1.0e5), &SVector::zeros(), &[true])
+        .unwrap();
+    assert!(report.nis.is_finite());
+    assert!(filter.state()[0].is_finite());
+    assert!(filter.weights().iter().all(|w| w.is_finite()));
+}
+
+#[test]
+fn bad_settings_are_rejected_with_a_message() {
+    let model = LinearOscillator::new();
+    let config = ParticleFilterConfig {
+        particle_count: 0,
+        ..Default::default()
+    };
+    let error = ParticleFilter::new(model, config, SVector::zeros(), SMatrix::identity())
+        .err()
+        .unwrap();
+    assert!(error.to_string().contains("particle_count"));
+    let config = ParticleFilterConfig::default();
+    let error = ParticleFilter::new(
+        model,
+        config,
+        SVector::zeros(),
+        SMatrix::<f64, 2, 2>::new(1.0, 0.0, 0.0, -1.0),
+    )
+    .err()
+    .unwrap();
+    assert!(error.to_string().contains("initial state covariance"));
+}
