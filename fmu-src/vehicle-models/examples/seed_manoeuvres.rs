@@ -64,8 +64,24 @@ fn main() {
         "{:<6} {:<20} {:>7} {:>7} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9}",
         "", "", "m/s2", "m/s2", "m/s", "m/s", "deg", "deg/s", "deg", "deg", "-"
     );
+    let mut moderate_ay = f64::NAN;
+    let mut braking_ax = f64::NAN;
     for manoeuvre in SeedManoeuvre::ALL {
-        print_row("A", manoeuvre, &run_model_a(manoeuvre));
+        let a = run_model_a(manoeuvre);
+        print_row("A", manoeuvre, &a);
         print_row("B", manoeuvre, &run_model_b(manoeuvre));
+        match manoeuvre {
+            SeedManoeuvre::ModerateRamp => moderate_ay = a.lateral_acceleration,
+            SeedManoeuvre::HighRampBraking => braking_ax = a.longitudinal_acceleration,
+            _ => {}
+        }
     }
+    println!();
+    println!("A = single-track + HSRI (seed 000), B = two-track + Magic Formula (seed 001 car matched to A)");
+    println!(
+        "check: model A moderate ramp ay = {moderate_ay:.3} m/s2 (seed 000 fig. 7.4: about 3.7; SPEC: 3.65)"
+    );
+    println!(
+        "check: model A braking ax = {braking_ax:.3} m/s2 (seed 000 fig. 7.11 text: about -4 with M_B = -2000 N m)"
+    );
 }
