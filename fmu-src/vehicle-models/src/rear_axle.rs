@@ -136,11 +136,14 @@ impl RearAxleParams {
         cog_height: f64,
         gravity: f64,
     ) -> Self {
+        // two tyres per axle
+        let front_axle_stiffness = 2.0 * front_tyre_stiffness;
+        let rear_axle_stiffness = 2.0 * rear_tyre_stiffness;
         Self {
             // (003: 3.14)
-            front_cornering: 2.0 * front_tyre_stiffness / (mass * gravity),
+            front_cornering: front_axle_stiffness / (mass * gravity),
             // (003: 3.15)
-            rear_cornering: 2.0 * rear_tyre_stiffness / (mass * gravity),
+            rear_cornering: rear_axle_stiffness / (mass * gravity),
             // (003: 3.16)
             mass_over_inertia: mass / yaw_inertia,
             // (003: 3.17)

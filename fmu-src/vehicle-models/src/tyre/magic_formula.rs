@@ -100,6 +100,10 @@ impl MagicFormulaTyre {
     }
 }
 
+/// Below this combined theoretical slip the secant stiffness `F(σ)/σ` is replaced by its limit
+/// `B C D` (the quotient would be 0/0 at σ = 0; the error of the limit is O(σ²)).
+const SMALL_SLIP: f64 = 1e-12;
+
 /// `F(σ)/σ` of one Magic Formula curve (001: eq 3) with `B = stiffness/(C D)`, for σ ≥ 0; the
 /// limit `B C D` as σ → 0.
 #[inline(always)]
@@ -110,7 +114,7 @@ fn secant_stiffness<S: Scalar>(
     shape: f64,
     curvature: f64,
 ) -> S {
-    if combined_slip.value() < 1e-12 {
+    if combined_slip.value() < SMALL_SLIP {
         return stiffness;
     }
     let stiffness_factor = stiffness / (peak * shape); // B
