@@ -17,8 +17,8 @@ use crate::scalar::Scalar;
 ///   (3492 N front, 3374 N rear) the cornering stiffness equals model A's 6.61e4 / 6.46e4 N/rad;
 ///   since `Cα2 < 0` the stiffness is degressive in the load as well (`B` falls with load);
 /// - shape factors `C_y = 1.3` (lateral) and `C_x = 1.65` (longitudinal), the classic values of
-///   the 1987 Magic Formula the seed cites (001: [7]); curvature `E_y = −1` puts the lateral peak
-///   near 8-9° slip angle at nominal load, `E_x = 0` the longitudinal peak near 8 % slip. These
+///   the 1987 Magic Formula the seed cites (001: ref. 7); curvature `E_y = −1` puts the lateral peak
+///   near 8.5° slip angle at nominal load, `E_x = 0` the longitudinal peak near 9 % slip. These
 ///   three are the project's choice, not seed values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
