@@ -1,1 +1,256 @@
-fn main() {}
+//! `harness`: the co-simulation master's command line. `harness --help` lists the commands.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use harness::cosim::Plan;
+use harness::demo::{self, DemoOptions};
+use harness::fmu::LoadedFmu;
+use harness::runner::{self, Environment};
+use harness::scenario::{Scenario, VarRef};
+use harness::{manoeuvre, montecarlo};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "harness",
+    version,
+    about = "FMI 2.0 Co-Simulation master: runs scenario files (FMUs, parameters, connections, manoeuvres), \
+             scores estimators against the truth, writes CSV, PNG plots and reports"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Package the FMUs when missing or stale, run every seed experiment, write out/demo/report.md and report.html
+    Demo {
+        /// Output folder (everything is written below it).
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+        /// Do not run `cargo run --release -p packaging`, use the FMUs as they are.
+        #[arg(long)]
+        no_package: bool,
+    },
+    /// Run one scenario file: CSV of every recorded signal, scores, plots
+    Run {
+        /// Scenario file (TOML; format in harness/scenarios/README.md).
+        scenario: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "out/run")]
+        out: PathBuf,
+        /// Replaces {fmu_dir} in the scenario's FMU paths.
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+        /// Override a parameter: instance.variable=value (repeatable).
+        #[arg(long = "set", value_name = "INST.VAR=VALUE")]
+        set: Vec<String>,
+        /// Skip the PNG plots.
+        #[arg(long)]
+        no_plots: bool,
+    },
+    /// Run a scenario with N noise seeds in parallel; mean and spread of every score, NEES/NIS consistency
+    Montecarlo {
+        /// Scenario file.
+        scenario: PathBuf,
+        /// Number of runs (seeds first_seed .. first_seed + N - 1).
+        #[arg(long, default_value_t = 20)]
+        runs: usize,
+        /// Seed of the first run.
+        #[arg(long, default_value_t = 1)]
+        first_seed: i32,
+        /// Additional integer parameter to vary with the run (instance.variable, repeatable).
+        #[arg(long = "seed-var", value_name = "INST.VAR")]
+        seed_var: Vec<String>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        #[arg(long, default_value = "out/montecarlo")]
+        out: PathBuf,
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
+    /// Check an .fmu and list its variables
+    Inspect {
+        fmu: PathBuf,
+        /// Scratch folder for the extraction (removed afterwards).
+        #[arg(long, default_value = "out/inspect")]
+        out: PathBuf,
+    },
+    /// List the manoeuvre library with the numbers this project chose
+    Manoeuvres,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match execute(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn execute(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Demo {
+            out,
+            fmu_dir,
+            no_package,
+        } => {
+            let custom_dir = fmu_dir.is_some();
+            let env = Environment {
+                fmu_dir: fmu_dir.unwrap_or_else(runner::default_fmu_dir),
+                out_dir: out.clone(),
+            };
+            let options = DemoOptions {
+                env,
+                // A user-given FMU folder is used as it is.
+                package: !no_package && !custom_dir,
+                plots: true,
+            };
+            let (findings, outputs) = demo::run(&options)?;
+            print!("{}", demo::summary_table(&findings, &outputs));
+            println!("\nreport: {}", out.join("report.md").display());
+            println!("        {}", out.join("report.html").display());
+            Ok(())
+        }
+        Command::Run {
+            scenario,
+            out,
+            fmu_dir,
+            set,
+            no_plots,
+        } => {
+            let parsed = Scenario::from_file(&scenario)?;
+            let overrides = set
+                .iter()
+                .map(|s| runner::parse_override(s))
+                .collect::<Result<Vec<_>>>()?;
+            let env = Environment {
+                fmu_dir: fmu_dir.unwrap_or_else(runner::default_fmu_dir),
+                out_dir: out.join(&parsed.name),
+            };
+            let bar = progress_bar(1000);
+            bar.set_message(parsed.name.clone());
+            let output = runner::run_scenario(parsed, &env, &overrides, !no_plots, |f| {
+                bar.set_position((f * 1000.0) as u64)
+            });
+            bar.finish_and_clear();
+            let _ = std::fs::remove_dir_all(env.work_dir());
+            let output = output?;
+            println!(
+                "scenario {} ({} steps)",
+                output.scenario.name,
+                output.result.times.len() - 1
+            );
+            print!("{}", runner::scores_table(&output.scores));
+            println!("csv: {}", output.csv.display());
+            for p in &output.plots {
+                println!("plot: {}", p.display());
+            }
+            Ok(())
+        }
+        Command::Montecarlo {
+            scenario,
+            runs,
+            first_seed,
+            seed_var,
+            threads,
+            out,
+            fmu_dir,
+        } => {
+            let parsed = Scenario::from_file(&scenario)?;
+            let extra = seed_var
+                .iter()
+                .map(|s| {
+                    VarRef::parse(s)
+                        .with_context(|| format!("--seed-var {s:?}: expected instance.variable"))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let env = Environment {
+                fmu_dir: fmu_dir.unwrap_or_else(runner::default_fmu_dir),
+                out_dir: out.join(&parsed.name),
+            };
+            std::fs::create_dir_all(&env.out_dir)
+                .with_context(|| format!("creating {}", env.out_dir.display()))?;
+            let plan = Plan::new(parsed, &env.fmu_dir, &env.work_dir())?;
+            let bar = progress_bar(runs as u64);
+            bar.set_message(format!("{} runs", runs));
+            let pool = {
+                let mut builder = rayon::ThreadPoolBuilder::new();
+                if let Some(n) = threads {
+                    builder = builder.num_threads(n);
+                }
+                builder.build().context("creating the worker threads")?
+            };
+            let summary =
+                pool.install(|| montecarlo::run(&plan, runs, first_seed, &extra, &|| bar.inc(1)));
+            bar.finish_and_clear();
+            drop(plan);
+            let _ = std::fs::remove_dir_all(env.work_dir());
+            let summary = summary?;
+            let md = montecarlo::to_markdown(&summary);
+            let path = env.out_dir.join("summary.md");
+            std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
+            print!("{md}");
+            println!("\nsummary: {}", path.display());
+            Ok(())
+        }
+        Command::Inspect { fmu, out } => {
+            let work = out.join(".fmu-work");
+            let loaded = LoadedFmu::load(&fmu, &work)?;
+            println!(
+                "{}: model {:?}, modelIdentifier {}, GUID {}",
+                fmu.display(),
+                loaded.model_name,
+                loaded.model_identifier,
+                loaded.guid
+            );
+            println!(
+                "{:<34} {:>6} {:<12} {:<12} {:<10}",
+                "variable", "vr", "causality", "variability", "type"
+            );
+            for v in &loaded.variables {
+                println!(
+                    "{:<34} {:>6} {:<12} {:<12} {:<10?}",
+                    v.name,
+                    v.value_reference,
+                    v.causality.to_string(),
+                    v.variability.to_string(),
+                    v.var_type
+                );
+            }
+            drop(loaded);
+            let _ = std::fs::remove_dir_all(&work);
+            Ok(())
+        }
+        Command::Manoeuvres => {
+            for name in manoeuvre::LIBRARY {
+                println!(
+                    "{name}\n    {}",
+                    manoeuvre::describe(name).unwrap_or_default()
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+fn progress_bar(length: u64) -> ProgressBar {
+    let bar = ProgressBar::new(length);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}

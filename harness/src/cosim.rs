@@ -1,0 +1,1022 @@
+//! The co-simulation master for FMI 2.0 Co-Simulation FMUs.
+//!
+//! Algorithm at each communication point `t_n = t0 + n h` (never accumulated):
+//! 1. a closed-loop manoeuvre reads the vehicle motion it needs (its `feedback` variables, values
+//!    of the FMU state at `t_n`) and computes its signals for `t_n`;
+//! 2. the FMU instances are visited in topological order of the connections (sources before
+//!    sinks, declaration order among equals): each gets its manoeuvre inputs and its connected
+//!    inputs — read from upstream instances *after* those received their inputs of `t_n`, so an
+//!    output with direct feed-through (e.g. the measured lateral acceleration, which depends on
+//!    the steering angle) reaches the downstream FMU within the same step — and then its needed
+//!    outputs are read;
+//! 3. the row of recorded values at `t_n` is stored;
+//! 4. every instance does `fmi2DoStep(t_n, t_{n+1} - t_n)`.
+//!
+//! Connections that close a cycle cannot all be satisfied this way: the instances of a cycle are
+//! visited in declaration order and a connection pointing backwards in that order delivers the
+//! source's output of `t_n` computed with its inputs of `t_{n-1}` (documented in
+//! `harness/scenarios/README.md`).
+//!
+//! Every `fmi::fmi2::instance::Instance` is created on the thread that runs it (inside
+//! [`Plan::run`]) and dropped before the [`LoadedFmu`] that owns its `Fmi2Import`.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use fmi::fmi2::binding::fmi2Boolean;
+use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
+use fmi::traits::FmiInstance;
+
+use crate::fmu::{LoadedFmu, VariableInfo, VariableType};
+use crate::fmu_log;
+use crate::manoeuvre::{Channel, Manoeuvre, ManoeuvreRun, VehicleMotion};
+use crate::scenario::{Scenario, VarRef};
+
+/// The scenario with its FMUs loaded (each distinct .fmu file once) and every name resolved.
+pub struct Plan {
+    pub scenario: Scenario,
+    pub manoeuvre: Option<Manoeuvre>,
+    instances: Vec<InstancePlan>,
+    /// Instance indices in the order they receive inputs and step.
+    order: Vec<usize>,
+    columns: Vec<String>,
+    record: Vec<Slot>,
+    feedback: Option<Feedback>,
+    /// Loaded archives; declared last so every borrowed use ends before they drop.
+    fmus: Vec<LoadedFmu>,
+}
+
+struct Feedback {
+    instance: usize,
+    value_references: [u32; 3],
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Source {
+    Channel(Channel),
+    Upstream { instance: usize, slot: usize },
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Slot {
+    Read { instance: usize, slot: usize },
+    Channel(Channel),
+    PoseX,
+    PoseY,
+    PoseYaw,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParameterValue {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+    String(String),
+}
+
+/// What one [[fmu]] entry does at each step, with value references resolved.
+struct InstancePlan {
+    name: String,
+    fmu: usize,
+    parameters: Vec<(VariableInfo, ParameterValue)>,
+    /// Manoeuvre channels bound to parameters (e.g. initial_speed -> vx0), set before init.
+    parameter_signals: Vec<(VariableInfo, Channel)>,
+    inputs: TypedGroup<Source>,
+    /// Variables read after the inputs are set; `reads[slot]`.
+    reads: Vec<(u32, VariableType)>,
+    read_groups: TypedGroup<usize>,
+}
+
+/// Value references split by C type, each with what goes with it.
+struct TypedGroup<T> {
+    real: (Vec<u32>, Vec<T>),
+    integer: (Vec<u32>, Vec<T>),
+    boolean: (Vec<u32>, Vec<T>),
+}
+
+impl<T> Default for TypedGroup<T> {
+    fn default() -> Self {
+        TypedGroup {
+            real: (Vec::new(), Vec::new()),
+            integer: (Vec::new(), Vec::new()),
+            boolean: (Vec::new(), Vec::new()),
+        }
+    }
+}
+
+impl<T> TypedGroup<T> {
+    fn push(&mut self, var_type: VariableType, vr: u32, item: T) {
+        let group = match var_type {
+            VariableType::Real => &mut self.real,
+            VariableType::Integer | VariableType::Enumeration => &mut self.integer,
+            VariableType::Boolean => &mut self.boolean,
+            VariableType::String => unreachable!("strings are refused when planning"),
+        };
+        group.0.push(vr);
+        group.1.push(item);
+    }
+}
+
+/// Changes applied to one run without editing the scenario (Monte Carlo seeds, CLI overrides).
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Appended to every instance name given to fmi2Instantiate (unique names per thread).
+    pub instance_suffix: String,
+    /// Parameter values that replace or extend the scenario's.
+    pub overrides: Vec<(VarRef, ParameterValue)>,
+}
+
+/// Everything one run produced.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    pub scenario: String,
+    pub times: Vec<f64>,
+    pub columns: Vec<String>,
+    /// `data[column][row]`.
+    pub data: Vec<Vec<f64>>,
+    /// Mean wall time of one fmi2DoStep per instance [s].
+    pub step_wall_time: Vec<(String, f64)>,
+    /// Wall time of the whole run including instantiation [s].
+    pub total_wall_time: f64,
+}
+
+impl RunResult {
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns
+            .iter()
+            .position(|c| c == name)
+            .map(|i| self.data[i].as_slice())
+    }
+}
+
+fn describe_fmu(plan: &Plan, instance: usize) -> String {
+    let inst = &plan.instances[instance];
+    format!(
+        "FMU '{}' ({})",
+        inst.name,
+        plan.fmus[inst.fmu].path.display()
+    )
+}
+
+impl Plan {
+    /// Load the scenario's FMUs (extracted under `work_dir`) and resolve every name.
+    pub fn new(scenario: Scenario, fmu_dir: &Path, work_dir: &Path) -> Result<Plan> {
+        let manoeuvre = scenario.manoeuvre()?;
+        let source = scenario.source.display().to_string();
+        let mut fmus: Vec<LoadedFmu> = Vec::new();
+        let mut loaded_paths: HashMap<PathBuf, usize> = HashMap::new();
+        let mut instances = Vec::new();
+        for (i, section) in scenario.fmus.iter().enumerate() {
+            let path = scenario.fmu_path(i, fmu_dir);
+            let key = path.canonicalize().unwrap_or_else(|_| path.clone());
+            let fmu = match loaded_paths.get(&key) {
+                Some(&index) => index,
+                None => {
+                    let loaded = LoadedFmu::load(&path, work_dir).with_context(|| {
+                        format!("scenario {source}: fmu[{i}] ({:?})", section.name)
+                    })?;
+                    fmus.push(loaded);
+                    loaded_paths.insert(key, fmus.len() - 1);
+                    fmus.len() - 1
+                }
+            };
+            let mut parameters = Vec::new();
+            for (name, value) in &section.parameters {
+                let field = format!("scenario {source}: fmu[{i}].parameters.{name}");
+                let var = settable(&fmus[fmu], name).with_context(|| field.clone())?;
+                let value = convert_value(var, value).with_context(|| field.clone())?;
+                parameters.push((var.clone(), value));
+            }
+            instances.push(InstancePlan {
+                name: section.name.clone(),
+                fmu,
+                parameters,
+                parameter_signals: Vec::new(),
+                inputs: TypedGroup::default(),
+                reads: Vec::new(),
+                read_groups: TypedGroup::default(),
+            });
+        }
+        let instance_index: HashMap<String, usize> = instances
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.name.clone(), i))
+            .collect();
+        let var_of = |instance: usize, name: &str| -> Option<&VariableInfo> {
+            fmus[instances[instance].fmu].variable(name)
+        };
+
+        // Connections: (source instance, source variable, sink instance, sink variable).
+        let mut edges: Vec<(usize, VariableInfo, usize, VariableInfo, String)> = Vec::new();
+        for (i, c) in scenario.connections.iter().enumerate() {
+            let field = format!("scenario {source}: connection[{i}]");
+            match (VarRef::parse(&c.from), VarRef::parse(&c.to)) {
+                (Some(from), Some(to)) => {
+                    let a = instance_index[&from.instance];
+                    let b = instance_index[&to.instance];
+                    let out = var_of(a, &from.variable)
+                        .filter(|v| v.is_output())
+                        .ok_or_else(|| {
+                            anyhow!(
+                                "{field}.from: FMU '{}' has no output named {:?}",
+                                from.instance,
+                                from.variable
+                            )
+                        })?;
+                    let inp = var_of(b, &to.variable)
+                        .filter(|v| v.is_input())
+                        .ok_or_else(|| {
+                            anyhow!(
+                                "{field}.to: FMU '{}' has no input named {:?}",
+                                to.instance,
+                                to.variable
+                            )
+                        })?;
+                    edges.push((a, out.clone(), b, inp.clone(), field));
+                }
+                _ => {
+                    let a = instance_index[&c.from];
+                    let b = instance_index[&c.to];
+                    let before = edges.len();
+                    for out in fmus[instances[a].fmu]
+                        .variables
+                        .iter()
+                        .filter(|v| v.is_output())
+                    {
+                        if let Some(inp) = var_of(b, &out.name).filter(|v| v.is_input()) {
+                            edges.push((a, out.clone(), b, inp.clone(), field.clone()));
+                        }
+                    }
+                    if edges.len() == before {
+                        bail!(
+                            "{field}: connect-by-name found no output of '{}' with the name of an input of '{}'",
+                            c.from,
+                            c.to
+                        );
+                    }
+                }
+            }
+        }
+        for (_, out, _, inp, field) in &edges {
+            if !compatible(out.var_type, inp.var_type) {
+                bail!(
+                    "{field}: cannot connect {:?} ({:?}) to {:?} ({:?})",
+                    out.name,
+                    out.var_type,
+                    inp.name,
+                    inp.var_type
+                );
+            }
+        }
+        let mut driven: HashMap<(usize, u32), String> = HashMap::new();
+        for (_, _, b, inp, field) in &edges {
+            if let Some(previous) = driven.insert((*b, inp.value_reference), field.clone()) {
+                bail!(
+                    "{field}: input {:?} of '{}' is already driven by {previous}",
+                    inp.name,
+                    instances[*b].name
+                );
+            }
+        }
+
+        let mut plan = Plan {
+            manoeuvre,
+            instances,
+            order: Vec::new(),
+            columns: Vec::new(),
+            record: Vec::new(),
+            feedback: None,
+            fmus,
+            scenario,
+        };
+        plan.order = topological_order(plan.instances.len(), &edges);
+
+        for (a, out, b, inp, _) in &edges {
+            let slot = plan.read_slot(*a, out);
+            plan.instances[*b].inputs.push(
+                inp.var_type,
+                inp.value_reference,
+                Source::Upstream { instance: *a, slot },
+            );
+        }
+
+        // Manoeuvre inputs.
+        let inputs = plan.scenario.inputs.clone();
+        for (i, input) in inputs.iter().enumerate() {
+            let channel = Channel::from_name(&input.signal).expect("validated");
+            for (j, target) in input.to.iter().enumerate() {
+                let field = format!("scenario {source}: input[{i}].to[{j}]");
+                let r = VarRef::parse(target).expect("validated");
+                let matches = plan.matching(&r, |v| v.is_input() || v.is_parameter());
+                if matches.is_empty() {
+                    bail!("{field}: {target:?} names no input or parameter of any FMU");
+                }
+                for (instance, var) in matches {
+                    if var.var_type != VariableType::Real {
+                        bail!(
+                            "{field}: {}.{} is not a Real variable",
+                            plan.instances[instance].name,
+                            var.name
+                        );
+                    }
+                    if let Some(previous) =
+                        driven.insert((instance, var.value_reference), field.clone())
+                    {
+                        bail!(
+                            "{field}: {}.{} is already driven by {previous}",
+                            plan.instances[instance].name,
+                            var.name
+                        );
+                    }
+                    if var.is_parameter() {
+                        plan.instances[instance]
+                            .parameter_signals
+                            .push((var, channel));
+                    } else {
+                        plan.instances[instance].inputs.push(
+                            var.var_type,
+                            var.value_reference,
+                            Source::Channel(channel),
+                        );
+                    }
+                }
+            }
+        }
+
+        // Closed-loop feedback.
+        if let Some(fb) = plan
+            .scenario
+            .manoeuvre
+            .as_ref()
+            .and_then(|m| m.feedback.clone())
+        {
+            let mut vrs = [0u32; 3];
+            let mut instance_of = None;
+            for (k, (field, text)) in [
+                ("longitudinal_velocity", &fb.longitudinal_velocity),
+                ("lateral_velocity", &fb.lateral_velocity),
+                ("yaw_rate", &fb.yaw_rate),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let r = VarRef::parse(text).expect("validated");
+                let instance = plan_instance(&plan, &r.instance);
+                let var = plan
+                    .var(instance, &r.variable)
+                    .filter(|v| v.var_type == VariableType::Real)
+                    .ok_or_else(|| {
+                        anyhow!(
+                            "scenario {source}: manoeuvre.feedback.{field}: FMU '{}' has no Real variable {:?}",
+                            r.instance,
+                            r.variable
+                        )
+                    })?;
+                if instance_of.is_some_and(|i| i != instance) {
+                    bail!("scenario {source}: manoeuvre.feedback: all three variables must come from one FMU");
+                }
+                instance_of = Some(instance);
+                vrs[k] = var.value_reference;
+            }
+            plan.feedback = Some(Feedback {
+                instance: instance_of.expect("three variables"),
+                value_references: vrs,
+            });
+        }
+
+        // Recorded columns: the manoeuvre's signals, the driver's pose, then the patterns.
+        if let Some(m) = plan.manoeuvre.clone() {
+            for channel in [
+                Channel::SteeringAngle,
+                Channel::SteeringWheelAngle,
+                Channel::DriveTorque,
+                Channel::BrakeTorque,
+            ] {
+                plan.add_column(
+                    format!("manoeuvre.{}", channel.name()),
+                    Slot::Channel(channel),
+                );
+            }
+            if m.needs_feedback() {
+                plan.add_column("driver.x".into(), Slot::PoseX);
+                plan.add_column("driver.y".into(), Slot::PoseY);
+                plan.add_column("driver.yaw".into(), Slot::PoseYaw);
+            }
+        }
+        let mut wanted: Vec<(String, String)> = Vec::new();
+        for (i, pattern) in plan.scenario.record.variables.iter().enumerate() {
+            let r = VarRef::parse(pattern).expect("validated");
+            let matches = if r.variable == "*" {
+                let mut all = Vec::new();
+                for instance in plan.instance_indices(&r.instance) {
+                    for v in plan.fmus[plan.instances[instance].fmu].variables.iter() {
+                        if v.is_output() && v.var_type != VariableType::String {
+                            all.push((instance, v.clone()));
+                        }
+                    }
+                }
+                all
+            } else {
+                plan.matching(&r, |v| v.var_type != VariableType::String)
+            };
+            if matches.is_empty() {
+                bail!("scenario {source}: record.variables[{i}]: {pattern:?} matches no variable");
+            }
+            for (instance, var) in matches {
+                wanted.push((plan.instances[instance].name.clone(), var.name.clone()));
+            }
+        }
+        // Everything scores and NIS need is recorded too.
+        let scores = plan.scenario.scores.clone();
+        for (i, s) in scores.iter().enumerate() {
+            let field = format!("scenario {source}: score[{i}]");
+            let truth = VarRef::parse(&s.truth).expect("validated");
+            let t_inst = plan_instance(&plan, &truth.instance);
+            plan.var(t_inst, &truth.variable).ok_or_else(|| {
+                anyhow!(
+                    "{field}.truth: FMU '{}' has no variable {:?}",
+                    truth.instance,
+                    truth.variable
+                )
+            })?;
+            wanted.push((truth.instance.clone(), truth.variable.clone()));
+            let est = VarRef::parse(&s.estimate).expect("validated");
+            let matches = plan.matching(&est, |_| true);
+            if matches.is_empty() {
+                bail!("{field}.estimate: {:?} matches no variable", s.estimate);
+            }
+            for (instance, var) in matches {
+                let name = plan.instances[instance].name.clone();
+                if let Some(std) = &s.std {
+                    let std_ref = VarRef::parse(std).expect("validated");
+                    if std_ref.instance != "*" && std_ref.instance != name {
+                        bail!("{field}.std: {std:?} must belong to the estimate's instance '{name}' (or use '*')");
+                    }
+                    plan.var(instance, &std_ref.variable).ok_or_else(|| {
+                        anyhow!(
+                            "{field}.std: FMU '{name}' has no variable {:?}",
+                            std_ref.variable
+                        )
+                    })?;
+                    wanted.push((name.clone(), std_ref.variable.clone()));
+                }
+                wanted.push((name, var.name));
+            }
+        }
+        let nis = plan.scenario.nis.clone();
+        for (i, n) in nis.iter().enumerate() {
+            let r = VarRef::parse(&n.nis).expect("validated");
+            let matches = plan.matching(&r, |_| true);
+            if matches.is_empty() {
+                bail!(
+                    "scenario {source}: nis[{i}].nis: {:?} matches no variable",
+                    n.nis
+                );
+            }
+            for (instance, var) in matches {
+                let name = plan.instances[instance].name.clone();
+                if let toml::Value::String(dof) = &n.dof {
+                    let d = VarRef::parse(dof).expect("validated");
+                    plan.var(instance, &d.variable).ok_or_else(|| {
+                        anyhow!(
+                            "scenario {source}: nis[{i}].dof: FMU '{name}' has no variable {:?}",
+                            d.variable
+                        )
+                    })?;
+                    wanted.push((name.clone(), d.variable.clone()));
+                }
+                wanted.push((name, var.name));
+            }
+        }
+        for (instance_name, variable) in wanted {
+            let column = format!("{instance_name}.{variable}");
+            if plan.columns.contains(&column) {
+                continue;
+            }
+            let instance = plan_instance(&plan, &instance_name);
+            let var = plan
+                .var(instance, &variable)
+                .expect("resolved above")
+                .clone();
+            let slot = plan.read_slot(instance, &var);
+            plan.add_column(column, Slot::Read { instance, slot });
+        }
+        Ok(plan)
+    }
+
+    fn add_column(&mut self, name: String, slot: Slot) {
+        self.columns.push(name);
+        self.record.push(slot);
+    }
+
+    fn var(&self, instance: usize, name: &str) -> Option<&VariableInfo> {
+        self.fmus[self.instances[instance].fmu].variable(name)
+    }
+
+    fn instance_indices(&self, pattern: &str) -> Vec<usize> {
+        (0..self.instances.len())
+            .filter(|&i| pattern == "*" || self.instances[i].name == pattern)
+            .collect()
+    }
+
+    /// Instances (by pattern) having variable `r.variable` accepted by `filter`.
+    fn matching(
+        &self,
+        r: &VarRef,
+        filter: impl Fn(&VariableInfo) -> bool,
+    ) -> Vec<(usize, VariableInfo)> {
+        self.instance_indices(&r.instance)
+            .into_iter()
+            .filter_map(|i| {
+                self.var(i, &r.variable)
+                    .filter(|v| filter(v))
+                    .map(|v| (i, v.clone()))
+            })
+            .collect()
+    }
+
+    /// Slot in `instance`'s read cache for `var`, added when new.
+    fn read_slot(&mut self, instance: usize, var: &VariableInfo) -> usize {
+        let plan = &mut self.instances[instance];
+        if let Some(slot) = plan
+            .reads
+            .iter()
+            .position(|(vr, t)| *vr == var.value_reference && *t == var.var_type)
+        {
+            return slot;
+        }
+        plan.reads.push((var.value_reference, var.var_type));
+        let slot = plan.reads.len() - 1;
+        plan.read_groups
+            .push(var.var_type, var.value_reference, slot);
+        slot
+    }
+
+    /// Recorded column names, in CSV order (after `time`).
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    pub fn instance_names(&self) -> Vec<String> {
+        self.instances.iter().map(|i| i.name.clone()).collect()
+    }
+
+    /// Instance names in the order they receive inputs and step.
+    pub fn step_order(&self) -> Vec<String> {
+        self.order
+            .iter()
+            .map(|&i| self.instances[i].name.clone())
+            .collect()
+    }
+
+    pub fn loaded_fmus(&self) -> &[LoadedFmu] {
+        &self.fmus
+    }
+
+    /// Run the scenario once on the calling thread. `progress` gets the fraction done.
+    pub fn run(&self, options: &RunOptions, mut progress: impl FnMut(f64)) -> Result<RunResult> {
+        fmu_log::install();
+        let wall_start = Instant::now();
+        let scenario = &self.scenario;
+        let steps = scenario.step_count()?;
+        let stop_time = scenario.time_of(steps);
+
+        // Overrides: resolve before instantiating anything.
+        let mut overrides: Vec<Vec<(VariableInfo, ParameterValue)>> =
+            vec![Vec::new(); self.instances.len()];
+        for (r, value) in &options.overrides {
+            let instance = self
+                .instances
+                .iter()
+                .position(|p| p.name == r.instance)
+                .ok_or_else(|| anyhow!("override {r}: no FMU instance named {:?}", r.instance))?;
+            let var = settable(&self.fmus[self.instances[instance].fmu], &r.variable)
+                .with_context(|| format!("override {r}"))?;
+            // "--set vehicle.vx0=20" parses as an integer; a Real parameter takes it as 20.0.
+            let value = match (var.var_type, value) {
+                (VariableType::Real, ParameterValue::Integer(i)) => {
+                    ParameterValue::Real(f64::from(*i))
+                }
+                _ => value.clone(),
+            };
+            overrides[instance].push((var.clone(), value));
+        }
+
+        let mut manoeuvre = self.manoeuvre.clone().map(ManoeuvreRun::new);
+        if let Some(m) = manoeuvre.as_mut() {
+            m.update(scenario.start_time, None);
+        }
+
+        // Instantiate on this thread; `instances` drops before `self.fmus` (borrowed here).
+        let mut instances: Vec<InstanceCS> = Vec::with_capacity(self.instances.len());
+        let mut fmi_names = Vec::with_capacity(self.instances.len());
+        for (index, plan) in self.instances.iter().enumerate() {
+            let fmi_name = format!("{}{}", plan.name, options.instance_suffix);
+            let instance = self.fmus[plan.fmu]
+                .import()
+                .instantiate_cs(&fmi_name, false, true)
+                .map_err(|e| self.fmu_error(index, &fmi_name, "fmi2Instantiate", &e.to_string()))?;
+            instances.push(instance);
+            fmi_names.push(fmi_name);
+        }
+        let result = self.run_instances(
+            &mut instances,
+            &fmi_names,
+            &overrides,
+            manoeuvre.as_mut(),
+            steps,
+            stop_time,
+            &mut progress,
+        );
+        for (instance, name) in instances.iter_mut().zip(&fmi_names) {
+            if result.is_ok() {
+                let _ = FmiInstance::terminate(instance);
+            }
+            fmu_log::forget(name);
+        }
+        drop(instances);
+        let mut result = result?;
+        result.total_wall_time = wall_start.elapsed().as_secs_f64();
+        Ok(result)
+    }
+
+    fn fmu_error(&self, index: usize, fmi_name: &str, call: &str, status: &str) -> anyhow::Error {
+        let said = fmu_log::take_recent(fmi_name);
+        let said = if said.is_empty() {
+            String::new()
+        } else {
+            format!("; the FMU logged: {}", said.join(" | "))
+        };
+        anyhow!(
+            "{}: {call} failed ({status}){said}",
+            describe_fmu(self, index)
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_instances(
+        &self,
+        instances: &mut [InstanceCS],
+        fmi_names: &[String],
+        overrides: &[Vec<(VariableInfo, ParameterValue)>],
+        mut manoeuvre: Option<&mut ManoeuvreRun>,
+        steps: u64,
+        stop_time: f64,
+        progress: &mut impl FnMut(f64),
+    ) -> Result<RunResult> {
+        let scenario = &self.scenario;
+        let t0 = scenario.start_time;
+        let err = |index: usize, call: &str, e: &dyn std::fmt::Display| {
+            self.fmu_error(index, &fmi_names[index], call, &e.to_string())
+        };
+
+        // Parameters, then manoeuvre-bound parameters, then overrides (last wins).
+        for (index, plan) in self.instances.iter().enumerate() {
+            let instance = &mut instances[index];
+            let mut values: Vec<(&VariableInfo, ParameterValue)> = plan
+                .parameters
+                .iter()
+                .map(|(v, p)| (v, p.clone()))
+                .collect();
+            for (var, channel) in &plan.parameter_signals {
+                let value = manoeuvre.as_ref().map_or(0.0, |m| m.value(*channel, t0));
+                values.push((var, ParameterValue::Real(value)));
+            }
+            for (var, value) in &overrides[index] {
+                values.push((var, value.clone()));
+            }
+            for (var, value) in values {
+                set_value(instance, var, &value).map_err(|e| {
+                    err(
+                        index,
+                        &format!("setting parameter {:?} = {value:?}", var.name),
+                        &e,
+                    )
+                })?;
+            }
+        }
+        for (index, instance) in instances.iter_mut().enumerate() {
+            FmiInstance::enter_initialization_mode(instance, None, t0, Some(stop_time))
+                .map_err(|e| err(index, "fmi2SetupExperiment/fmi2EnterInitializationMode", &e))?;
+        }
+        let mut caches: Vec<Vec<f64>> = self
+            .instances
+            .iter()
+            .map(|p| vec![0.0; p.reads.len()])
+            .collect();
+        let mut buffers = ExchangeBuffers::new(&self.instances);
+        self.exchange(
+            instances,
+            &mut caches,
+            &mut buffers,
+            manoeuvre.as_deref_mut(),
+            t0,
+            &err,
+        )?;
+        for (index, instance) in instances.iter_mut().enumerate() {
+            FmiInstance::exit_initialization_mode(instance)
+                .map_err(|e| err(index, "fmi2ExitInitializationMode", &e))?;
+        }
+
+        let rows = steps as usize + 1;
+        let mut data: Vec<Vec<f64>> = self
+            .columns
+            .iter()
+            .map(|_| Vec::with_capacity(rows))
+            .collect();
+        let mut times = Vec::with_capacity(rows);
+        let mut step_time = vec![Duration::ZERO; instances.len()];
+        let report_every = (steps / 200).max(1);
+        for n in 0..=steps {
+            let t = scenario.time_of(n);
+            self.exchange(
+                instances,
+                &mut caches,
+                &mut buffers,
+                manoeuvre.as_deref_mut(),
+                t,
+                &err,
+            )?;
+            times.push(t);
+            for (column, slot) in data.iter_mut().zip(&self.record) {
+                column.push(match *slot {
+                    Slot::Read { instance, slot } => caches[instance][slot],
+                    Slot::Channel(channel) => {
+                        manoeuvre.as_ref().map_or(0.0, |m| m.value(channel, t))
+                    }
+                    Slot::PoseX => manoeuvre.as_ref().map_or(0.0, |m| m.pose().x),
+                    Slot::PoseY => manoeuvre.as_ref().map_or(0.0, |m| m.pose().y),
+                    Slot::PoseYaw => manoeuvre.as_ref().map_or(0.0, |m| m.pose().yaw),
+                });
+            }
+            if n == steps {
+                break;
+            }
+            let h = scenario.time_of(n + 1) - t;
+            for &index in &self.order {
+                let started = Instant::now();
+                instances[index]
+                    .do_step(t, h, true)
+                    .map_err(|e| err(index, &format!("fmi2DoStep(t = {t} s, h = {h} s)"), &e))?;
+                step_time[index] += started.elapsed();
+            }
+            if n % report_every == 0 {
+                progress(n as f64 / steps as f64);
+            }
+        }
+        progress(1.0);
+        Ok(RunResult {
+            scenario: scenario.name.clone(),
+            times,
+            columns: self.columns.clone(),
+            data,
+            step_wall_time: self
+                .instances
+                .iter()
+                .zip(&step_time)
+                .map(|(p, d)| (p.name.clone(), d.as_secs_f64() / steps as f64))
+                .collect(),
+            total_wall_time: 0.0,
+        })
+    }
+
+    fn exchange(
+        &self,
+        instances: &mut [InstanceCS],
+        caches: &mut [Vec<f64>],
+        buffers: &mut ExchangeBuffers,
+        manoeuvre: Option<&mut ManoeuvreRun>,
+        t: f64,
+        err: &dyn Fn(usize, &str, &dyn std::fmt::Display) -> anyhow::Error,
+    ) -> Result<()> {
+        let manoeuvre = match manoeuvre {
+            Some(m) => {
+                let motion = match &self.feedback {
+                    Some(fb) => {
+                        let mut v = [0.0; 3];
+                        instances[fb.instance]
+                            .get_real(&fb.value_references, &mut v)
+                            .map_err(|e| {
+                                err(fb.instance, "fmi2GetReal (manoeuvre feedback)", &e)
+                            })?;
+                        Some(VehicleMotion {
+                            longitudinal_velocity: v[0],
+                            lateral_velocity: v[1],
+                            yaw_rate: v[2],
+                        })
+                    }
+                    None => None,
+                };
+                m.update(t, motion);
+                Some(&*m)
+            }
+            None => None,
+        };
+        let value_of = |source: &Source, caches: &[Vec<f64>]| match *source {
+            Source::Channel(channel) => manoeuvre.map_or(0.0, |m| m.value(channel, t)),
+            Source::Upstream { instance, slot } => caches[instance][slot],
+        };
+        for &index in &self.order {
+            let plan = &self.instances[index];
+            let instance = &mut instances[index];
+            let b = &mut buffers.per_instance[index];
+            if !plan.inputs.real.0.is_empty() {
+                for (value, source) in b.real_in.iter_mut().zip(&plan.inputs.real.1) {
+                    *value = value_of(source, caches);
+                }
+                instance
+                    .set_real(&plan.inputs.real.0, &b.real_in)
+                    .map_err(|e| err(index, "fmi2SetReal (inputs)", &e))?;
+            }
+            if !plan.inputs.integer.0.is_empty() {
+                for (value, source) in b.int_in.iter_mut().zip(&plan.inputs.integer.1) {
+                    *value = value_of(source, caches).round() as i32;
+                }
+                instance
+                    .set_integer(&plan.inputs.integer.0, &b.int_in)
+                    .map_err(|e| err(index, "fmi2SetInteger (inputs)", &e))?;
+            }
+            if !plan.inputs.boolean.0.is_empty() {
+                for (value, source) in b.bool_in.iter_mut().zip(&plan.inputs.boolean.1) {
+                    *value = (value_of(source, caches) != 0.0) as fmi2Boolean;
+                }
+                instance
+                    .set_boolean(&plan.inputs.boolean.0, &b.bool_in)
+                    .map_err(|e| err(index, "fmi2SetBoolean (inputs)", &e))?;
+            }
+            let cache = &mut caches[index];
+            if !plan.read_groups.real.0.is_empty() {
+                instance
+                    .get_real(&plan.read_groups.real.0, &mut b.real_out)
+                    .map_err(|e| err(index, "fmi2GetReal", &e))?;
+                for (value, &slot) in b.real_out.iter().zip(&plan.read_groups.real.1) {
+                    cache[slot] = *value;
+                }
+            }
+            if !plan.read_groups.integer.0.is_empty() {
+                instance
+                    .get_integer(&plan.read_groups.integer.0, &mut b.int_out)
+                    .map_err(|e| err(index, "fmi2GetInteger", &e))?;
+                for (value, &slot) in b.int_out.iter().zip(&plan.read_groups.integer.1) {
+                    cache[slot] = f64::from(*value);
+                }
+            }
+            if !plan.read_groups.boolean.0.is_empty() {
+                instance
+                    .get_boolean(&plan.read_groups.boolean.0, &mut b.bool_out)
+                    .map_err(|e| err(index, "fmi2GetBoolean", &e))?;
+                for (value, &slot) in b.bool_out.iter().zip(&plan.read_groups.boolean.1) {
+                    cache[slot] = f64::from(u8::from(*value != 0));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn plan_instance(plan: &Plan, name: &str) -> usize {
+    plan.instances
+        .iter()
+        .position(|p| p.name == name)
+        .expect("instance names are validated")
+}
+
+struct InstanceBuffers {
+    real_in: Vec<f64>,
+    int_in: Vec<i32>,
+    bool_in: Vec<fmi2Boolean>,
+    real_out: Vec<f64>,
+    int_out: Vec<i32>,
+    bool_out: Vec<fmi2Boolean>,
+}
+
+/// Scratch space allocated once per run, so a step allocates nothing.
+struct ExchangeBuffers {
+    per_instance: Vec<InstanceBuffers>,
+}
+
+impl ExchangeBuffers {
+    fn new(plans: &[InstancePlan]) -> Self {
+        ExchangeBuffers {
+            per_instance: plans
+                .iter()
+                .map(|p| InstanceBuffers {
+                    real_in: vec![0.0; p.inputs.real.0.len()],
+                    int_in: vec![0; p.inputs.integer.0.len()],
+                    bool_in: vec![0; p.inputs.boolean.0.len()],
+                    real_out: vec![0.0; p.read_groups.real.0.len()],
+                    int_out: vec![0; p.read_groups.integer.0.len()],
+                    bool_out: vec![0; p.read_groups.boolean.0.len()],
+                })
+                .collect(),
+        }
+    }
+}
+
+fn compatible(from: VariableType, to: VariableType) -> bool {
+    use VariableType::*;
+    matches!(
+        (from, to),
+        (Real, Real) | (Integer | Enumeration, Integer | Enumeration) | (Boolean, Boolean)
+    )
+}
+
+/// A variable a scenario may set before initialisation: a parameter or an input.
+fn settable<'a>(fmu: &'a LoadedFmu, name: &str) -> Result<&'a VariableInfo> {
+    let var = fmu.variable(name).ok_or_else(|| {
+        let mut names: Vec<&str> = fmu
+            .variables
+            .iter()
+            .filter(|v| v.is_parameter())
+            .map(|v| v.name.as_str())
+            .collect();
+        names.sort_unstable();
+        anyhow!(
+            "FMU {} has no variable named {name:?} (its parameters: {})",
+            fmu.path.display(),
+            names.join(", ")
+        )
+    })?;
+    if !(var.is_parameter() || var.is_input()) {
+        bail!(
+            "{name:?} of FMU {} has causality {}; only parameters and inputs can be set",
+            fmu.path.display(),
+            var.causality
+        );
+    }
+    Ok(var)
+}
+
+/// Convert a TOML value to what `var` takes; the error says what was expected.
+pub fn convert_value(var: &VariableInfo, value: &toml::Value) -> Result<ParameterValue> {
+    Ok(match (var.var_type, value) {
+        (VariableType::Real, toml::Value::Float(x)) => ParameterValue::Real(*x),
+        (VariableType::Real, toml::Value::Integer(x)) => ParameterValue::Real(*x as f64),
+        (VariableType::Integer | VariableType::Enumeration, toml::Value::Integer(x)) => {
+            ParameterValue::Integer(
+                i32::try_from(*x).map_err(|_| anyhow!("{x} does not fit a 32-bit fmi2Integer"))?,
+            )
+        }
+        (VariableType::Boolean, toml::Value::Boolean(b)) => ParameterValue::Boolean(*b),
+        (VariableType::String, toml::Value::String(s)) => ParameterValue::String(s.clone()),
+        (t, v) => bail!(
+            "{:?} is a {t:?} variable; a {} value ({v}) does not fit",
+            var.name,
+            v.type_str()
+        ),
+    })
+}
+
+fn set_value(instance: &mut InstanceCS, var: &VariableInfo, value: &ParameterValue) -> Result<()> {
+    let vr = [var.value_reference];
+    match value {
+        ParameterValue::Real(x) => instance.set_real(&vr, &[*x]).map(|_| ())?,
+        ParameterValue::Integer(x) => instance.set_integer(&vr, &[*x]).map(|_| ())?,
+        ParameterValue::Boolean(b) => instance
+            .set_boolean(&vr, &[*b as fmi2Boolean])
+            .map(|_| ())?,
+        ParameterValue::String(s) => {
+            let c = std::ffi::CString::new(s.as_str()).context("string contains a NUL byte")?;
+            instance.set_string(&vr, &[c])?
+        }
+    }
+    Ok(())
+}
+
+/// Instances in the order they must receive inputs: Kahn's algorithm, ties and cycles resolved
+/// by declaration order.
+fn topological_order<T>(
+    count: usize,
+    edges: &[(usize, VariableInfo, usize, VariableInfo, T)],
+) -> Vec<usize> {
+    let mut indegree = vec![0usize; count];
+    let mut pairs: Vec<(usize, usize)> = edges
+        .iter()
+        .map(|e| (e.0, e.2))
+        .filter(|(a, b)| a != b)
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    for &(_, b) in &pairs {
+        indegree[b] += 1;
+    }
+    let mut order = Vec::with_capacity(count);
+    let mut done = vec![false; count];
+    while order.len() < count {
+        // The first ready instance in declaration order; in a cycle, the first one left.
+        let next = (0..count)
+            .find(|&i| !done[i] && indegree[i] == 0)
+            .or_else(|| (0..count).find(|&i| !done[i]))
+            .expect("some instance is left");
+        done[next] = true;
+        order.push(next);
+        for &(a, b) in &pairs {
+            if a == next && !done[b] {
+                indegree[b] = indegree[b].saturating_sub(1);
+            }
+        }
+    }
+    order
+}

@@ -1,0 +1,307 @@
+//! Monte Carlo runs: the same scenario with N noise seeds, in parallel (rayon). Each worker
+//! thread creates its own FMU instances (inside `Plan::run`) from the shared, once-extracted
+//! archives; instance names carry the run index.
+//!
+//! Consistency over runs (Bar-Shalom et al., ch. 5.4): at each communication point the NEES of a
+//! state averaged over N runs is chi-square(N)/N for a consistent filter; the fraction of points
+//! inside the 95 % band [q(0.025, N)/N, q(0.975, N)/N] should be about 0.95.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::{bail, Result};
+use rayon::prelude::*;
+
+use crate::cosim::{ParameterValue, Plan, RunOptions, RunResult};
+use crate::scenario::VarRef;
+use crate::scoring::{self, chi_square_quantile, matching_columns, RunScores};
+
+/// Mean and sample standard deviation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    pub mean: f64,
+    pub std: f64,
+}
+
+impl Spread {
+    pub fn of(values: &[f64]) -> Spread {
+        let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+        let n = finite.len() as f64;
+        if finite.is_empty() {
+            return Spread {
+                mean: f64::NAN,
+                std: f64::NAN,
+            };
+        }
+        let mean = finite.iter().sum::<f64>() / n;
+        let var = if finite.len() > 1 {
+            finite.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)
+        } else {
+            0.0
+        };
+        Spread {
+            mean,
+            std: var.sqrt(),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct StateSummary {
+    pub label: String,
+    pub estimator: String,
+    pub unit: String,
+    pub rmse: Spread,
+    pub max_abs: Spread,
+    pub nees: Option<Spread>,
+    /// Average NEES over runs and time (ANEES) and the fraction of communication points where
+    /// the run-averaged NEES is inside the 95 % band of chi-square(N)/N.
+    pub consistency: Option<(f64, f64)>,
+}
+
+#[derive(Debug, Clone)]
+pub struct NisSummary {
+    pub estimator: String,
+    pub mean_nis: Spread,
+    pub mean_dof: f64,
+}
+
+#[derive(Debug, Clone)]
+pub struct MonteCarloSummary {
+    pub scenario: String,
+    pub runs: usize,
+    pub band: (f64, f64),
+    pub states: Vec<StateSummary>,
+    pub nis: Vec<NisSummary>,
+    pub step_wall_time: Vec<(String, Spread)>,
+}
+
+/// NEES time series keyed by (score label, estimator).
+type NeesSeries = Vec<((String, String), Vec<f64>)>;
+
+/// Per-run NEES time series, one per (score label, estimator) having a std output.
+fn nees_series(plan: &Plan, result: &RunResult) -> NeesSeries {
+    let mut out = Vec::new();
+    for section in &plan.scenario.scores {
+        let (Some(std_pattern), Some(truth)) = (&section.std, result.column(&section.truth)) else {
+            continue;
+        };
+        let Some(std_var) = VarRef::parse(std_pattern).map(|r| r.variable) else {
+            continue;
+        };
+        for (instance, column) in matching_columns(result, &section.estimate) {
+            let Some(std) = result.column(&format!("{instance}.{std_var}")) else {
+                continue;
+            };
+            let estimate = &result.data[column];
+            let series = (0..truth.len())
+                .map(|k| {
+                    let e = estimate[k] - truth[k];
+                    if std[k] > 0.0 && e.is_finite() {
+                        e * e / (std[k] * std[k])
+                    } else {
+                        f64::NAN
+                    }
+                })
+                .collect();
+            out.push(((section.label.clone(), instance), series));
+        }
+    }
+    out
+}
+
+/// Run `runs` seeds of `plan` in parallel; run i sets every `montecarlo.seeds` parameter (and
+/// `extra_seeds`) to `first_seed + i`. `on_done` is called after each finished run.
+pub fn run(
+    plan: &Plan,
+    runs: usize,
+    first_seed: i32,
+    extra_seeds: &[VarRef],
+    on_done: &(dyn Fn() + Sync),
+) -> Result<MonteCarloSummary> {
+    if runs < 2 {
+        bail!("--runs must be at least 2 for a spread, got {runs}");
+    }
+    let mut seed_vars: Vec<VarRef> = plan
+        .scenario
+        .montecarlo
+        .seeds
+        .iter()
+        .filter_map(|s| VarRef::parse(s))
+        .collect();
+    seed_vars.extend(extra_seeds.iter().cloned());
+    if seed_vars.is_empty() {
+        bail!(
+            "scenario {}: no seed parameter to vary: add [montecarlo] seeds = [\"inst.seed\"] or pass --seed-var",
+            plan.scenario.source.display()
+        );
+    }
+    let finished = AtomicUsize::new(0);
+    let outcomes: Vec<Result<(RunScores, NeesSeries)>> = (0..runs)
+        .into_par_iter()
+        .map(|i| {
+            let seed = first_seed + i as i32;
+            let options = RunOptions {
+                instance_suffix: format!("#run{i}"),
+                overrides: seed_vars
+                    .iter()
+                    .map(|r| (r.clone(), ParameterValue::Integer(seed)))
+                    .collect(),
+            };
+            let result = plan.run(&options, |_| {});
+            finished.fetch_add(1, Ordering::Relaxed);
+            on_done();
+            let result =
+                result.map_err(|e| e.context(format!("Monte Carlo run {i} (seed {seed})")))?;
+            let scores = scoring::score_run(&plan.scenario, &result);
+            Ok((scores, nees_series(plan, &result)))
+        })
+        .collect();
+    let mut per_run = Vec::with_capacity(runs);
+    for outcome in outcomes {
+        per_run.push(outcome?);
+    }
+    let n = runs as f64;
+    let band = (
+        chi_square_quantile(0.025, n) / n,
+        chi_square_quantile(0.975, n) / n,
+    );
+    let first = &per_run[0].0;
+    let mut states = Vec::new();
+    for (index, s) in first.states.iter().enumerate() {
+        let collect = |f: &dyn Fn(&scoring::StateScore) -> f64| -> Vec<f64> {
+            per_run
+                .iter()
+                .map(|(scores, _)| f(&scores.states[index]))
+                .collect()
+        };
+        let nees = s
+            .nees
+            .map(|_| Spread::of(&collect(&|x| x.nees.map_or(f64::NAN, |v| v.0))));
+        let key = (s.label.clone(), s.estimator.clone());
+        let consistency = per_run[0]
+            .1
+            .iter()
+            .position(|(k, _)| *k == key)
+            .map(|series_index| {
+                let length = per_run[0].1[series_index].1.len();
+                let mut inside = 0usize;
+                let mut counted = 0usize;
+                let mut total = 0.0;
+                for k in 0..length {
+                    let values: Vec<f64> = per_run
+                        .iter()
+                        .map(|(_, series)| series[series_index].1[k])
+                        .collect();
+                    if values.iter().any(|v| !v.is_finite()) {
+                        continue;
+                    }
+                    let mean = values.iter().sum::<f64>() / n;
+                    total += mean;
+                    counted += 1;
+                    if mean >= band.0 && mean <= band.1 {
+                        inside += 1;
+                    }
+                }
+                if counted == 0 {
+                    (f64::NAN, f64::NAN)
+                } else {
+                    (total / counted as f64, inside as f64 / counted as f64)
+                }
+            });
+        states.push(StateSummary {
+            label: s.label.clone(),
+            estimator: s.estimator.clone(),
+            unit: s.unit.clone(),
+            rmse: Spread::of(&collect(&|x| x.rmse)),
+            max_abs: Spread::of(&collect(&|x| x.max_abs)),
+            nees,
+            consistency,
+        });
+    }
+    let nis = first
+        .nis
+        .iter()
+        .enumerate()
+        .map(|(index, s)| NisSummary {
+            estimator: s.estimator.clone(),
+            mean_nis: Spread::of(
+                &per_run
+                    .iter()
+                    .map(|(r, _)| r.nis[index].mean_nis)
+                    .collect::<Vec<_>>(),
+            ),
+            mean_dof: s.mean_dof,
+        })
+        .collect();
+    let step_wall_time = first
+        .step_wall_time
+        .iter()
+        .enumerate()
+        .map(|(index, (name, _))| {
+            (
+                name.clone(),
+                Spread::of(
+                    &per_run
+                        .iter()
+                        .map(|(r, _)| r.step_wall_time[index].1)
+                        .collect::<Vec<_>>(),
+                ),
+            )
+        })
+        .collect();
+    Ok(MonteCarloSummary {
+        scenario: plan.scenario.name.clone(),
+        runs,
+        band,
+        states,
+        nis,
+        step_wall_time,
+    })
+}
+
+/// The summary as a Markdown document.
+pub fn to_markdown(summary: &MonteCarloSummary) -> String {
+    let mut md = format!(
+        "# Monte Carlo: {} ({} runs)\n\nMean ± sample standard deviation over the runs. \
+         ANEES = NEES averaged over runs and time; \"in band\" = fraction of communication points \
+         at which the run-averaged NEES lies in the 95 % band [{:.3}, {:.3}] of chi-square({})/{} \
+         (about 0.95 for a consistent filter).\n\n",
+        summary.scenario, summary.runs, summary.band.0, summary.band.1, summary.runs, summary.runs
+    );
+    md += "| state | estimator | RMSE | max abs error | time-avg NEES | ANEES | in band | unit |\n|---|---|---|---|---|---|---|---|\n";
+    for s in &summary.states {
+        let nees = s
+            .nees
+            .map_or("-".to_string(), |n| format!("{:.3} ± {:.3}", n.mean, n.std));
+        let (anees, inside) = s
+            .consistency
+            .map_or(("-".to_string(), "-".to_string()), |(a, f)| {
+                (format!("{a:.3}"), format!("{f:.3}"))
+            });
+        md += &format!(
+            "| {} | {} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} | {} | {} | {} | {} |\n",
+            s.label,
+            s.estimator,
+            s.rmse.mean,
+            s.rmse.std,
+            s.max_abs.mean,
+            s.max_abs.std,
+            nees,
+            anees,
+            inside,
+            s.unit
+        );
+    }
+    md += "\n| estimator | time-avg NIS | mean dof |\n|---|---|---|\n";
+    for n in &summary.nis {
+        md += &format!(
+            "| {} | {:.3} ± {:.3} | {:.2} |\n",
+            n.estimator, n.mean_nis.mean, n.mean_nis.std, n.mean_dof
+        );
+    }
+    md += "\n| instance | doStep wall time [µs] |\n|---|---|\n";
+    for (name, s) in &summary.step_wall_time {
+        md += &format!("| {name} | {:.2} ± {:.2} |\n", s.mean * 1e6, s.std * 1e6);
+    }
+    md
+}

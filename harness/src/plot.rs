@@ -1,0 +1,247 @@
+//! PNG plots with plotters. The DejaVu Sans font (harness/assets, Bitstream Vera licence) is
+//! compiled into the binary and registered with plotters' ab_glyph backend, so plots render the
+//! same on a machine without any system font.
+
+use std::path::Path;
+use std::sync::Once;
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use crate::cosim::RunResult;
+use crate::scenario::{Scenario, VarRef};
+use crate::scoring::matching_columns;
+
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+const FAMILY: &str = "sans-serif";
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // The bytes are a valid TrueType font shipped with the crate; a failure would be a
+        // packaging error that the plot tests catch.
+        let _ = plotters::style::register_font(FAMILY, FontStyle::Normal, FONT);
+    });
+}
+
+/// One line in a panel.
+pub struct Series {
+    pub name: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    /// The reference line (drawn thick, red, underneath).
+    pub is_truth: bool,
+}
+
+pub struct Panel {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+/// Colours of the estimators in order of appearance (seed 000 uses blue EKF, magenta UKF, green
+/// LKF against a red reference; our scenarios list LKF, EKF, UKF, UKF scaled, ...).
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 150, 0),
+    RGBColor(0, 70, 220),
+    RGBColor(210, 0, 210),
+    RGBColor(240, 140, 0),
+    RGBColor(0, 170, 190),
+    RGBColor(120, 70, 20),
+    RGBColor(90, 90, 90),
+    RGBColor(160, 160, 0),
+];
+const TRUTH: RGBColor = RGBColor(220, 0, 0);
+
+fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    let mut range: Option<(f64, f64)> = None;
+    for v in values.filter(|v| v.is_finite()) {
+        range = Some(match range {
+            None => (v, v),
+            Some((lo, hi)) => (lo.min(v), hi.max(v)),
+        });
+    }
+    range
+}
+
+/// Draw `panels` in a grid of `columns` columns into a PNG at `path`.
+pub fn draw_panels(path: &Path, title: &str, panels: &[Panel], columns: usize) -> Result<()> {
+    register_font();
+    let columns = columns.max(1).min(panels.len().max(1));
+    let rows = panels.len().div_ceil(columns).max(1);
+    let size = (620 * columns as u32, 330 * rows as u32 + 40);
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    let fail = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| fail(&e))?;
+    let root = root
+        .titled(title, (FAMILY, 22).into_font())
+        .map_err(|e| fail(&e))?;
+    let areas = root.split_evenly((rows, columns));
+    for (area, panel) in areas.iter().zip(panels) {
+        let x = finite_range(panel.series.iter().flat_map(|s| s.x.iter().copied()));
+        let y = finite_range(panel.series.iter().flat_map(|s| s.y.iter().copied()));
+        let (Some((x0, x1)), Some((y0, y1))) = (x, y) else {
+            continue;
+        };
+        let x1 = if x1 > x0 { x1 } else { x0 + 1.0 };
+        let span = (y1 - y0).max(1e-9 * y0.abs().max(1e-12));
+        let (y0, y1) = (y0 - 0.08 * span, y1 + 0.08 * span);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&panel.title, (FAMILY, 16).into_font())
+            .margin(8)
+            .x_label_area_size(36)
+            .y_label_area_size(72)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| fail(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(panel.x_label.as_str())
+            .y_desc(panel.y_label.as_str())
+            .label_style((FAMILY, 12).into_font())
+            .axis_desc_style((FAMILY, 13).into_font())
+            .light_line_style(WHITE.mix(0.0))
+            .draw()
+            .map_err(|e| fail(&e))?;
+        let mut colour = 0;
+        for series in &panel.series {
+            let style = if series.is_truth {
+                TRUTH.stroke_width(3)
+            } else {
+                let c = PALETTE[colour % PALETTE.len()];
+                colour += 1;
+                c.stroke_width(1)
+            };
+            let points = series
+                .x
+                .iter()
+                .zip(&series.y)
+                .filter(|(a, b)| a.is_finite() && b.is_finite())
+                .map(|(a, b)| (*a, *b));
+            chart
+                .draw_series(LineSeries::new(points, style))
+                .map_err(|e| fail(&e))?
+                .label(series.name.as_str())
+                .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], style));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FAMILY, 12).into_font())
+            .draw()
+            .map_err(|e| fail(&e))?;
+    }
+    root.present().map_err(|e| fail(&e))?;
+    Ok(())
+}
+
+/// Panels "estimators against truth" for the scenario's score labels (in scenario order),
+/// values multiplied by each score's display scale.
+pub fn estimate_panels(scenario: &Scenario, result: &RunResult, labels: &[String]) -> Vec<Panel> {
+    let mut panels = Vec::new();
+    for label in labels {
+        let Some(section) = scenario.scores.iter().find(|s| &s.label == label) else {
+            continue;
+        };
+        let Some(truth) = result.column(&section.truth) else {
+            continue;
+        };
+        let scale = section.display_scale.unwrap_or(1.0);
+        let unit = section
+            .display_unit
+            .clone()
+            .unwrap_or_else(|| section.unit.clone());
+        let truth_name = VarRef::parse(&section.truth)
+            .map(|r| format!("truth ({})", r.instance))
+            .unwrap_or_else(|| "truth".into());
+        let mut series = vec![Series {
+            name: truth_name,
+            x: result.times.clone(),
+            y: truth.iter().map(|v| v * scale).collect(),
+            is_truth: true,
+        }];
+        for (instance, column) in matching_columns(result, &section.estimate) {
+            series.push(Series {
+                name: instance,
+                x: result.times.clone(),
+                y: result.data[column].iter().map(|v| v * scale).collect(),
+                is_truth: false,
+            });
+        }
+        panels.push(Panel {
+            title: label.clone(),
+            x_label: "t [s]".into(),
+            y_label: if unit.is_empty() {
+                label.clone()
+            } else {
+                format!("{label} [{unit}]")
+            },
+            series,
+        });
+    }
+    panels
+}
+
+/// Panels of the manoeuvre's signals as recorded (steering wheel in degrees, torques) and, for a
+/// closed-loop manoeuvre, the driven path against the course centre line.
+pub fn manoeuvre_panels(result: &RunResult, course: Option<&dyn Fn(f64) -> f64>) -> Vec<Panel> {
+    let mut panels = Vec::new();
+    let line = |column: &str, scale: f64| {
+        result.column(column).map(|v| Series {
+            name: column.to_string(),
+            x: result.times.clone(),
+            y: v.iter().map(|x| x * scale).collect(),
+            is_truth: false,
+        })
+    };
+    if let Some(s) = line(
+        "manoeuvre.steering_wheel_angle",
+        180.0 / std::f64::consts::PI,
+    ) {
+        panels.push(Panel {
+            title: "steering-wheel angle".into(),
+            x_label: "t [s]".into(),
+            y_label: "[deg]".into(),
+            series: vec![s],
+        });
+    }
+    let torques: Vec<Series> = ["manoeuvre.drive_torque", "manoeuvre.brake_torque"]
+        .iter()
+        .filter_map(|c| line(c, 1.0))
+        .collect();
+    if !torques.is_empty() {
+        panels.push(Panel {
+            title: "drive and brake torque".into(),
+            x_label: "t [s]".into(),
+            y_label: "[N·m]".into(),
+            series: torques,
+        });
+    }
+    if let (Some(x), Some(y), Some(course)) =
+        (result.column("driver.x"), result.column("driver.y"), course)
+    {
+        panels.push(Panel {
+            title: "path: driven (master-integrated) vs course centre line".into(),
+            x_label: "x [m]".into(),
+            y_label: "y [m]".into(),
+            series: vec![
+                Series {
+                    name: "course".into(),
+                    x: x.to_vec(),
+                    y: x.iter().map(|&p| course(p)).collect(),
+                    is_truth: true,
+                },
+                Series {
+                    name: "vehicle".into(),
+                    x: x.to_vec(),
+                    y: y.to_vec(),
+                    is_truth: false,
+                },
+            ],
+        });
+    }
+    panels
+}

@@ -1,0 +1,553 @@
+//! Scenario files (TOML): which FMUs, their parameters, the connections, the input signals from
+//! the manoeuvre library, the communication step, the stop time, what to record and score.
+//!
+//! The format is documented for users in `harness/scenarios/README.md`; in short:
+//!
+//! ```toml
+//! name = "ramp_high_ay"
+//! step = 0.001            # communication step h [s]; points are t0 + n h
+//! # start_time = 0.0      # t0
+//! # stop_time = 12.0      # default: the manoeuvre's duration
+//! [manoeuvre]
+//! library = "seed000_ramp_high_ay"   # or [manoeuvre.custom] kind = "steer_ramp" ...
+//! [[fmu]]
+//! name = "vehicle"                   # instance name, unique, no '.'
+//! path = "{fmu_dir}/ReferenceVehicle.fmu"   # relative to this file; {fmu_dir} from the CLI
+//! parameters = { model = 1, seed = 7 }
+//! [[connection]]
+//! from = "vehicle"                   # "inst" = every output of inst to the same-named input
+//! to = "ekf"                         # or "inst.variable" on both sides
+//! [[input]]
+//! signal = "steering_angle"          # a manoeuvre channel
+//! to = ["*.steering_angle"]          # '*' = every FMU having that input (or parameter)
+//! [record]
+//! variables = ["*.*"]                # default: every output of every FMU
+//! [[score]]
+//! label = "vy"; unit = "m/s"; truth = "vehicle.vy"; estimate = "*.vy_est"; std = "*.vy_std"
+//! [[nis]]
+//! nis = "*.nis"; dof = "*.rows_used"
+//! ```
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::manoeuvre::{self, Channel, Manoeuvre};
+
+/// A scenario file could not be used. The message names the file and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("scenario {path}: cannot read the file: {source}")]
+    Unreadable {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("scenario {path}: {message}")]
+    Syntax { path: PathBuf, message: String },
+    #[error("scenario {path}: field `{field}`: {message}")]
+    Field {
+        path: PathBuf,
+        field: String,
+        message: String,
+    },
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub start_time: f64,
+    #[serde(default)]
+    pub stop_time: Option<f64>,
+    /// Communication step h [s].
+    pub step: f64,
+    #[serde(default)]
+    pub manoeuvre: Option<ManoeuvreSection>,
+    #[serde(default, rename = "fmu")]
+    pub fmus: Vec<FmuSection>,
+    #[serde(default, rename = "connection")]
+    pub connections: Vec<ConnectionSection>,
+    #[serde(default, rename = "input")]
+    pub inputs: Vec<InputSection>,
+    #[serde(default)]
+    pub record: RecordSection,
+    #[serde(default, rename = "score")]
+    pub scores: Vec<ScoreSection>,
+    #[serde(default, rename = "nis")]
+    pub nis: Vec<NisSection>,
+    #[serde(default)]
+    pub montecarlo: MonteCarloSection,
+    /// Folder of the file (relative FMU paths are resolved against it).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+    /// The file the scenario came from (for messages).
+    #[serde(skip)]
+    pub source: PathBuf,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ManoeuvreSection {
+    /// Name of a library manoeuvre (see `manoeuvre::LIBRARY`).
+    #[serde(default)]
+    pub library: Option<String>,
+    /// A manoeuvre defined in place: `kind = "..."` plus that kind's fields.
+    #[serde(default)]
+    pub custom: Option<Manoeuvre>,
+    /// Where a closed-loop manoeuvre reads the vehicle's motion ("inst.variable").
+    #[serde(default)]
+    pub feedback: Option<FeedbackSection>,
+    /// Sine with dwell only: derive the amplitude from a slowly increasing steer scenario.
+    #[serde(default)]
+    pub amplitude_from_sis: Option<AmplitudeFromSis>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedbackSection {
+    pub longitudinal_velocity: String,
+    pub lateral_velocity: String,
+    pub yaw_rate: String,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AmplitudeFromSis {
+    /// Scenario file (relative to this one) running the slowly increasing steer.
+    pub scenario: String,
+    /// Recorded lateral acceleration in that scenario ("inst.variable").
+    pub lateral_acceleration: String,
+    /// Multiple of the steering-wheel angle at 0.3 g (FMVSS 126 uses 1.5 ... 6.5).
+    pub scale: f64,
+    /// Upper bound of the amplitude [deg] (FMVSS 126: 270).
+    #[serde(default = "default_amplitude_cap")]
+    pub max_amplitude_deg: f64,
+}
+
+fn default_amplitude_cap() -> f64 {
+    270.0
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FmuSection {
+    pub name: String,
+    pub path: String,
+    /// Parameter values set after instantiation, before initialisation.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, toml::Value>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectionSection {
+    pub from: String,
+    pub to: String,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputSection {
+    /// Manoeuvre channel: steering_angle, steering_wheel_angle, drive_torque, brake_torque,
+    /// initial_speed.
+    pub signal: String,
+    pub to: Vec<String>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecordSection {
+    #[serde(default = "default_record")]
+    pub variables: Vec<String>,
+}
+
+impl Default for RecordSection {
+    fn default() -> Self {
+        RecordSection {
+            variables: default_record(),
+        }
+    }
+}
+
+fn default_record() -> Vec<String> {
+    vec!["*.*".to_string()]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScoreSection {
+    /// Name of the estimated quantity in tables and plots.
+    pub label: String,
+    #[serde(default)]
+    pub unit: String,
+    /// "inst.variable" of the truth.
+    pub truth: String,
+    /// "inst.variable" of the estimate; '*' as instance = every FMU having that variable.
+    pub estimate: String,
+    /// One-sigma output of the estimate (same instance), for NEES.
+    #[serde(default)]
+    pub std: Option<String>,
+    /// Factor applied to errors in the report (e.g. 57.29577951308232 for rad -> deg).
+    #[serde(default)]
+    pub display_scale: Option<f64>,
+    #[serde(default)]
+    pub display_unit: Option<String>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NisSection {
+    /// "inst.variable" of the normalised innovation squared; '*' allowed.
+    pub nis: String,
+    /// "inst.variable" holding the degrees of freedom of each NIS value (same instance), or a
+    /// number.
+    pub dof: toml::Value,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MonteCarloSection {
+    /// Integer parameters ("inst.variable") set to base + run index in run `run`.
+    #[serde(default)]
+    pub seeds: Vec<String>,
+}
+
+/// A reference "inst.variable"; the instance may be '*'.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct VarRef {
+    pub instance: String,
+    pub variable: String,
+}
+
+impl VarRef {
+    /// Split at the first '.' (instance names contain none; variable names may).
+    pub fn parse(text: &str) -> Option<VarRef> {
+        let (instance, variable) = text.split_once('.')?;
+        if instance.is_empty() || variable.is_empty() {
+            return None;
+        }
+        Some(VarRef {
+            instance: instance.to_string(),
+            variable: variable.to_string(),
+        })
+    }
+}
+
+impl std::fmt::Display for VarRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}.{}", self.instance, self.variable)
+    }
+}
+
+impl Scenario {
+    pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Unreadable {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        Scenario::from_str_at(&text, path, &base)
+    }
+
+    /// Parse `text` as if read from `path` (messages name it), FMU paths relative to `base_dir`.
+    pub fn from_str_at(
+        text: &str,
+        path: &Path,
+        base_dir: &Path,
+    ) -> Result<Scenario, ScenarioError> {
+        let mut scenario: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
+            path: path.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        scenario.base_dir = base_dir.to_path_buf();
+        scenario.source = path.to_path_buf();
+        scenario.validate()?;
+        Ok(scenario)
+    }
+
+    fn field_error(&self, field: impl Into<String>, message: impl Into<String>) -> ScenarioError {
+        ScenarioError::Field {
+            path: self.source.clone(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Checks that need no FMU: numbers, names, references.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        if self.name.trim().is_empty() {
+            return Err(self.field_error("name", "must not be empty"));
+        }
+        if !(self.step.is_finite() && self.step > 0.0) {
+            return Err(self.field_error(
+                "step",
+                format!(
+                    "communication step must be a positive number of seconds, got {}",
+                    self.step
+                ),
+            ));
+        }
+        if !self.start_time.is_finite() {
+            return Err(self.field_error("start_time", "must be a finite number"));
+        }
+        self.manoeuvre()?;
+        let stop = self.stop_time()?;
+        if stop <= self.start_time {
+            return Err(self.field_error(
+                "stop_time",
+                format!(
+                    "must be after start_time ({} s), got {stop} s",
+                    self.start_time
+                ),
+            ));
+        }
+        self.step_count()?;
+        if self.fmus.is_empty() {
+            return Err(self.field_error("fmu", "at least one [[fmu]] is needed"));
+        }
+        let mut names = HashSet::new();
+        for (i, fmu) in self.fmus.iter().enumerate() {
+            let field = format!("fmu[{i}].name");
+            if fmu.name.is_empty() || fmu.name.contains('.') || fmu.name == "*" {
+                return Err(self.field_error(
+                    field,
+                    format!(
+                        "instance name {:?} must be non-empty, without '.', not '*'",
+                        fmu.name
+                    ),
+                ));
+            }
+            if fmu.name == "manoeuvre" || fmu.name == "driver" {
+                return Err(self.field_error(
+                    field,
+                    format!(
+                        "instance name {:?} is reserved for the master's own signals",
+                        fmu.name
+                    ),
+                ));
+            }
+            if !names.insert(fmu.name.as_str()) {
+                return Err(
+                    self.field_error(field, format!("instance name {:?} used twice", fmu.name))
+                );
+            }
+            if fmu.path.trim().is_empty() {
+                return Err(self.field_error(format!("fmu[{i}].path"), "must name an .fmu file"));
+            }
+        }
+        let known = |instance: &str| instance == "*" || names.contains(instance);
+        for (i, c) in self.connections.iter().enumerate() {
+            for (side, text) in [("from", &c.from), ("to", &c.to)] {
+                let instance = text.split_once('.').map_or(text.as_str(), |(a, _)| a);
+                if instance == "*" || !names.contains(instance) {
+                    return Err(self.field_error(
+                        format!("connection[{i}].{side}"),
+                        format!(
+                            "{text:?}: no [[fmu]] named {instance:?} (instances: {})",
+                            self.instance_list()
+                        ),
+                    ));
+                }
+            }
+            if c.from.contains('.') != c.to.contains('.') {
+                return Err(self.field_error(
+                    format!("connection[{i}]"),
+                    "either both sides are \"inst.variable\" or both are instance names (connect by name)",
+                ));
+            }
+        }
+        for (i, input) in self.inputs.iter().enumerate() {
+            if Channel::from_name(&input.signal).is_none() {
+                let channels: Vec<_> = Channel::ALL.iter().map(|c| c.name()).collect();
+                return Err(self.field_error(
+                    format!("input[{i}].signal"),
+                    format!(
+                        "unknown manoeuvre signal {:?}; expected one of {}",
+                        input.signal,
+                        channels.join(", ")
+                    ),
+                ));
+            }
+            if self.manoeuvre.is_none() {
+                return Err(self.field_error(
+                    format!("input[{i}]"),
+                    "manoeuvre signals need a [manoeuvre] section",
+                ));
+            }
+            for (j, target) in input.to.iter().enumerate() {
+                self.check_ref(&format!("input[{i}].to[{j}]"), target, &known)?;
+            }
+        }
+        for (i, pattern) in self.record.variables.iter().enumerate() {
+            self.check_ref(&format!("record.variables[{i}]"), pattern, &known)?;
+        }
+        for (i, s) in self.scores.iter().enumerate() {
+            if s.label.trim().is_empty() {
+                return Err(self.field_error(format!("score[{i}].label"), "must not be empty"));
+            }
+            self.check_ref(&format!("score[{i}].truth"), &s.truth, &|n: &str| {
+                names.contains(n)
+            })?;
+            self.check_ref(&format!("score[{i}].estimate"), &s.estimate, &known)?;
+            if let Some(std) = &s.std {
+                self.check_ref(&format!("score[{i}].std"), std, &known)?;
+            }
+        }
+        for (i, n) in self.nis.iter().enumerate() {
+            self.check_ref(&format!("nis[{i}].nis"), &n.nis, &known)?;
+            match &n.dof {
+                toml::Value::Integer(d) if *d > 0 => {}
+                toml::Value::String(s) => self.check_ref(&format!("nis[{i}].dof"), s, &known)?,
+                other => {
+                    return Err(self.field_error(
+                        format!("nis[{i}].dof"),
+                        format!("expected a positive integer or \"inst.variable\", got {other}"),
+                    ))
+                }
+            }
+        }
+        for (i, s) in self.montecarlo.seeds.iter().enumerate() {
+            self.check_ref(&format!("montecarlo.seeds[{i}]"), s, &|n: &str| {
+                names.contains(n)
+            })?;
+        }
+        if let Some(section) = &self.manoeuvre {
+            if let Some(fb) = &section.feedback {
+                for (field, text) in [
+                    ("longitudinal_velocity", &fb.longitudinal_velocity),
+                    ("lateral_velocity", &fb.lateral_velocity),
+                    ("yaw_rate", &fb.yaw_rate),
+                ] {
+                    self.check_ref(&format!("manoeuvre.feedback.{field}"), text, &|n: &str| {
+                        names.contains(n)
+                    })?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn instance_list(&self) -> String {
+        self.fmus
+            .iter()
+            .map(|f| f.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    fn check_ref(
+        &self,
+        field: &str,
+        text: &str,
+        known: &dyn Fn(&str) -> bool,
+    ) -> Result<(), ScenarioError> {
+        let Some(r) = VarRef::parse(text) else {
+            return Err(self.field_error(
+                field,
+                format!("{text:?} is not of the form \"instance.variable\""),
+            ));
+        };
+        if !known(&r.instance) {
+            return Err(self.field_error(
+                field,
+                format!(
+                    "{text:?}: no [[fmu]] named {:?} (instances: {})",
+                    r.instance,
+                    self.instance_list()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The manoeuvre, from the library or defined in place.
+    pub fn manoeuvre(&self) -> Result<Option<Manoeuvre>, ScenarioError> {
+        let Some(section) = &self.manoeuvre else {
+            return Ok(None);
+        };
+        let m = match (&section.library, &section.custom) {
+            (Some(name), None) => manoeuvre::library(name).ok_or_else(|| {
+                self.field_error(
+                    "manoeuvre.library",
+                    format!(
+                        "unknown manoeuvre {name:?}; the library has {}",
+                        manoeuvre::LIBRARY.join(", ")
+                    ),
+                )
+            })?,
+            (None, Some(m)) => m.clone(),
+            _ => {
+                return Err(self.field_error(
+                    "manoeuvre",
+                    "give exactly one of `library = \"name\"` and a [manoeuvre.custom] table",
+                ))
+            }
+        };
+        m.validate()
+            .map_err(|message| self.field_error("manoeuvre", message))?;
+        if m.needs_feedback() && section.feedback.is_none() {
+            return Err(self.field_error(
+                "manoeuvre.feedback",
+                "this manoeuvre is closed-loop: give longitudinal_velocity, lateral_velocity and \
+                 yaw_rate as \"inst.variable\"",
+            ));
+        }
+        if section.amplitude_from_sis.is_some() && !matches!(m, Manoeuvre::SineWithDwell(_)) {
+            return Err(self.field_error(
+                "manoeuvre.amplitude_from_sis",
+                "only a sine-with-dwell manoeuvre takes its amplitude from a slowly increasing steer run",
+            ));
+        }
+        Ok(Some(m))
+    }
+
+    pub fn stop_time(&self) -> Result<f64, ScenarioError> {
+        match (self.stop_time, self.manoeuvre()?) {
+            (Some(t), _) if t.is_finite() => Ok(t),
+            (Some(t), _) => Err(self.field_error("stop_time", format!("must be finite, got {t}"))),
+            (None, Some(m)) => Ok(self.start_time + m.duration()),
+            (None, None) => {
+                Err(self.field_error("stop_time", "needed when there is no [manoeuvre]"))
+            }
+        }
+    }
+
+    /// Number of communication steps N: the points are t0 + n h, n = 0..=N, and t0 + N h must be
+    /// the stop time (to 1e-9 relative), so the run ends exactly there.
+    pub fn step_count(&self) -> Result<u64, ScenarioError> {
+        let span = self.stop_time()? - self.start_time;
+        let steps = span / self.step;
+        let rounded = steps.round();
+        if (steps - rounded).abs() > 1e-9 * steps.max(1.0) || rounded < 1.0 {
+            return Err(self.field_error(
+                "step",
+                format!(
+                    "stop_time - start_time = {span} s is not a whole number of communication steps of {} s",
+                    self.step
+                ),
+            ));
+        }
+        Ok(rounded as u64)
+    }
+
+    /// Communication point n: t0 + n h (never accumulated, so no drift).
+    pub fn time_of(&self, n: u64) -> f64 {
+        self.start_time + n as f64 * self.step
+    }
+
+    /// Path of FMU section `index`, `{fmu_dir}` replaced, relative paths against the file's folder.
+    pub fn fmu_path(&self, index: usize, fmu_dir: &Path) -> PathBuf {
+        let raw = &self.fmus[index].path;
+        let replaced = raw.replace("{fmu_dir}", &fmu_dir.to_string_lossy());
+        let p = PathBuf::from(replaced);
+        if p.is_absolute() {
+            p
+        } else {
+            self.base_dir.join(p)
+        }
+    }
+}
