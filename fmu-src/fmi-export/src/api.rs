@@ -853,7 +853,7 @@ impl<M: CoSimulationModel> Snapshot<M> {
     const MAGIC: &'static [u8; 8] = b"RSFMI2ST";
     const FORMAT_VERSION: u32 = 1;
 
-    fn serialize(&self) -> Vec<u8> {
+    fn serialize(&self) -> Result<Vec<u8>, String> {
         let mut writer = StateWriter::new();
         for &byte in Self::MAGIC {
             writer.u8(byte);
@@ -868,8 +868,8 @@ impl<M: CoSimulationModel> Snapshot<M> {
         writer.f64(self.last_successful_time);
         writer.bool(self.needs_initialization);
         self.model.variables().write_state(&mut writer);
-        self.model.write_state(&mut writer);
-        writer.into_bytes()
+        self.model.write_state(&mut writer)?;
+        Ok(writer.into_bytes())
     }
 
     fn deserialize(bytes: &[u8], context: &InstantiationContext) -> Result<Self, String> {
@@ -1016,8 +1016,13 @@ pub unsafe fn serialized_fmu_state_size<M: CoSimulationModel>(
                 ));
             }
             let snapshot = &*(state as *const Snapshot<M>);
-            *size = snapshot.serialize().len();
-            Outcome::Ok
+            match snapshot.serialize() {
+                Ok(bytes) => {
+                    *size = bytes.len();
+                    Outcome::Ok
+                }
+                Err(message) => Outcome::Error(format!("fmi2SerializedFMUstateSize: {message}")),
+            }
         })
     }
 }
@@ -1040,7 +1045,10 @@ pub unsafe fn serialize_fmu_state<M: CoSimulationModel>(
                 ));
             }
             let snapshot = &*(state as *const Snapshot<M>);
-            let serialized = snapshot.serialize();
+            let serialized = match snapshot.serialize() {
+                Ok(bytes) => bytes,
+                Err(message) => return Outcome::Error(format!("fmi2SerializeFMUstate: {message}")),
+            };
             if serialized.len() != size {
                 return Outcome::Error(format!(
                     "fmi2SerializeFMUstate: size is {size}; expected {} (from fmi2SerializedFMUstateSize)",

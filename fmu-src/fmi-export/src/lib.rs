@@ -108,8 +108,9 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     /// currently set, and updates the outputs. Must not allocate on the heap in the normal path.
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome;
 
-    /// Appends the internal state (everything beyond the variables) for fmi2SerializeFMUstate.
-    fn write_state(&self, writer: &mut StateWriter);
+    /// Appends the internal state (everything beyond the variables) for fmi2SerializeFMUstate;
+    /// `Err` (a message) when this state cannot be serialized.
+    fn write_state(&self, writer: &mut StateWriter) -> Result<(), String>;
 
     /// Restores what [`CoSimulationModel::write_state`] wrote, into an instance created by
     /// [`CoSimulationModel::instantiate`] whose variables have already been restored.

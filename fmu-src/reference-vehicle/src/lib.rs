@@ -525,7 +525,7 @@ impl CoSimulationModel for ReferenceVehicle {
         }
     }
 
-    fn write_state(&self, writer: &mut StateWriter) {
+    fn write_state(&self, writer: &mut StateWriter) -> Result<(), String> {
         match &self.simulation {
             None => writer.bool(false),
             Some(simulation) => {
@@ -533,6 +533,7 @@ impl CoSimulationModel for ReferenceVehicle {
                 simulation.write_state(writer);
             }
         }
+        Ok(())
     }
 
     fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
