@@ -41,7 +41,10 @@ pub use reference::{
     ReferenceModelKind, ReferenceVehicle, ReferenceVehicleError, ReferenceVehicleParams,
 };
 pub use scalar::{Dual, Scalar};
-pub use single_track::{SingleTrackHsri, SingleTrackModel, SingleTrackParams, SingleTrackState};
+pub use single_track::{
+    SingleTrackHsri, SingleTrackLinearisation, SingleTrackModel, SingleTrackParams,
+    SingleTrackState,
+};
 pub use truth::VehicleTruth;
 pub use two_track::{TwoTrackMagicFormula, TwoTrackModel, TwoTrackParams, TwoTrackState};
 pub use two_track_lateral::{TwoTrackLateralMagicFormula, TwoTrackLateralModel};

@@ -629,4 +629,81 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let e = self.evaluate::<f64>(&x.data.0[0], &u.data.0[0]);
         e.front.wheel_velocity
     }
+
+    /// The linearisation of the discrete model about `(x0, u0)` (000: 5.58-5.62 take it about
+    /// straight driving, see [`SingleTrackModel::seed_operating_point`]), with the exact
+    /// Jacobians.
+    pub fn linearise(
+        &self,
+        state: &SingleTrackState,
+        input: &DriverInputVector,
+        dt: f64,
+        integrator: Integrator,
+    ) -> SingleTrackLinearisation {
+        let (transition, input_matrix) = self.step_jacobians(state, input, dt, integrator);
+        let (output, feedthrough) = self.measurement_jacobians(state, input);
+        SingleTrackLinearisation {
+            state: *state,
+            input: *input,
+            next_state: self.step(state, input, dt, integrator),
+            measurement: self.measurement(state, input),
+            transition,
+            input_matrix,
+            output,
+            feedthrough,
+        }
+    }
+
+    /// The LKF operating point of seed 000: straight driving at `vx0 = 18 m/s`, `vy0 = 0`,
+    /// `r0 = 0`, `ωF0 = ωR0 = 60 rad/s`, no steering, drive or brake torque (000: ch. 7 intro).
+    pub fn seed_operating_point() -> (SingleTrackState, DriverInputVector) {
+        (
+            SingleTrackState::new(
+                crate::manoeuvre::SEED_INITIAL_SPEED,
+                0.0,
+                0.0,
+                crate::manoeuvre::SEED_INITIAL_WHEEL_SPEED,
+                crate::manoeuvre::SEED_INITIAL_WHEEL_SPEED,
+            ),
+            DriverInputVector::zeros(),
+        )
+    }
+}
+
+/// Model A linearised about `(x0, u0)`:
+/// `x(k+1) ≈ f(x0, u0) + A (x − x0) + B (u − u0)`, `y ≈ h(x0, u0) + C (x − x0) + D (u − u0)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SingleTrackLinearisation {
+    /// Operating state `x0`.
+    pub state: SingleTrackState,
+    /// Operating input `u0`.
+    pub input: DriverInputVector,
+    /// `f(x0, u0)`.
+    pub next_state: SingleTrackState,
+    /// `h(x0, u0)`.
+    pub measurement: SingleTrackMeasurement,
+    /// `A = ∂f/∂x`.
+    pub transition: SMatrix<f64, STATE_DIM, STATE_DIM>,
+    /// `B = ∂f/∂u`.
+    pub input_matrix: SMatrix<f64, STATE_DIM, INPUT_DIM>,
+    /// `C = ∂h/∂x`.
+    pub output: SMatrix<f64, MEASUREMENT_DIM, STATE_DIM>,
+    /// `D = ∂h/∂u`.
+    pub feedthrough: SMatrix<f64, MEASUREMENT_DIM, INPUT_DIM>,
+}
+
+impl SingleTrackLinearisation {
+    /// The linear one-step prediction.
+    pub fn step(&self, x: &SingleTrackState, u: &DriverInputVector) -> SingleTrackState {
+        self.next_state + self.transition * (x - self.state) + self.input_matrix * (u - self.input)
+    }
+
+    /// The linear measurement.
+    pub fn measurement(
+        &self,
+        x: &SingleTrackState,
+        u: &DriverInputVector,
+    ) -> SingleTrackMeasurement {
+        self.measurement + self.output * (x - self.state) + self.feedthrough * (u - self.input)
+    }
 }
