@@ -1,0 +1,127 @@
+//! One doStep of the VehicleStateEstimator (communication step = sample time = 1 ms, so exactly
+//! one filter sample per doStep) through the C ABI, next to the same step on the model struct
+//! without the FMI layer and the bare filter step (measurement update + time update of the
+//! `estimation` crate's filter). Run with:
+//!
+//! ```text
+//! CARGO_TARGET_DIR=target/bench cargo bench -p vehicle-state-estimator --bench do_step
+//! ```
+//!
+//! `fmi2_do_step` − `model_do_step` is what the FMI layer (state machine, argument and time
+//! checks, catch_unwind) adds; `model_do_step` − `bare_filter_step` is the FMU's own work around
+//! the filter (sample clock, input checks, derived outputs and standard deviations).
+
+use std::cell::Cell;
+
+use divan::Bencher;
+use fmi_export::testing::Slave;
+use fmi_export::{CoSimulationModel, InstantiationContext};
+use nalgebra::SVector;
+use VehicleStateEstimator::model_description::{estimator_kind, vr, Variables, GUID};
+use VehicleStateEstimator::{filter_a, initial_estimate_a, model_a, VehicleStateEstimator as Fmu};
+
+fn main() {
+    divan::main();
+}
+
+const STEP: f64 = 0.001;
+const ESTIMATORS: [(&str, i32); 6] = [
+    ("lkf", estimator_kind::LKF),
+    ("ekf", estimator_kind::EKF),
+    ("ukf", estimator_kind::UKF),
+    ("ukf_scaled", estimator_kind::UKF_SCALED),
+    ("luenberger", estimator_kind::LUENBERGER),
+    ("particle_filter_500", estimator_kind::PARTICLE_FILTER),
+];
+const NAMES: [&str; 6] = [
+    "lkf",
+    "ekf",
+    "ukf",
+    "ukf_scaled",
+    "luenberger",
+    "particle_filter_500",
+];
+/// A left turn at 18 m/s as the sensors see it.
+const MEASUREMENT: [f64; 4] = [0.1, 1.8, 60.0, 60.0];
+
+fn estimator(name: &str) -> i32 {
+    ESTIMATORS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .expect("known")
+        .1
+}
+
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn bare_filter_step(bencher: Bencher, name: &str) {
+    let variables = Variables {
+        estimator: estimator(name),
+        ..Variables::default()
+    };
+    let model = model_a(&variables).expect("model");
+    let initial = initial_estimate_a(&variables).expect("initial");
+    let mut filter = filter_a(&variables, model, &initial).expect("filter");
+    let input = SVector::<f64, 3>::new(0.05, 0.0, 0.0);
+    let measurement = SVector::<f64, 4>::from(MEASUREMENT);
+    bencher.bench_local(|| {
+        let estimator = filter.estimator_mut();
+        let report = estimator.update(divan::black_box(&measurement), &input, &[true; 4]);
+        let predicted = estimator.predict(&input);
+        divan::black_box((report.is_ok(), predicted.is_ok()))
+    });
+}
+
+fn with_inputs(variables: &mut Variables) {
+    variables.steering_angle = 0.05;
+    variables.yaw_rate_meas = MEASUREMENT[0];
+    variables.ay_meas = MEASUREMENT[1];
+    variables.omega_front_meas = MEASUREMENT[2];
+    variables.omega_rear_meas = MEASUREMENT[3];
+}
+
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn model_do_step(bencher: Bencher, name: &str) {
+    let mut fmu = Fmu::instantiate(&InstantiationContext {
+        instance_name: String::from("bench"),
+        resource_location: None,
+    });
+    fmu.variables_mut().estimator = estimator(name);
+    with_inputs(fmu.variables_mut());
+    fmu.initialize(0.0).expect("initialise");
+    let time = Cell::new(0.0);
+    bencher.bench_local(|| {
+        let t = time.get();
+        let outcome = fmu.do_step(t, STEP);
+        time.set(t + STEP);
+        divan::black_box(outcome)
+    });
+}
+
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn fmi2_do_step(bencher: Bencher, name: &str) {
+    let mut slave = Slave::instantiate(
+        fmi_export::fmi2_api_of!(VehicleStateEstimator),
+        "bench",
+        GUID,
+    )
+    .expect("instantiate");
+    slave.set_integer(vr::ESTIMATOR, estimator(name));
+    slave.set_real(vr::STEERING_ANGLE, 0.05);
+    slave.set_reals(
+        &[
+            vr::YAW_RATE_MEAS,
+            vr::AY_MEAS,
+            vr::OMEGA_FRONT_MEAS,
+            vr::OMEGA_REAR_MEAS,
+        ],
+        &MEASUREMENT,
+    );
+    slave.initialize(0.0);
+    let time = Cell::new(0.0);
+    bencher.bench_local(|| {
+        let t = time.get();
+        let status = slave.do_step(t, STEP);
+        time.set(t + STEP);
+        divan::black_box(status)
+    });
+}
