@@ -97,3 +97,47 @@ def test_lkf_is_visibly_off(high_ramp_run):
     assert lkf > 10 * best
     assert lkf > 1e-2
     assert np.max(np.abs(high_ramp_run["truth"]["vy"])) > 0.1
+
+
+def test_ekf_recovers_when_the_sensors_start_at_zero(vehicle, estimator, vehicle_dir, estimator_dir):
+    """Sensor signals read 0 until the bus delivers its first values (and fmpy's SSP master, which
+    starts every connection at 0.0, does exactly this for one step). After 10 ms of zeros the
+    estimator gets the true signals and must find the vehicle again instead of locking up."""
+    reference = support.Slave(vehicle, vehicle_dir, "reference")
+    ekf = support.Slave(estimator, estimator_dir, "ekf")
+    try:
+        reference.initialise(support.seed000_vehicle_parameters(vehicle))
+        ekf.initialise(support.seed000_estimator_parameters(estimator, vehicle, "ekf"))
+        driver_vehicle = reference.real_references(support.DRIVER_INPUTS)
+        measured = reference.real_references(support.SENSOR_SIGNALS)
+        truth_references = reference.real_references(["vx", "vy"])
+        filter_inputs = ekf.real_references(support.DRIVER_INPUTS + support.SENSOR_SIGNALS)
+        filter_outputs = ekf.real_references(["vx_est", "vy_est"])
+        status = [estimator.vr("status")]
+        steps = 6000
+        truth = np.zeros((steps, 2))
+        estimate = np.zeros((steps, 2))
+        statuses = np.zeros(steps, dtype=int)
+        time = 0.0
+        for k in range(steps):
+            driver = [float(support.steering_ramp(time, support.MODERATE_RAMP_ANGLE)), 0.0, 0.0]
+            reference.fmu.setReal(driver_vehicle, driver)
+            reference.fmu.doStep(currentCommunicationPoint=time, communicationStepSize=STEP)
+            measurements = reference.fmu.getReal(measured) if k >= 10 else [0.0] * len(measured)
+            ekf.fmu.setReal(filter_inputs, driver + list(measurements))
+            ekf.fmu.doStep(currentCommunicationPoint=time, communicationStepSize=STEP)
+            truth[k] = reference.fmu.getReal(truth_references)
+            estimate[k] = ekf.fmu.getReal(filter_outputs)
+            statuses[k] = ekf.fmu.getInteger(status)[0]
+            time += STEP
+    finally:
+        reference.free()
+        ekf.free()
+    assert np.all(np.isfinite(estimate))
+    late = slice(3000, steps)
+    vx_error = np.max(np.abs(estimate[late, 0] - truth[late, 0]))
+    vy_error = support.rmse(estimate[late, 1], truth[late, 1])
+    assert vx_error < 0.1 and vy_error < 1e-2, (
+        f"3 s after the sensors came up the EKF is still off: max |vx_est - vx| = {vx_error:.3g} m/s "
+        f"(vx_est = {estimate[-1, 0]:.4g}), vy RMSE {vy_error:.3g} m/s, status bits seen "
+        f"{sorted(set(statuses[late].tolist()))}")
