@@ -5,14 +5,20 @@
 //! the value references, GUID and start values are generated from it at build time.
 //!
 //! - **Vehicle.** Model A (`model = 1`): the 5-state single-track model with HSRI tyres of seed
-//!   000 from the `vehicle-models` crate, discretised with the seed-000 scheme (000: 6.1-6.5) or
-//!   RK4 (`integrator`). The car starts driving straight at `vx0` with freely rolling wheels.
+//!   000; model B (`model = 2`): the 7-state two-track model with roll-moment load transfer and
+//!   Magic Formula tyres of seed 001, the same car (the vehicle parameters apply to both; the
+//!   Magic Formula tyre is matched to the HSRI `tyre_*` parameters). Both come from the
+//!   `vehicle-models` crate's switchable reference vehicle, discretised with the seed-000 scheme
+//!   (000: 6.1-6.5) or RK4 (`integrator`), and report the same truth (model B: axle values are
+//!   the mean of left and right wheel). The car starts driving straight at `vx0` with freely
+//!   rolling wheels.
 //! - **Sub-stepping.** A doStep of length `h` runs `n = ceil(h / integration_step)` equal steps
 //!   of `h / n`, holding the driver inputs (a non-finite input keeps its last finite value and
 //!   the step answers fmi2Warning).
 //! - **Process noise** (seed 000, ch. 7): after every integration step, Gaussian noise with the
 //!   standard deviations `process_noise_std_*` (scaled by `sqrt(dt / integration_step)` when a
-//!   step is shorter) is added to `[vx, vy, r, ωF, ωR]`.
+//!   step is shorter) is added to `[vx, vy, r, ωF, ωR]` (model B: `[vx, vy, r, ωFL, ωFR, ωRL,
+//!   ωRR]`, each wheel with its axle's standard deviation).
 //! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption), per integration
 //!   step and per signal, in this order: true value → + white Gaussian noise → quantisation
 //!   (rounding to a multiple of `quantum_*`) → transport delay of `sensor_latency` (whole
@@ -26,21 +32,21 @@
 //! - A step whose state turns non-finite answers fmi2Discard (the outputs keep their last
 //!   values).
 //!
-//! Model B (`model = 2`, two-track with Magic Formula tyres) is accepted by the interface; this
-//! build reports at initialisation that it is not available until the two-track model of the
-//! `vehicle-models` crate exists.
 #![allow(non_snake_case)] // the crate is named after the modelIdentifier
 
 use fmi_export::{
     CoSimulationModel, InstantiationContext, StateError, StateReader, StateWriter, StepOutcome,
 };
-use nalgebra::SVector;
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
-use vehicle_models::single_track::{SingleTrackParams, SingleTrackState, STATE_DIM};
-use vehicle_models::tyre::HsriParams;
-use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri, VehicleTruth};
+use vehicle_models::reference::MAX_STATE_DIM;
+use vehicle_models::single_track::SingleTrackParams;
+use vehicle_models::tyre::{HsriParams, MagicFormulaParams};
+use vehicle_models::{
+    DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
+    ReferenceVehicleParams, TwoTrackParams, VehicleTruth,
+};
 
 /// Generated from modelDescription/ReferenceVehicle.xml.
 pub mod model_description {
@@ -76,66 +82,34 @@ fn quantise(value: f64, quantum: f64) -> f64 {
     }
 }
 
-/// The vehicle model and its state.
-#[derive(Clone, Debug)]
-enum Dynamics {
-    SingleTrack {
-        model: SingleTrackHsri,
-        state: SingleTrackState,
-    },
-}
-
-impl Dynamics {
-    fn step(&mut self, input: &DriverInputVector, dt: f64, integrator: Integrator) {
-        match self {
-            Dynamics::SingleTrack { model, state } => {
-                *state = model.step(state, input, dt, integrator);
-            }
-        }
-    }
-
-    /// Adds `[vx, vy, r, ωF, ωR]` noise to the state.
-    fn add_noise(&mut self, noise: &SVector<f64, STATE_DIM>) {
-        match self {
-            Dynamics::SingleTrack { state, .. } => *state += noise,
-        }
-    }
-
-    fn is_finite(&self) -> bool {
-        match self {
-            Dynamics::SingleTrack { state, .. } => state.iter().all(|v| v.is_finite()),
-        }
-    }
-
-    fn truth(&self, input: &DriverInputVector) -> VehicleTruth {
-        match self {
-            Dynamics::SingleTrack { model, state } => model.truth(state, input),
-        }
-    }
-
-    fn write_state(&self, writer: &mut StateWriter) {
-        match self {
-            Dynamics::SingleTrack { state, .. } => writer.f64s(state.as_slice()),
-        }
-    }
-
-    fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
-        match self {
-            Dynamics::SingleTrack { state, .. } => {
-                reader.f64s_into(state.as_mut_slice(), "vehicle state")
-            }
-        }
+/// Standard deviations of the process noise on the states of the running model (the entries
+/// beyond its state dimension are unused).
+fn process_noise_std(kind: ReferenceModelKind, v: &Variables) -> [f64; MAX_STATE_DIM] {
+    let (vx, vy, r, front, rear) = (
+        v.process_noise_std_vx,
+        v.process_noise_std_vy,
+        v.process_noise_std_yaw_rate,
+        v.process_noise_std_omega_front,
+        v.process_noise_std_omega_rear,
+    );
+    match kind {
+        // [vx, vy, r, ωF, ωR] (000 ch. 7)
+        ReferenceModelKind::SingleTrack => [vx, vy, r, front, rear, 0.0, 0.0],
+        // [vx, vy, r, ωFL, ωFR, ωRL, ωRR]: seed 000 has no per-wheel noise, so each wheel of an
+        // axle gets the axle's standard deviation, drawn independently (project choice).
+        ReferenceModelKind::TwoTrack => [vx, vy, r, front, front, rear, rear],
     }
 }
 
 /// Everything that evolves during a simulation, built from the parameters at initialisation.
 #[derive(Clone, Debug)]
 struct Simulation {
-    dynamics: Dynamics,
-    integrator: Integrator,
+    /// Model A or B with its state (vehicle-models crate).
+    vehicle: VehicleModel,
     integration_step: f64,
     noise_on: bool,
-    process_noise_std: SVector<f64, STATE_DIM>,
+    /// Standard deviations of the process noise on the first `state_dim` states.
+    process_noise_std: [f64; MAX_STATE_DIM],
     sensor_noise_std: [f64; SENSORS],
     quantum: [f64; SENSORS],
     sample_period: f64,
@@ -164,7 +138,7 @@ fn check_positive(name: &str, value: f64) -> Result<f64, String> {
 impl Simulation {
     /// Builds the simulation from the parameters and starts it at `start_time`.
     fn start(v: &Variables, start_time: f64) -> Result<Self, String> {
-        let vehicle = SingleTrackParams {
+        let single_track = SingleTrackParams {
             mass: check_positive("mass", v.mass)?,
             cog_to_front_axle: check_positive("cog_to_front_axle", v.cog_to_front_axle)?,
             cog_to_rear_axle: check_positive("cog_to_rear_axle", v.cog_to_rear_axle)?,
@@ -177,7 +151,22 @@ impl Simulation {
             rear_wheel_load: check_positive("wheel_load_rear", v.wheel_load_rear)?,
             ..SingleTrackParams::default()
         };
-        let tyre = HsriTyre::new(HsriParams {
+        // Model B is the same car: the shared vehicle parameters go to it as well; track width,
+        // CoG height and roll-moment split keep the vehicle-models defaults (SPEC §4).
+        let two_track = TwoTrackParams {
+            mass: single_track.mass,
+            cog_to_front_axle: single_track.cog_to_front_axle,
+            cog_to_rear_axle: single_track.cog_to_rear_axle,
+            yaw_inertia: single_track.yaw_inertia,
+            front_wheel_inertia: single_track.front_wheel_inertia,
+            rear_wheel_inertia: single_track.rear_wheel_inertia,
+            brake_split_front: single_track.brake_split_front,
+            wheel_radius: single_track.wheel_radius,
+            front_wheel_load: single_track.front_wheel_load,
+            rear_wheel_load: single_track.rear_wheel_load,
+            ..TwoTrackParams::default()
+        };
+        let hsri = HsriParams {
             reference_load: check_positive("tyre_reference_load", v.tyre_reference_load)?,
             friction_base: v.tyre_f00,
             friction_load: v.tyre_f01,
@@ -189,20 +178,13 @@ impl Simulation {
             longitudinal_load: v.tyre_cs2,
             reference_sliding_speed: check_positive("tyre_v_mu", v.tyre_v_mu)?,
             ..HsriParams::default()
-        });
-        let dynamics = match v.model {
-            vehicle_model::SINGLE_TRACK_HSRI => {
-                let model = SingleTrackHsri::new(vehicle, tyre);
-                let state = model.straight_rolling_state(v.vx0);
-                Dynamics::SingleTrack { model, state }
-            }
-            vehicle_model::TWO_TRACK_MAGIC_FORMULA => {
-                return Err(String::from(
-                    "parameter model = 2 (two-track with Magic Formula tyres) is not available in \
-                     this build: the two-track model of the vehicle-models crate does not exist yet; \
-                     expected model = 1",
-                ))
-            }
+        };
+        // Seed 001 gives no Magic Formula numbers: the tyre is matched to the HSRI tyre
+        // (same stiffnesses and peak friction), as in the vehicle-models crate.
+        let magic_formula = MagicFormulaParams::matching_hsri(&hsri);
+        let kind = match v.model {
+            vehicle_model::SINGLE_TRACK_HSRI => ReferenceModelKind::SingleTrack,
+            vehicle_model::TWO_TRACK_MAGIC_FORMULA => ReferenceModelKind::TwoTrack,
             other => return Err(format!("parameter model = {other}; expected 1 or 2")),
         };
         let integrator = match v.integrator {
@@ -210,6 +192,18 @@ impl Simulation {
             integrator_items::RUNGE_KUTTA4 => Integrator::RungeKutta4,
             other => return Err(format!("parameter integrator = {other}; expected 1 or 2")),
         };
+        let vehicle = VehicleModel::new(
+            &ReferenceVehicleParams {
+                model: kind,
+                integrator,
+                single_track,
+                hsri,
+                two_track,
+                magic_formula,
+            },
+            v.vx0,
+        );
+        let process_noise_std = process_noise_std(kind, v);
         let integration_step = check_positive("integration_step", v.integration_step)?;
         let latency_steps = (v.sensor_latency / integration_step).round();
         if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&latency_steps) {
@@ -226,7 +220,7 @@ impl Simulation {
             finite_or(v.brake_torque, 0.0),
         );
         let initial = quantised_sensors(
-            &sensor_values(&dynamics.truth(&input)),
+            &sensor_values(&vehicle.truth(&input)),
             &[
                 v.quantum_yaw_rate_meas,
                 v.quantum_ay_meas,
@@ -238,17 +232,10 @@ impl Simulation {
             v.noise,
         );
         Ok(Self {
-            dynamics,
-            integrator,
+            vehicle,
             integration_step,
             noise_on: v.noise,
-            process_noise_std: SVector::from([
-                v.process_noise_std_vx,
-                v.process_noise_std_vy,
-                v.process_noise_std_yaw_rate,
-                v.process_noise_std_omega_front,
-                v.process_noise_std_omega_rear,
-            ]),
+            process_noise_std,
             sensor_noise_std: [
                 v.noise_std_yaw_rate_meas,
                 v.noise_std_ay_meas,
@@ -278,7 +265,14 @@ impl Simulation {
 
     /// One integration step of length `dt` with the current input, then the sensor chain.
     fn integration_step(&mut self, dt: f64) -> Result<(), String> {
-        self.dynamics.step(&self.input, dt, self.integrator);
+        // The input holds only finite values and brake_torque >= 0 (its min), so an error here
+        // is a non-finite state; the step is then not applied.
+        self.vehicle.step(&self.input, dt).map_err(|error| {
+            format!(
+                "the vehicle step at t = {} failed: {error}; the model left its valid range",
+                self.time
+            )
+        })?;
         if self.noise_on {
             // Process noise per T_ref step (000 ch. 7); a shorter step gets the Wiener scaling.
             let scale = if dt == self.integration_step {
@@ -286,21 +280,25 @@ impl Simulation {
             } else {
                 (dt / self.integration_step).sqrt()
             };
-            let mut noise = SVector::<f64, STATE_DIM>::zeros();
-            for (value, std) in noise.iter_mut().zip(self.process_noise_std.iter()) {
+            for (value, std) in self
+                .vehicle
+                .state_mut()
+                .iter_mut()
+                .zip(self.process_noise_std.iter())
+            {
                 let draw: f64 = StandardNormal.sample(&mut self.rng);
-                *value = draw * std * scale;
+                *value += draw * std * scale;
             }
-            self.dynamics.add_noise(&noise);
         }
-        if !self.dynamics.is_finite() {
+        if let Some(index) = self.vehicle.state().iter().position(|v| !v.is_finite()) {
             return Err(format!(
-                "the vehicle state became non-finite at t = {}; the model left its valid range",
+                "the vehicle state {} became non-finite at t = {}; the model left its valid range",
+                self.vehicle.state_names()[index],
                 self.time + dt
             ));
         }
         self.time += dt;
-        let truth = sensor_values(&self.dynamics.truth(&self.input));
+        let truth = sensor_values(&self.vehicle.truth(&self.input));
         if !self.noise_on {
             self.held = truth;
             return Ok(());
@@ -330,7 +328,10 @@ impl Simulation {
     }
 
     fn write_state(&self, writer: &mut StateWriter) {
-        self.dynamics.write_state(writer);
+        // The state length tells model A (5) from model B (7): a state of the other model is
+        // refused on reading instead of being misread.
+        writer.u64(self.vehicle.state_dim() as u64);
+        writer.f64s(self.vehicle.state());
         writer.f64s(self.input.as_slice());
         for byte in self.rng.get_seed() {
             writer.u8(byte);
@@ -350,7 +351,18 @@ impl Simulation {
     }
 
     fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
-        self.dynamics.read_state(reader)?;
+        let dimension = reader.u64("vehicle state length")?;
+        if dimension != self.vehicle.state_dim() as u64 {
+            return Err(StateError::new(format!(
+                "the serialized vehicle state has {dimension} entries; parameter model = {} needs {}",
+                match self.vehicle.kind() {
+                    ReferenceModelKind::SingleTrack => 1,
+                    ReferenceModelKind::TwoTrack => 2,
+                },
+                self.vehicle.state_dim()
+            )));
+        }
+        reader.f64s_into(self.vehicle.state_mut(), "vehicle state")?;
         reader.f64s_into(self.input.as_mut_slice(), "driver input")?;
         let mut seed = [0u8; 32];
         for byte in seed.iter_mut() {
@@ -421,7 +433,7 @@ impl ReferenceVehicle {
         let Some(simulation) = &self.simulation else {
             return;
         };
-        let truth = simulation.dynamics.truth(&simulation.input);
+        let truth = simulation.vehicle.truth(&simulation.input);
         let v = &mut self.variables;
         v.vx = truth.longitudinal_velocity;
         v.vy = truth.lateral_velocity;

@@ -620,3 +620,103 @@ fn long_communication_steps_are_sub_stepped_like_short_ones() {
         assert!((a - b).abs() <= 1e-9 * a.abs().max(1.0), "{a} vs {b}");
     }
 }
+
+/// Runs the seed-000 high ramp (12 s, 10 ms steps) with the given `model`, noise off, and returns
+/// the truth outputs at every step.
+fn high_ramp_truth(model: i32) -> Vec<[f64; 12]> {
+    let mut s = slave();
+    assert_eq!(s.set_integer(vr::MODEL, model), Fmi2Status::Ok);
+    assert_eq!(s.set_boolean(vr::NOISE, false), Fmi2Status::Ok);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    let mut truth = Vec::new();
+    for k in 0..1200 {
+        run(&mut s, k as f64 * 0.01, 0.01, 1);
+        let values = s.reals(&TRUTH);
+        assert!(
+            values.iter().all(|v| v.is_finite()),
+            "model {model}, step {k}"
+        );
+        truth.push(values.try_into().expect("12 truth values"));
+    }
+    truth
+}
+
+#[test]
+fn model_b_runs_and_differs_from_model_a_on_the_high_ramp() {
+    let model_a = high_ramp_truth(1);
+    let model_b = high_ramp_truth(2);
+    let index = |reference: u32| TRUTH.iter().position(|&r| r == reference).unwrap();
+    let (ay, yaw_rate, vy) = (index(vr::AY), index(vr::YAW_RATE), index(vr::VY));
+    // Straight driving before the ramp: both models roll freely at vx0 without lateral motion.
+    for model in [&model_a, &model_b] {
+        assert!(model[350][ay].abs() < 1e-9 && model[350][vy].abs() < 1e-9);
+    }
+    // Both turn left under the ramp (positive yaw rate and ay) ...
+    let (end_a, end_b) = (model_a[1199], model_b[1199]);
+    assert!(
+        end_a[yaw_rate] > 0.1 && end_b[yaw_rate] > 0.1,
+        "{end_a:?} {end_b:?}"
+    );
+    assert!(end_a[ay] > 3.0 && end_b[ay] > 3.0, "{end_a:?} {end_b:?}");
+    // ... but model B (load transfer, Magic Formula) is a different car at high ay: the
+    // outputs differ by far more than rounding.
+    let largest_ay_difference = model_a
+        .iter()
+        .zip(&model_b)
+        .map(|(a, b)| (a[ay] - b[ay]).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        largest_ay_difference > 0.05,
+        "model A and B ay differ by at most {largest_ay_difference} m/s²"
+    );
+    assert!((end_a[vy] - end_b[vy]).abs() > 1e-3, "{end_a:?} {end_b:?}");
+}
+
+#[test]
+fn model_b_is_deterministic_and_its_states_continue_bit_identically() {
+    let start = |model: i32| {
+        let mut s = slave();
+        assert_eq!(s.set_integer(vr::MODEL, model), Fmi2Status::Ok);
+        assert_eq!(s.set_integer(vr::SEED, 11), Fmi2Status::Ok);
+        assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+        s
+    };
+    let mut first = start(2);
+    let mut second = start(2);
+    let trace = run(&mut first, 0.0, 0.01, 500);
+    assert_eq!(
+        run(&mut second, 0.0, 0.01, 500),
+        trace,
+        "same seed, same bits"
+    );
+
+    let (status, mut state) = first.get_state();
+    assert_eq!(status, Fmi2Status::Ok);
+    let reference = run(&mut first, 5.0, 0.01, 100);
+    assert_eq!(first.set_state(&state), Fmi2Status::Ok);
+    assert_eq!(
+        run(&mut first, 5.0, 0.01, 100),
+        reference,
+        "fmi2SetFMUstate"
+    );
+    let bytes = first.serialize(&state).expect("serialize");
+    first.free_state(&mut state);
+
+    let mut fresh = start(2);
+    let (status, mut restored) = fresh.deserialize(&bytes);
+    assert_eq!(status, Fmi2Status::Ok, "{:?}", fresh.log.last());
+    assert_eq!(fresh.set_state(&restored), Fmi2Status::Ok);
+    assert_eq!(run(&mut fresh, 5.0, 0.01, 100), reference, "deserialized");
+    fresh.free_state(&mut restored);
+
+    // A model-B state is refused by a model-A instance, with a message, not misread.
+    let mut model_a = start(1);
+    let (status, mut foreign) = model_a.deserialize(&bytes);
+    if status == Fmi2Status::Ok {
+        let status = model_a.set_state(&foreign);
+        assert_error_logged(&model_a, status, Fmi2Status::Error, "parameter model = 1");
+        model_a.free_state(&mut foreign);
+    } else {
+        assert_error_logged(&model_a, status, Fmi2Status::Error, "parameter model = 1");
+    }
+}
