@@ -95,6 +95,7 @@ def test_estimator_alone_on_recorded_signals(vehicle_fmu, vehicle, estimator_fmu
     assert not np.any(status[(recording["time"] < 6.0)] & 1)
     outside = ~((recording["time"] >= 6.0) & (recording["time"] < 7.0))
     error = support.rmse(result["vy_est"][outside], recording["vy"][outside])
-    assert error < 1e-3, f"EKF vy RMSE {error:.3g} m/s on the recorded high-ay ramp"
     during = support.rmse(result["vy_est"][in_gap], recording["vy"][in_gap])
+    print(f"EKF alone: vy RMSE {error:.3g} m/s outside the gap, {during:.3g} m/s while yaw rate missing")
+    assert error < 1e-3, f"EKF vy RMSE {error:.3g} m/s on the recorded high-ay ramp"
     assert during < 1e-2, f"EKF vy RMSE {during:.3g} m/s while the yaw rate is missing"
