@@ -20,10 +20,10 @@ use fmi::traits::FmiImport;
 /// Why an FMU was refused. Every message names the archive.
 #[derive(Debug, thiserror::Error)]
 pub enum FmuError {
-    #[error("FMU {path}: cannot read the file: {source}")]
+    #[error("FMU {path}: cannot read the file: {cause}")]
     Unreadable {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("FMU {path}: not a zip archive ({reason}); an .fmu must be a zip file")]
     NotZip { path: PathBuf, reason: String },
@@ -51,11 +51,11 @@ pub enum FmuError {
         arch: &'static str,
         expected: String,
     },
-    #[error("FMU {path}: extracting into {folder}: {source}")]
+    #[error("FMU {path}: extracting into {folder}: {cause}")]
     Extract {
         path: PathBuf,
         folder: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("FMU {path}: the fmi crate refused the extracted FMU: {reason}")]
     Import { path: PathBuf, reason: String },
@@ -137,9 +137,9 @@ impl LoadedFmu {
     /// (created when missing). The folder is removed when the `LoadedFmu` is dropped.
     pub fn load(fmu_path: &Path, extract_root: &Path) -> Result<LoadedFmu, FmuError> {
         let path = fmu_path.to_path_buf();
-        let file = fs::File::open(fmu_path).map_err(|source| FmuError::Unreadable {
+        let file = fs::File::open(fmu_path).map_err(|cause| FmuError::Unreadable {
             path: path.clone(),
-            source,
+            cause,
         })?;
         let mut archive = zip::ZipArchive::new(file).map_err(|e| FmuError::NotZip {
             path: path.clone(),
@@ -157,7 +157,12 @@ impl LoadedFmu {
                 .name()
                 .map(|n| n.to_string())
                 .unwrap_or_else(|_| format!("<entry {index}: undecodable name>"));
-            if entry.enclosed_name().is_none() {
+            // An absolute name (which the zip crate would quietly make relative) or a drive
+            // letter is as malformed as a '..' that leaves the folder.
+            let absolute = name.starts_with('/')
+                || name.starts_with('\\')
+                || name.as_bytes().get(1) == Some(&b':');
+            if absolute || entry.enclosed_name().is_none() {
                 return Err(FmuError::EscapingEntry { path, entry: name });
             }
             if entry.is_symlink() {
@@ -228,23 +233,23 @@ impl LoadedFmu {
             .collect();
 
         // Pass 2: extract into <extract_root>/fmu-XXXX/.
-        fs::create_dir_all(extract_root).map_err(|source| FmuError::Extract {
+        fs::create_dir_all(extract_root).map_err(|cause| FmuError::Extract {
             path: path.clone(),
             folder: extract_root.to_path_buf(),
-            source,
+            cause,
         })?;
         let temp_dir = tempfile::Builder::new()
             .prefix("fmu-")
             .tempdir_in(extract_root)
-            .map_err(|source| FmuError::Extract {
+            .map_err(|cause| FmuError::Extract {
                 path: path.clone(),
                 folder: extract_root.to_path_buf(),
-                source,
+                cause,
             })?;
-        let extract_error = |source: std::io::Error| FmuError::Extract {
+        let extract_error = |cause: std::io::Error| FmuError::Extract {
             path: path.clone(),
             folder: temp_dir.path().to_path_buf(),
-            source,
+            cause,
         };
         for index in 0..archive.len() {
             let mut entry = archive

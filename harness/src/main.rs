@@ -109,7 +109,7 @@ fn execute(cli: Cli) -> Result<()> {
         } => {
             let custom_dir = fmu_dir.is_some();
             let env = Environment {
-                fmu_dir: fmu_dir.unwrap_or_else(runner::default_fmu_dir),
+                fmu_dir: absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir),
                 out_dir: out.clone(),
             };
             let options = DemoOptions {
@@ -137,7 +137,7 @@ fn execute(cli: Cli) -> Result<()> {
                 .map(|s| runner::parse_override(s))
                 .collect::<Result<Vec<_>>>()?;
             let env = Environment {
-                fmu_dir: fmu_dir.unwrap_or_else(runner::default_fmu_dir),
+                fmu_dir: absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir),
                 out_dir: out.join(&parsed.name),
             };
             let bar = progress_bar(1000);
@@ -178,7 +178,7 @@ fn execute(cli: Cli) -> Result<()> {
                 })
                 .collect::<Result<Vec<_>>>()?;
             let env = Environment {
-                fmu_dir: fmu_dir.unwrap_or_else(runner::default_fmu_dir),
+                fmu_dir: absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir),
                 out_dir: out.join(&parsed.name),
             };
             std::fs::create_dir_all(&env.out_dir)
@@ -244,6 +244,12 @@ fn execute(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// An FMU folder given on the command line is relative to the working directory, not to the
+/// scenario file.
+fn absolute(dir: Option<PathBuf>) -> Option<PathBuf> {
+    dir.map(|d| std::path::absolute(&d).unwrap_or(d))
 }
 
 fn progress_bar(length: u64) -> ProgressBar {

@@ -38,10 +38,10 @@ use crate::manoeuvre::{self, Channel, Manoeuvre};
 /// A scenario file could not be used. The message names the file and the field.
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
-    #[error("scenario {path}: cannot read the file: {source}")]
+    #[error("scenario {path}: cannot read the file: {cause}")]
     Unreadable {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("scenario {path}: {message}")]
     Syntax { path: PathBuf, message: String },
@@ -245,9 +245,9 @@ impl std::fmt::Display for VarRef {
 
 impl Scenario {
     pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Unreadable {
+        let text = std::fs::read_to_string(path).map_err(|cause| ScenarioError::Unreadable {
             path: path.to_path_buf(),
-            source,
+            cause,
         })?;
         let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         Scenario::from_str_at(&text, path, &base)

@@ -1,0 +1,51 @@
+"""Fixtures of the harness tests: the packaged FMUs (a missing archive fails with the command that
+builds it) and the release build of the harness binary."""
+
+import os
+import pathlib
+import subprocess
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def target_directory() -> pathlib.Path:
+    target = os.environ.get("CARGO_TARGET_DIR")
+    return ((ROOT / target) if target else (ROOT / "target")).resolve()
+
+
+def fmu_directory() -> pathlib.Path:
+    if os.environ.get("FMU_DIR"):
+        return pathlib.Path(os.environ["FMU_DIR"]).resolve()
+    return target_directory() / "fmu"
+
+
+@pytest.fixture(scope="session")
+def fmu_dir():
+    directory = fmu_directory()
+    for name in ("ReferenceVehicle.fmu", "VehicleStateEstimator.fmu"):
+        if not (directory / name).is_file():
+            pytest.fail(f"{directory / name} does not exist: build the archives first with "
+                        f"`cargo run --release -p packaging` (tests/run.sh does this before pytest)",
+                        pytrace=False)
+    return directory
+
+
+@pytest.fixture(scope="session")
+def harness_binary():
+    """The harness, built in release like the README's command."""
+    subprocess.run(["cargo", "build", "--release", "-p", "harness"], cwd=ROOT, check=True,
+                   timeout=1800)
+    binary = target_directory() / "release" / "harness"
+    assert binary.is_file(), binary
+    return binary
+
+
+def run_harness(binary, *arguments, timeout=900):
+    completed = subprocess.run([str(binary), *map(str, arguments)], cwd=ROOT, capture_output=True,
+                               text=True, timeout=timeout)
+    if completed.returncode != 0:
+        raise AssertionError(f"harness {' '.join(map(str, arguments))} failed:\n"
+                             f"{completed.stdout}\n{completed.stderr}")
+    return completed
