@@ -209,19 +209,19 @@ where
             SVector::zeros()
         };
         // Weighted mean (000: 4.133) and covariance plus Q (000: 4.134).
-        let mut mean = w.mean_centre * centre;
+        // As matrix products over the deviation matrices (one column per point): cheaper than
+        // 2n rank-one updates with temporaries.
+        let mean = w.mean_centre * centre + w.outer * (plus.column_sum() + minus.column_sum());
         for i in 0..N {
-            mean += w.outer * (plus.column(i) + minus.column(i));
+            plus.set_column(i, &(plus.column(i) - mean));
+            minus.set_column(i, &(minus.column(i) - mean));
         }
         let mut covariance = self.process_noise;
+        covariance.gemm(w.outer, &plus, &plus.transpose(), 1.0);
+        covariance.gemm(w.outer, &minus, &minus.transpose(), 1.0);
         if w.uses_centre {
             let d = centre - mean;
-            covariance += w.covariance_centre * d * d.transpose();
-        }
-        for i in 0..N {
-            let d_plus = plus.column(i) - mean;
-            let d_minus = minus.column(i) - mean;
-            covariance += w.outer * (d_plus * d_plus.transpose() + d_minus * d_minus.transpose());
+            covariance.ger(w.covariance_centre, &d, &d, 1.0);
         }
         self.state = mean;
         self.covariance = covariance;
@@ -265,26 +265,22 @@ where
         } else {
             SVector::zeros()
         };
-        let mut predicted = w.mean_centre * centre;
+        let predicted = w.mean_centre * centre + w.outer * (plus.column_sum() + minus.column_sum());
         for i in 0..N {
-            predicted += w.outer * (plus.column(i) + minus.column(i));
+            plus.set_column(i, &(plus.column(i) - predicted));
+            minus.set_column(i, &(minus.column(i) - predicted));
         }
         // Innovation covariance (000: 4.140) and cross-covariance (000: 4.141); the centre
-        // point's state deviation is zero, so it only enters S.
+        // point's state deviation is zero, so it only enters S. The state deviations of the
+        // `+`/`-` points are `±L`, so Pxy = w L (Y₊ - Y₋)ᵀ.
         let mut innovation_covariance = self.measurement_noise;
-        let mut cross = SMatrix::<f64, N, M>::zeros();
+        innovation_covariance.gemm(w.outer, &plus, &plus.transpose(), 1.0);
+        innovation_covariance.gemm(w.outer, &minus, &minus.transpose(), 1.0);
         if w.uses_centre {
             let d = centre - predicted;
-            innovation_covariance += w.covariance_centre * d * d.transpose();
+            innovation_covariance.ger(w.covariance_centre, &d, &d, 1.0);
         }
-        for i in 0..N {
-            let deviation = set.deviations.column(i);
-            let d_plus = plus.column(i) - predicted;
-            let d_minus = minus.column(i) - predicted;
-            innovation_covariance +=
-                w.outer * (d_plus * d_plus.transpose() + d_minus * d_minus.transpose());
-            cross += w.outer * (deviation * d_plus.transpose() - deviation * d_minus.transpose());
-        }
+        let cross = w.outer * set.deviations * (plus - minus).transpose();
         let step = match masked_gain(cross, innovation_covariance, measurement, &predicted, mask) {
             Ok(Some(step)) => step,
             Ok(None) => {
