@@ -4,8 +4,8 @@
 //! The interface is modelDescription/VehicleStateEstimator.xml; value references, GUID and start
 //! values are generated from it at build time. The filters come from the `estimation` crate:
 //! LKF, EKF, UKF (2n and scaled 2n+1 sigma points) and the Luenberger observer through
-//! `KalmanEstimator`, the SIR particle filter through `ParticleFilter`, all on model A (the
-//! 5-state single-track model with HSRI tyres of seed 000, `SingleTrackEstimationModel`).
+//! `KalmanEstimator`, the SIR particle filter through `ParticleFilter`, on model A (the 5-state
+//! single-track model with HSRI tyres of seed 000, `SingleTrackEstimationModel`) or model B.
 //!
 //! **Timing** (see the `sample_time` description in the XML): sample `k` lies at `t0 + k T`.
 //! A doStep from `t` to `t + h` processes every sample with `t <= t0 + k T < t + h`: the
@@ -17,18 +17,27 @@
 //! are held through doSteps without a sample.
 //!
 //! **Robustness.** A non-finite sensor input skips that measurement row (status bit 1); a
-//! non-finite driver input keeps its last finite value (bit 64); below `min_speed` the filter
-//! holds (bit 32); filter repairs are reported in bits 2, 4, 8, 16; no output is ever NaN.
+//! non-finite driver input keeps its last finite value (bit 64); when the speed estimate is
+//! below `min_speed` the filter is re-seeded from the wheel speeds if they show a higher speed
+//! (bits 32 + 8), else it holds (bit 32); filter repairs are reported in bits 2, 4, 8, 16; no
+//! output is ever NaN.
 //!
-//! Model B (`model = 2`, the 3-state seed-001 form) is part of the interface; this build reports
-//! at initialisation that it is not available until the two-track adapter of the `estimation`
-//! crate exists.
+//! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
+//! `u = [steering_angle, vx]` and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,
+//! `TwoTrackEstimationModel`), the same car with Magic Formula tyres matched to the HSRI
+//! parameters. LKF (seed 001's linear single-track comparison filter about straight driving at
+//! `lkf_vx`), EKF, both UKFs and the particle filter run on it; the Luenberger observer has no
+//! design for it (seed 002 covers model A only) and is refused at initialisation. The speed input
+//! is `vx_meas`, else `wheel_radius` times the mean wheel speed; without either above
+//! `min_speed` the filter holds (bit 32). Outputs: vx_est = the speed input, vy_est =
+//! vx·tan(sideslip), wheel speeds passed through, stds as the XML states.
 #![allow(non_snake_case)] // the crate is named after the modelIdentifier
 
 use estimation::kalman::{
     EstimatorKind, InitialEstimate, KalmanEstimator, SettingsError, SigmaPoints,
 };
 use estimation::models::single_track::SingleTrackEstimationModel;
+use estimation::models::two_track::{two_track_kind, TwoTrackEstimationModel};
 use estimation::particle::{
     ParticleFilter, ParticleFilterConfig, ResamplingPolicy, ResamplingScheme,
 };
@@ -41,8 +50,11 @@ use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{
     measurement_index, state_index, SingleTrackParams, MEASUREMENT_DIM, STATE_DIM,
 };
-use vehicle_models::tyre::HsriParams;
-use vehicle_models::{HsriTyre, Integrator, SingleTrackModel};
+use vehicle_models::two_track_lateral as model_b;
+use vehicle_models::tyre::{HsriParams, MagicFormulaParams};
+use vehicle_models::{
+    HsriTyre, Integrator, MagicFormulaTyre, SingleTrackModel, TwoTrackLateralModel, TwoTrackParams,
+};
 
 /// Generated from modelDescription/VehicleStateEstimator.xml.
 pub mod model_description {
@@ -132,24 +144,8 @@ pub fn model_a(v: &Variables) -> Result<ModelA, String> {
         rear_wheel_load: positive("wheel_load_rear", v.wheel_load_rear)?,
         ..SingleTrackParams::default()
     };
-    let tyre = HsriTyre::new(HsriParams {
-        reference_load: positive("tyre_reference_load", v.tyre_reference_load)?,
-        friction_base: v.tyre_f00,
-        friction_load: v.tyre_f01,
-        friction_decay_base: v.tyre_kr0,
-        friction_decay_load: v.tyre_kr1,
-        cornering_base: v.tyre_ca1,
-        cornering_load: v.tyre_ca2,
-        longitudinal_base: v.tyre_cs1,
-        longitudinal_load: v.tyre_cs2,
-        reference_sliding_speed: positive("tyre_v_mu", v.tyre_v_mu)?,
-        ..HsriParams::default()
-    });
-    let integrator = match v.integrator {
-        integrator_items::SEMI_IMPLICIT_EULER => Integrator::SemiImplicitEuler,
-        integrator_items::RUNGE_KUTTA4 => Integrator::RungeKutta4,
-        other => return Err(format!("parameter integrator = {other}; expected 1 or 2")),
-    };
+    let tyre = HsriTyre::new(hsri_params(v)?);
+    let integrator = integrator(v)?;
     // Q = diag(std²) per sample, R = diag(std²) (000: ch. 7 uses Q = diag(w²), R = diag(v²)).
     let process = [
         positive("process_noise_std_vx", v.process_noise_std_vx)?,
@@ -241,33 +237,7 @@ pub fn filter_a(
             design: model.default_observer_design(),
         },
         estimator_kind::PARTICLE_FILTER => {
-            let scheme = match v.particle_resampling {
-                particle_resampling::MULTINOMIAL => ResamplingScheme::Multinomial,
-                particle_resampling::SYSTEMATIC => ResamplingScheme::Systematic,
-                particle_resampling::STRATIFIED => ResamplingScheme::Stratified,
-                other => {
-                    return Err(format!(
-                        "parameter particle_resampling = {other}; expected 1, 2 or 3"
-                    ))
-                }
-            };
-            let particle_count = usize::try_from(v.particle_count)
-                .ok()
-                .filter(|&n| n >= 2)
-                .ok_or_else(|| {
-                    format!(
-                        "parameter particle_count = {}; expected at least 2",
-                        v.particle_count
-                    )
-                })?;
-            let seed = u64::try_from(v.seed)
-                .map_err(|_| format!("parameter seed = {}; expected a value >= 0", v.seed))?;
-            let config = ParticleFilterConfig {
-                particle_count,
-                scheme,
-                policy: ResamplingPolicy::EveryStep,
-                seed,
-            };
+            let config = particle_config(v)?;
             return ParticleFilter::new(model, config, initial.state, initial.covariance)
                 .map(FilterA::Particle)
                 .map_err(|error| format!("particle filter set-up: {error}"));
@@ -279,11 +249,277 @@ pub fn filter_a(
         .map_err(settings)
 }
 
+/// Model B (the 3-state form of seed 001, `x = [sideslip, yaw_rate, ay]`, `u = [steering_angle,
+/// vx]`, `y = [ay, yaw_rate]`) as the filters see it.
+pub type ModelB = TwoTrackEstimationModel<MagicFormulaTyre>;
+type StateB = SVector<f64, { model_b::STATE_DIM }>;
+type CovarianceB = SMatrix<f64, { model_b::STATE_DIM }, { model_b::STATE_DIM }>;
+type InputB = SVector<f64, { model_b::INPUT_DIM }>;
+type MeasurementB = SVector<f64, { model_b::MEASUREMENT_DIM }>;
+
+/// The running filter on model B.
+// One per instance, built at initialisation: the size difference costs nothing per step.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub enum FilterB {
+    Kalman(
+        KalmanEstimator<
+            ModelB,
+            { model_b::STATE_DIM },
+            { model_b::MEASUREMENT_DIM },
+            { model_b::INPUT_DIM },
+        >,
+    ),
+    Particle(
+        ParticleFilter<
+            ModelB,
+            { model_b::STATE_DIM },
+            { model_b::MEASUREMENT_DIM },
+            { model_b::INPUT_DIM },
+        >,
+    ),
+}
+
+impl FilterB {
+    pub fn estimator(
+        &self,
+    ) -> &dyn Estimator<{ model_b::STATE_DIM }, { model_b::MEASUREMENT_DIM }, { model_b::INPUT_DIM }>
+    {
+        match self {
+            FilterB::Kalman(filter) => filter,
+            FilterB::Particle(filter) => filter,
+        }
+    }
+
+    pub fn estimator_mut(
+        &mut self,
+    ) -> &mut dyn Estimator<
+        { model_b::STATE_DIM },
+        { model_b::MEASUREMENT_DIM },
+        { model_b::INPUT_DIM },
+    > {
+        match self {
+            FilterB::Kalman(filter) => filter,
+            FilterB::Particle(filter) => filter,
+        }
+    }
+}
+
+/// The HSRI tyre parameters (model A's tyre; model B's Magic Formula tyre is matched to them).
+fn hsri_params(v: &Variables) -> Result<HsriParams, String> {
+    Ok(HsriParams {
+        reference_load: positive("tyre_reference_load", v.tyre_reference_load)?,
+        friction_base: v.tyre_f00,
+        friction_load: v.tyre_f01,
+        friction_decay_base: v.tyre_kr0,
+        friction_decay_load: v.tyre_kr1,
+        cornering_base: v.tyre_ca1,
+        cornering_load: v.tyre_ca2,
+        longitudinal_base: v.tyre_cs1,
+        longitudinal_load: v.tyre_cs2,
+        reference_sliding_speed: positive("tyre_v_mu", v.tyre_v_mu)?,
+        ..HsriParams::default()
+    })
+}
+
+fn integrator(v: &Variables) -> Result<Integrator, String> {
+    match v.integrator {
+        integrator_items::SEMI_IMPLICIT_EULER => Ok(Integrator::SemiImplicitEuler),
+        integrator_items::RUNGE_KUTTA4 => Ok(Integrator::RungeKutta4),
+        other => Err(format!("parameter integrator = {other}; expected 1 or 2")),
+    }
+}
+
+/// Builds model B from the vehicle, tyre and noise parameters: the same car as model A (track
+/// width, CoG height and roll-moment split are the vehicle-models defaults), Magic Formula tyres
+/// matched to the HSRI parameters (seed 001 prints no tyre data; SPEC §4).
+pub fn model_b(v: &Variables) -> Result<ModelB, String> {
+    let vehicle = TwoTrackParams {
+        mass: positive("mass", v.mass)?,
+        cog_to_front_axle: positive("cog_to_front_axle", v.cog_to_front_axle)?,
+        cog_to_rear_axle: positive("cog_to_rear_axle", v.cog_to_rear_axle)?,
+        yaw_inertia: positive("yaw_inertia", v.yaw_inertia)?,
+        front_wheel_inertia: positive("wheel_inertia_front", v.wheel_inertia_front)?,
+        rear_wheel_inertia: positive("wheel_inertia_rear", v.wheel_inertia_rear)?,
+        brake_split_front: v.brake_distribution_front,
+        wheel_radius: positive("wheel_radius", v.wheel_radius)?,
+        front_wheel_load: positive("wheel_load_front", v.wheel_load_front)?,
+        rear_wheel_load: positive("wheel_load_rear", v.wheel_load_rear)?,
+        ..TwoTrackParams::default()
+    };
+    let tyre = MagicFormulaTyre::new(MagicFormulaParams::matching_hsri(&hsri_params(v)?));
+    // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).
+    let process = [
+        positive("process_noise_std_sideslip", v.process_noise_std_sideslip)?,
+        positive("process_noise_std_yaw_rate", v.process_noise_std_yaw_rate)?,
+        positive("process_noise_std_ay", v.process_noise_std_ay)?,
+    ];
+    let measurement = [
+        positive("measurement_noise_std_ay", v.measurement_noise_std_ay)?,
+        positive(
+            "measurement_noise_std_yaw_rate",
+            v.measurement_noise_std_yaw_rate,
+        )?,
+    ];
+    TwoTrackEstimationModel::new(
+        TwoTrackLateralModel::new(vehicle, tyre),
+        positive("sample_time", v.sample_time)?,
+        integrator(v)?,
+        process.map(|std| std * std),
+        measurement.map(|std| std * std),
+    )
+    .map_err(settings)
+}
+
+/// The initial estimate of model B from the parameters.
+pub fn initial_estimate_b(
+    v: &Variables,
+) -> Result<InitialEstimate<{ model_b::STATE_DIM }>, String> {
+    let stds = [
+        positive("initial_std_sideslip", v.initial_std_sideslip)?,
+        positive("initial_std_yaw_rate", v.initial_std_yaw_rate)?,
+        positive("initial_std_ay", v.initial_std_ay)?,
+    ];
+    Ok(InitialEstimate::diagonal(
+        StateB::from([v.sideslip_initial, v.yaw_rate_initial, v.ay_initial]),
+        StateB::from(stds.map(|std| std * std)),
+    ))
+}
+
+/// Builds the filter selected by `estimator` on model B, starting from `initial`. The LKF is
+/// the linear single-track comparison filter of seed 001 about straight driving at `lkf_vx`
+/// (see `estimation::models::two_track`); no Luenberger design exists for model B.
+pub fn filter_b(
+    v: &Variables,
+    model: ModelB,
+    initial: &InitialEstimate<{ model_b::STATE_DIM }>,
+) -> Result<FilterB, String> {
+    let name =
+        match v.estimator {
+            estimator_kind::LKF => "lkf",
+            estimator_kind::EKF => "ekf",
+            estimator_kind::UKF => "ukf",
+            estimator_kind::UKF_SCALED => "ukf_scaled",
+            estimator_kind::PARTICLE_FILTER => {
+                let config = particle_config(v)?;
+                return ParticleFilter::new(model, config, initial.state, initial.covariance)
+                    .map(FilterB::Particle)
+                    .map_err(|error| format!("particle filter set-up: {error}"));
+            }
+            estimator_kind::LUENBERGER => return Err(String::from(
+                "parameter estimator = 6 (Luenberger observer) with model = 2 (3-state two-track \
+                 model of seed 001) is not supported: seed 002 designs the observer for the \
+                 single-track model only; expected estimator 1 to 5 with model = 2, or model = 1",
+            )),
+            other => return Err(format!("parameter estimator = {other}; expected 1 to 6")),
+        };
+    let kind =
+        two_track_kind(name, (v.ukf_alpha, v.ukf_beta, v.ukf_kappa), v.lkf_vx).map_err(settings)?;
+    KalmanEstimator::build(model, &kind, initial)
+        .map(FilterB::Kalman)
+        .map_err(settings)
+}
+
+fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, String> {
+    let scheme = match v.particle_resampling {
+        particle_resampling::MULTINOMIAL => ResamplingScheme::Multinomial,
+        particle_resampling::SYSTEMATIC => ResamplingScheme::Systematic,
+        particle_resampling::STRATIFIED => ResamplingScheme::Stratified,
+        other => {
+            return Err(format!(
+                "parameter particle_resampling = {other}; expected 1, 2 or 3"
+            ))
+        }
+    };
+    let particle_count = usize::try_from(v.particle_count)
+        .ok()
+        .filter(|&n| n >= 2)
+        .ok_or_else(|| {
+            format!(
+                "parameter particle_count = {}; expected at least 2",
+                v.particle_count
+            )
+        })?;
+    let seed = u64::try_from(v.seed)
+        .map_err(|_| format!("parameter seed = {}; expected a value >= 0", v.seed))?;
+    Ok(ParticleFilterConfig {
+        particle_count,
+        scheme,
+        policy: ResamplingPolicy::EveryStep,
+        seed,
+    })
+}
+
+/// The sensor inputs of one doStep: `[yaw_rate, ay, omega_front, omega_rear, ax, vx]`.
+#[derive(Clone, Copy, Debug)]
+pub struct Sensors {
+    pub yaw_rate: f64,
+    pub ay: f64,
+    pub omega_front: f64,
+    pub omega_rear: f64,
+    pub vx: f64,
+}
+
+impl Sensors {
+    fn of(v: &Variables) -> Self {
+        Self {
+            yaw_rate: v.yaw_rate_meas,
+            ay: v.ay_meas,
+            omega_front: v.omega_front_meas,
+            omega_rear: v.omega_rear_meas,
+            vx: v.vx_meas,
+        }
+    }
+
+    fn model_a(&self) -> MeasurementA {
+        MeasurementA::from([self.yaw_rate, self.ay, self.omega_front, self.omega_rear])
+    }
+
+    /// `r_w` times the mean of the finite wheel speeds, if any.
+    fn wheel_speed(&self, wheel_radius: f64) -> Option<f64> {
+        let (sum, count) = [self.omega_front, self.omega_rear]
+            .into_iter()
+            .filter(|w| w.is_finite())
+            .fold((0.0, 0u32), |(sum, count), w| (sum + w, count + 1));
+        (count > 0).then(|| wheel_radius * sum / f64::from(count))
+    }
+
+    /// Model B's speed input: `vx_meas` (seed 001: the speed is measured), else the wheel-speed
+    /// fallback, each only when finite and at least `min_speed` (XML: vx_meas).
+    fn speed(&self, wheel_radius: f64, min_speed: f64) -> Option<f64> {
+        let usable = |speed: f64| speed.is_finite() && speed >= min_speed;
+        if usable(self.vx) {
+            Some(self.vx)
+        } else {
+            self.wheel_speed(wheel_radius).filter(|&s| usable(s))
+        }
+    }
+}
+
+/// Model B's filter with what it does not estimate: the speed it runs at and the wheel speeds it
+/// passes through (XML: vx_est, omega_front_est, omega_rear_est).
+#[derive(Clone, Debug)]
+pub struct RunnerB {
+    filter: FilterB,
+    model: ModelB,
+    speed: f64,
+    omega_front: f64,
+    omega_rear: f64,
+}
+
+/// The filter and model of the selected estimator model.
+// One per instance, built at initialisation: the size difference costs nothing per step.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+enum Core {
+    A { filter: FilterA, model: ModelA },
+    B(RunnerB),
+}
+
 /// The estimator between samples: filter, sample clock and the last finite driver input.
 #[derive(Clone, Debug)]
 pub struct Runner {
-    filter: FilterA,
-    model: ModelA,
+    core: Core,
     sample_time: f64,
     start_time: f64,
     /// Index of the next sample to process, at `start_time + next_sample * sample_time`.
@@ -292,26 +528,43 @@ pub struct Runner {
     min_speed: f64,
     nis: f64,
     rows_used: i32,
+    /// The parameters, to rebuild the filter when it has to be re-seeded (see `reseed`).
+    parameters: Box<Variables>,
 }
 
 impl Runner {
     fn build(v: &Variables, start_time: f64) -> Result<Self, String> {
-        match v.model {
-            estimator_model::SINGLE_TRACK_5_STATE => {}
+        let core = match v.model {
+            estimator_model::SINGLE_TRACK_5_STATE => {
+                let model = model_a(v)?;
+                let initial = initial_estimate_a(v)?;
+                let filter = filter_a(v, model.clone(), &initial)?;
+                Core::A { filter, model }
+            }
             estimator_model::TWO_TRACK_3_STATE => {
-                return Err(String::from(
-                    "parameter model = 2 (the 3-state two-track model of seed 001) is not available \
-                     in this build: the estimation crate has no two-track adapter yet; expected model = 1",
-                ))
+                let model = model_b(v)?;
+                let initial = initial_estimate_b(v)?;
+                let filter = filter_b(v, model.clone(), &initial)?;
+                // Before the first sample: the speed the sensors show now, else vx_initial; the
+                // wheels free rolling at that speed until they are measured.
+                let sensors = Sensors::of(v);
+                let min_speed = positive("min_speed", v.min_speed)?;
+                let speed = sensors
+                    .speed(v.wheel_radius, min_speed)
+                    .unwrap_or(v.vx_initial);
+                let free_rolling = speed / v.wheel_radius;
+                Core::B(RunnerB {
+                    filter,
+                    model,
+                    speed,
+                    omega_front: finite_or(sensors.omega_front, free_rolling),
+                    omega_rear: finite_or(sensors.omega_rear, free_rolling),
+                })
             }
             other => return Err(format!("parameter model = {other}; expected 1 or 2")),
-        }
-        let model = model_a(v)?;
-        let initial = initial_estimate_a(v)?;
-        let filter = filter_a(v, model.clone(), &initial)?;
+        };
         Ok(Self {
-            filter,
-            model,
+            core,
             sample_time: positive("sample_time", v.sample_time)?,
             start_time,
             next_sample: 0,
@@ -323,38 +576,108 @@ impl Runner {
             min_speed: positive("min_speed", v.min_speed)?,
             nis: 0.0,
             rows_used: 0,
+            parameters: Box::new(v.clone()),
         })
     }
 
-    /// The filter (for tests and benchmarks).
-    pub fn filter(&self) -> &FilterA {
-        &self.filter
+    /// Re-seeds the model-A filter from the measurements when its speed estimate fell below
+    /// `min_speed` but the wheel-speed sensors report a speed above it: the estimate is lost
+    /// (e.g. after zero sensor signals before the bus delivered data) and waiting for the filter
+    /// to find back is hopeless, because the model is singular near standstill. The new start is
+    /// `vx = r_w · mean(ωF, ωR)`, `vy = 0`, `r` = measured yaw rate, wheel speeds as measured,
+    /// with the initial covariance of the parameters. Returns whether it re-seeded.
+    fn reseed(&mut self, sensors: &Sensors) -> bool {
+        let v = &*self.parameters;
+        let Core::A { filter, model } = &mut self.core else {
+            return false;
+        };
+        let Some(speed) = sensors.wheel_speed(v.wheel_radius) else {
+            return false;
+        };
+        if !(speed >= self.min_speed && speed.is_finite()) {
+            return false;
+        }
+        let free_rolling = speed / v.wheel_radius;
+        let Ok(mut initial) = initial_estimate_a(v) else {
+            return false;
+        };
+        initial.state = StateA::from([
+            speed,
+            0.0,
+            finite_or(sensors.yaw_rate, 0.0),
+            finite_or(sensors.omega_front, free_rolling),
+            finite_or(sensors.omega_rear, free_rolling),
+        ]);
+        match filter_a(v, model.clone(), &initial) {
+            Ok(rebuilt) => {
+                *filter = rebuilt;
+                true
+            }
+            Err(_) => false,
+        }
     }
 
-    /// One sample: measurement update with `measurement`, then time update to the next sample.
+    /// The model-A filter, if model A runs (for tests and benchmarks).
+    pub fn filter_a(&self) -> Option<&FilterA> {
+        match &self.core {
+            Core::A { filter, .. } => Some(filter),
+            Core::B(_) => None,
+        }
+    }
+
+    /// The model-B filter, if model B runs (for tests and benchmarks).
+    pub fn filter_b(&self) -> Option<&FilterB> {
+        match &self.core {
+            Core::A { .. } => None,
+            Core::B(runner) => Some(&runner.filter),
+        }
+    }
+
+    /// One sample: measurement update with the sensors, then time update to the next sample.
     /// Returns the status bits of the sample.
-    pub fn process_sample(&mut self, measurement: &MeasurementA) -> i32 {
+    pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
+        match self.core {
+            Core::A { .. } => self.process_sample_a(sensors),
+            Core::B(_) => self.process_sample_b(sensors),
+        }
+    }
+
+    fn process_sample_a(&mut self, sensors: &Sensors) -> i32 {
+        let measurement = sensors.model_a();
         let mut bits = 0;
         let input = self.input;
-        let estimator = self.filter.estimator_mut();
-        if estimator.state()[state_index::VX] < self.min_speed {
-            // The slip quantities are singular at standstill: hold instead of guessing.
-            self.nis = 0.0;
-            self.rows_used = 0;
-            return status::BELOW_MIN_SPEED;
+        let below_min_speed = match &self.core {
+            Core::A { filter, .. } => filter.estimator().state()[state_index::VX] < self.min_speed,
+            Core::B(_) => return 0,
+        };
+        if below_min_speed {
+            if !self.reseed(sensors) {
+                // The slip quantities are singular at standstill and the wheels confirm it:
+                // hold instead of guessing.
+                self.nis = 0.0;
+                self.rows_used = 0;
+                return status::BELOW_MIN_SPEED;
+            }
+            bits |= status::BELOW_MIN_SPEED | status::STATE_RESET;
         }
+        let Core::A { filter, .. } = &mut self.core else {
+            return bits;
+        };
         if measurement.iter().any(|value| !value.is_finite()) {
             bits |= status::ROW_SKIPPED;
         }
         // Non-finite rows are skipped by the filters themselves (SPEC §6).
-        match estimator.update(measurement, &input, &[true; MEASUREMENT_DIM]) {
+        match filter
+            .estimator_mut()
+            .update(&measurement, &input, &[true; MEASUREMENT_DIM])
+        {
             Ok(report) => {
                 self.nis = report.nis;
                 self.rows_used = report.rows_used as i32;
             }
             Err(issue) => {
                 bits |= issue_bit(issue);
-                let report = match &self.filter {
+                let report = match &*filter {
                     FilterA::Kalman(filter) => *filter.last_report(),
                     FilterA::Particle(_) => estimation::UpdateReport::skipped(),
                 };
@@ -362,14 +685,69 @@ impl Runner {
                 self.rows_used = report.rows_used as i32;
             }
         }
-        if let Err(issue) = self.filter.estimator_mut().predict(&input) {
+        if let Err(issue) = filter.estimator_mut().predict(&input) {
+            bits |= issue_bit(issue);
+        }
+        bits
+    }
+
+    /// Model B: the speed is an input (vx_meas or the wheel-speed fallback), `y = [ay, r]`
+    /// (001: eq 9); the wheel speeds are passed through.
+    fn process_sample_b(&mut self, sensors: &Sensors) -> i32 {
+        let wheel_radius = self.parameters.wheel_radius;
+        let Core::B(runner) = &mut self.core else {
+            return 0;
+        };
+        let mut bits = 0;
+        if sensors.omega_front.is_finite() {
+            runner.omega_front = sensors.omega_front;
+        }
+        if sensors.omega_rear.is_finite() {
+            runner.omega_rear = sensors.omega_rear;
+        }
+        let Some(speed) = sensors.speed(wheel_radius, self.min_speed) else {
+            // Model B divides by the speed: hold the estimate until a speed is measured again.
+            self.nis = 0.0;
+            self.rows_used = 0;
+            return status::BELOW_MIN_SPEED;
+        };
+        if !sensors.vx.is_finite() {
+            // vx_meas is missing and the wheel-speed fallback stands in for it.
+            bits |= status::ROW_SKIPPED;
+        }
+        runner.speed = speed;
+        let input = InputB::from([self.input[0], speed]);
+        let measurement = MeasurementB::from([sensors.ay, sensors.yaw_rate]);
+        if measurement.iter().any(|value| !value.is_finite()) {
+            bits |= status::ROW_SKIPPED;
+        }
+        match runner.filter.estimator_mut().update(
+            &measurement,
+            &input,
+            &[true; model_b::MEASUREMENT_DIM],
+        ) {
+            Ok(report) => {
+                self.nis = report.nis;
+                self.rows_used = report.rows_used as i32;
+            }
+            Err(issue) => {
+                bits |= issue_bit(issue);
+                let report = match &runner.filter {
+                    FilterB::Kalman(filter) => *filter.last_report(),
+                    FilterB::Particle(_) => estimation::UpdateReport::skipped(),
+                };
+                self.nis = report.nis;
+                self.rows_used = report.rows_used as i32;
+            }
+        }
+        if let Err(issue) = runner.filter.estimator_mut().predict(&input) {
             bits |= issue_bit(issue);
         }
         bits
     }
 
     /// Processes every sample in `[t, t + h)`; returns the status bits and whether any ran.
-    pub fn advance(&mut self, t: f64, h: f64, measurement: &MeasurementA) -> (i32, bool) {
+    pub fn advance(&mut self, t: f64, h: f64, sensors: &Sensors) -> (i32, bool) {
         let tolerance = 1e-6 * self.sample_time;
         let mut bits = 0;
         let mut processed = false;
@@ -378,7 +756,7 @@ impl Runner {
             if sample_time >= t + h - tolerance {
                 break;
             }
-            bits |= self.process_sample(measurement);
+            bits |= self.process_sample(sensors);
             self.next_sample += 1;
             processed = true;
         }
@@ -386,16 +764,28 @@ impl Runner {
     }
 
     fn write_state(&self, writer: &mut StateWriter) -> Result<(), String> {
-        let estimator = match &self.filter {
-            FilterA::Kalman(filter) => filter,
-            FilterA::Particle(_) => return Err(String::from(
-                "the particle filter's state (particles and random stream) cannot be serialized: \
-                     estimation::particle::ParticleFilter offers no way to restore it; \
-                     fmi2GetFMUstate/fmi2SetFMUstate work for it",
-            )),
-        };
-        writer.f64s(estimator.state().as_slice());
-        writer.f64s(estimator.covariance().as_slice());
+        const NO_PARTICLES: &str = "the particle filter's state (particles and random stream) \
+            cannot be serialized: estimation::particle::ParticleFilter offers no way to restore \
+            it; fmi2GetFMUstate/fmi2SetFMUstate work for it";
+        match &self.core {
+            Core::A { filter, .. } => {
+                let FilterA::Kalman(estimator) = filter else {
+                    return Err(String::from(NO_PARTICLES));
+                };
+                writer.f64s(estimator.state().as_slice());
+                writer.f64s(estimator.covariance().as_slice());
+            }
+            Core::B(runner) => {
+                let FilterB::Kalman(estimator) = &runner.filter else {
+                    return Err(String::from(NO_PARTICLES));
+                };
+                writer.f64s(estimator.state().as_slice());
+                writer.f64s(estimator.covariance().as_slice());
+                writer.f64(runner.speed);
+                writer.f64(runner.omega_front);
+                writer.f64(runner.omega_rear);
+            }
+        }
         writer.f64(self.start_time);
         writer.u64(self.next_sample);
         writer.f64s(self.input.as_slice());
@@ -405,23 +795,130 @@ impl Runner {
     }
 
     fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
-        let mut state = StateA::zeros();
-        reader.f64s_into(state.as_mut_slice(), "estimate")?;
-        let mut covariance = CovarianceA::zeros();
-        reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
-        let start_time = reader.f64("start time")?;
-        let mut runner = Runner::build(v, start_time).map_err(StateError::new)?;
         // The Kalman-type filters are fully described by (x, P) and their parameters: rebuilding
         // them from the stored pair continues bit-identically.
-        let initial = InitialEstimate { state, covariance };
-        runner.filter = filter_a(v, runner.model.clone(), &initial).map_err(StateError::new)?;
+        let mut runner = Runner::build(v, 0.0).map_err(StateError::new)?;
+        match &mut runner.core {
+            Core::A { filter, model } => {
+                let mut state = StateA::zeros();
+                reader.f64s_into(state.as_mut_slice(), "estimate")?;
+                let mut covariance = CovarianceA::zeros();
+                reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
+                let initial = InitialEstimate { state, covariance };
+                *filter = filter_a(v, model.clone(), &initial).map_err(StateError::new)?;
+            }
+            Core::B(core) => {
+                let mut state = StateB::zeros();
+                reader.f64s_into(state.as_mut_slice(), "estimate")?;
+                let mut covariance = CovarianceB::zeros();
+                reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
+                let initial = InitialEstimate { state, covariance };
+                core.filter = filter_b(v, core.model.clone(), &initial).map_err(StateError::new)?;
+                core.speed = reader.f64("speed")?;
+                core.omega_front = reader.f64("front wheel speed")?;
+                core.omega_rear = reader.f64("rear wheel speed")?;
+            }
+        }
+        runner.start_time = reader.f64("start time")?;
         runner.next_sample = reader.u64("next sample")?;
         reader.f64s_into(runner.input.as_mut_slice(), "driver input")?;
         runner.nis = reader.f64("nis")?;
         runner.rows_used = reader.i32("rows used")?;
         Ok(runner)
     }
+
+    /// The output values in the order of `OUTPUTS` (see `publish`).
+    fn outputs(&self) -> [f64; OUTPUT_COUNT] {
+        match &self.core {
+            Core::A { filter, model } => self.outputs_a(filter, model),
+            Core::B(runner) => self.outputs_b(runner),
+        }
+    }
+
+    fn outputs_a(&self, filter: &FilterA, model: &ModelA) -> [f64; OUTPUT_COUNT] {
+        let estimator = filter.estimator();
+        let x = *estimator.state();
+        let p = *estimator.covariance();
+        let u = self.input;
+        let derived = model.vehicle().outputs(&x, &u);
+        let ay = model.measurement(&x, &u)[measurement_index::LATERAL_ACCELERATION];
+        let std = |i: usize| p[(i, i)].max(0.0).sqrt();
+        // First-order propagation of P through atan2(vy, vx).
+        let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
+        let speed_squared = vx * vx + vy * vy;
+        let gradient = [-vy / speed_squared, vx / speed_squared];
+        let sideslip_variance = gradient[0] * gradient[0] * p[(0, 0)]
+            + 2.0 * gradient[0] * gradient[1] * p[(0, 1)]
+            + gradient[1] * gradient[1] * p[(1, 1)];
+        [
+            x[state_index::VX],
+            x[state_index::VY],
+            x[state_index::YAW_RATE],
+            x[state_index::OMEGA_FRONT],
+            x[state_index::OMEGA_REAR],
+            derived.sideslip,
+            ay,
+            derived.slip_angle_front,
+            derived.slip_angle_rear,
+            derived.slip_front,
+            derived.slip_rear,
+            std(state_index::VX),
+            std(state_index::VY),
+            std(state_index::YAW_RATE),
+            std(state_index::OMEGA_FRONT),
+            std(state_index::OMEGA_REAR),
+            sideslip_variance.max(0.0).sqrt(),
+            self.nis,
+        ]
+    }
+
+    /// Model B's outputs as the XML descriptions state them.
+    fn outputs_b(&self, runner: &RunnerB) -> [f64; OUTPUT_COUNT] {
+        use model_b::state_index as b;
+        let v = &*self.parameters;
+        let estimator = runner.filter.estimator();
+        let x = *estimator.state();
+        let p = *estimator.covariance();
+        let steering = self.input[0];
+        let u = InputB::from([steering, runner.speed]);
+        // vy = vx tan β and the axle slip angles (001: eqs 4-5).
+        let derived = runner.model.vehicle().outputs(&x, &u);
+        let vx = runner.speed;
+        let (sideslip, yaw_rate) = (x[b::SIDESLIP], x[b::YAW_RATE]);
+        let vy = derived.lateral_velocity;
+        // Longitudinal slip (ω r_w − vxW) / vxW with the wheel-centre speed along the wheel
+        // (000: 5.65; front wheel turned by δ, as in model A).
+        let front_along_wheel =
+            vx * steering.cos() + (vy + v.cog_to_front_axle * yaw_rate) * steering.sin();
+        let slip = |omega: f64, along: f64| (omega * v.wheel_radius - along) / along;
+        let std = |i: usize| p[(i, i)].max(0.0).sqrt();
+        let cos_sideslip = sideslip.cos();
+        [
+            vx,
+            vy,
+            yaw_rate,
+            runner.omega_front,
+            runner.omega_rear,
+            sideslip,
+            x[b::LATERAL_ACCELERATION],
+            derived.slip_angle_front,
+            derived.slip_angle_rear,
+            slip(runner.omega_front, front_along_wheel),
+            slip(runner.omega_rear, vx),
+            v.measurement_noise_std_vx,
+            // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
+            vx * std(b::SIDESLIP) / (cos_sideslip * cos_sideslip),
+            std(b::YAW_RATE),
+            v.measurement_noise_std_omega_front,
+            v.measurement_noise_std_omega_rear,
+            std(b::SIDESLIP),
+            self.nis,
+        ]
+    }
 }
+
+/// Number of real outputs written by `publish`.
+const OUTPUT_COUNT: usize = 18;
 
 fn finite_or(value: f64, fallback: f64) -> f64 {
     if value.is_finite() {
@@ -450,42 +947,9 @@ impl VehicleStateEstimator {
         let Some(runner) = &self.runner else {
             return 0;
         };
-        let estimator = runner.filter.estimator();
-        let x = *estimator.state();
-        let p = *estimator.covariance();
-        let u = runner.input;
-        let derived = runner.model.vehicle().outputs(&x, &u);
-        let ay = runner.model.measurement(&x, &u)[measurement_index::LATERAL_ACCELERATION];
-        let std = |i: usize| p[(i, i)].max(0.0).sqrt();
-        // First-order propagation of P through atan2(vy, vx).
-        let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
-        let speed_squared = vx * vx + vy * vy;
-        let gradient = [-vy / speed_squared, vx / speed_squared];
-        let sideslip_variance = gradient[0] * gradient[0] * p[(0, 0)]
-            + 2.0 * gradient[0] * gradient[1] * p[(0, 1)]
-            + gradient[1] * gradient[1] * p[(1, 1)];
-        let values = [
-            x[state_index::VX],
-            x[state_index::VY],
-            x[state_index::YAW_RATE],
-            x[state_index::OMEGA_FRONT],
-            x[state_index::OMEGA_REAR],
-            derived.sideslip,
-            ay,
-            derived.slip_angle_front,
-            derived.slip_angle_rear,
-            derived.slip_front,
-            derived.slip_rear,
-            std(state_index::VX),
-            std(state_index::VY),
-            std(state_index::YAW_RATE),
-            std(state_index::OMEGA_FRONT),
-            std(state_index::OMEGA_REAR),
-            sideslip_variance.max(0.0).sqrt(),
-            runner.nis,
-        ];
+        let values = runner.outputs();
         let v = &mut self.variables;
-        let targets: [&mut f64; 18] = [
+        let targets: [&mut f64; OUTPUT_COUNT] = [
             &mut v.vx_est,
             &mut v.vy_est,
             &mut v.yaw_rate_est,
@@ -550,12 +1014,7 @@ impl CoSimulationModel for VehicleStateEstimator {
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome {
         let v = &self.variables;
         let driver = [v.steering_angle, v.drive_torque, v.brake_torque];
-        let measurement = MeasurementA::from([
-            v.yaw_rate_meas,
-            v.ay_meas,
-            v.omega_front_meas,
-            v.omega_rear_meas,
-        ]);
+        let sensors = Sensors::of(v);
         let Some(runner) = self.runner.as_mut() else {
             return StepOutcome::Error(String::from("the estimator was not initialised"));
         };
@@ -567,7 +1026,7 @@ impl CoSimulationModel for VehicleStateEstimator {
                 bits |= status::INPUT_HELD;
             }
         }
-        let (sample_bits, processed) = runner.advance(current_time, step_size, &measurement);
+        let (sample_bits, processed) = runner.advance(current_time, step_size, &sensors);
         bits |= sample_bits;
         if processed {
             bits |= self.publish();
