@@ -7,6 +7,10 @@
 //! CARGO_TARGET_DIR=target/bench cargo bench -p vehicle-state-estimator --bench do_step
 //! ```
 //!
+//! `model_b_*` are the same for model B (the 3-state seed-001 form) and its Kalman estimators.
+//! On a shared, loaded machine compare the `fastest` and `median` columns; the `mean` is
+//! dominated by preemptions.
+//!
 //! `fmi2_do_step` − `model_do_step` is what the FMI layer (state machine, argument and time
 //! checks, catch_unwind) adds; `model_do_step` − `bare_filter_step` is the FMU's own work around
 //! the filter (sample clock, input checks, derived outputs and standard deviations).
@@ -17,8 +21,12 @@ use divan::Bencher;
 use fmi_export::testing::Slave;
 use fmi_export::{CoSimulationModel, InstantiationContext};
 use nalgebra::SVector;
+use VehicleStateEstimator::model_description::estimator_model;
 use VehicleStateEstimator::model_description::{estimator_kind, vr, Variables, GUID};
-use VehicleStateEstimator::{filter_a, initial_estimate_a, model_a, VehicleStateEstimator as Fmu};
+use VehicleStateEstimator::{
+    filter_a, filter_b, initial_estimate_a, initial_estimate_b, model_a, model_b,
+    VehicleStateEstimator as Fmu,
+};
 
 fn main() {
     divan::main();
@@ -115,6 +123,62 @@ fn fmi2_do_step(bencher: Bencher, name: &str) {
             vr::OMEGA_REAR_MEAS,
         ],
         &MEASUREMENT,
+    );
+    slave.initialize(0.0);
+    let time = Cell::new(0.0);
+    bencher.bench_local(|| {
+        let t = time.get();
+        let status = slave.do_step(t, STEP);
+        time.set(t + STEP);
+        divan::black_box(status)
+    });
+}
+
+/// Model B (3-state seed-001 form): the Kalman estimators it supports.
+const NAMES_B: [&str; 4] = ["lkf", "ekf", "ukf", "ukf_scaled"];
+/// `[yaw_rate, ay, omega_front, omega_rear, vx]` of a left turn at 18 m/s.
+const SENSORS_B: [f64; 5] = [0.1, 1.8, 60.0, 60.0, 18.0];
+
+#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
+fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
+    let variables = Variables {
+        model: estimator_model::TWO_TRACK_3_STATE,
+        estimator: estimator(name),
+        ..Variables::default()
+    };
+    let model = model_b(&variables).expect("model");
+    let initial = initial_estimate_b(&variables).expect("initial");
+    let mut filter = filter_b(&variables, model, &initial).expect("filter");
+    let input = SVector::<f64, 2>::new(0.05, SENSORS_B[4]);
+    let measurement = SVector::<f64, 2>::new(SENSORS_B[1], SENSORS_B[0]);
+    bencher.bench_local(|| {
+        let estimator = filter.estimator_mut();
+        let report = estimator.update(divan::black_box(&measurement), &input, &[true; 2]);
+        let predicted = estimator.predict(&input);
+        divan::black_box((report.is_ok(), predicted.is_ok()))
+    });
+}
+
+#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
+fn model_b_fmi2_do_step(bencher: Bencher, name: &str) {
+    let mut slave = Slave::instantiate(
+        fmi_export::fmi2_api_of!(VehicleStateEstimator),
+        "bench",
+        GUID,
+    )
+    .expect("instantiate");
+    slave.set_integer(vr::MODEL, estimator_model::TWO_TRACK_3_STATE);
+    slave.set_integer(vr::ESTIMATOR, estimator(name));
+    slave.set_real(vr::STEERING_ANGLE, 0.05);
+    slave.set_reals(
+        &[
+            vr::YAW_RATE_MEAS,
+            vr::AY_MEAS,
+            vr::OMEGA_FRONT_MEAS,
+            vr::OMEGA_REAR_MEAS,
+            vr::VX_MEAS,
+        ],
+        &SENSORS_B,
     );
     slave.initialize(0.0);
     let time = Cell::new(0.0);
