@@ -43,6 +43,22 @@ pub enum ResamplingPolicy {
     EffectiveSampleSizeBelow(f64),
 }
 
+/// Where the particles of the next sample are drawn from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Proposal {
+    /// From the transition density `p(x_t | x_{t-1})`, weight `p(y_t | x_t)` — the seed's SIR
+    /// (003: 2.57-2.61).
+    #[default]
+    Bootstrap,
+    /// From the Gaussian that conditions the transition density on `y_t` with the measurement
+    /// function linearised at `f(x_{t-1})` (Doucet et al. 2000's locally linearised optimal
+    /// importance density; exact for a linear measurement such as model C's `y = x`), weight
+    /// `p(y|x) p(x|x_{t-1}) / q(x|x_{t-1}, y)` (003: 2.56-2.57 with this `π`). Needs a positive
+    /// definite process noise. Much larger effective sample size when the measurement is far
+    /// more precise than the process noise; not in the seed.
+    LinearisedOptimal,
+}
+
 /// Settings of a particle filter. The particle count is a run-time value (the FMU sets it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParticleFilterConfig {
@@ -274,6 +290,11 @@ pub struct ParticleFilter<Model, const N: usize, const M: usize, const U: usize>
     cumulative: Vec<f64>,
     ancestors: Vec<usize>,
     predicted_measurements: Vec<SVector<f64, M>>,
+    /// `f(x_{t-1}^i, u)` while the noise draw waits for the measurement (optimal proposal).
+    predicted_means: Vec<SVector<f64, N>>,
+    noise_pending: bool,
+    proposal: Proposal,
+    process_noise: SMatrix<f64, N, N>,
     process_noise_root: SMatrix<f64, N, N>,
     measurement_noise: SMatrix<f64, M, M>,
     estimate: SVector<f64, N>,
@@ -311,6 +332,7 @@ where
         let initial_root = covariance_square_root(&initial_covariance, "initial state")?;
         let process_noise_root = covariance_square_root(&model.process_noise(), "process noise")?;
         let measurement_noise = model.measurement_noise();
+        let process_noise = model.process_noise();
         let count = config.particle_count;
         let mut filter = Self {
             model,
@@ -323,6 +345,10 @@ where
             cumulative: vec![0.0; count],
             ancestors: vec![0; count],
             predicted_measurements: vec![SVector::zeros(); count],
+            predicted_means: vec![initial_state; count],
+            noise_pending: false,
+            proposal: Proposal::Bootstrap,
+            process_noise,
             process_noise_root,
             measurement_noise,
             estimate: initial_state,
@@ -367,23 +393,212 @@ where
         self.resampled_in_last_update
     }
 
+    /// Chooses the proposal (default: the seed's bootstrap). The linearised optimal proposal
+    /// needs a positive definite process noise.
+    pub fn with_proposal(mut self, proposal: Proposal) -> Result<Self, ParticleFilterError> {
+        if proposal == Proposal::LinearisedOptimal && self.process_noise.cholesky().is_none() {
+            return Err(ParticleFilterError::NotPositiveSemiDefinite(
+                "process noise (must be positive definite for the linearised optimal proposal)",
+                0.0,
+            ));
+        }
+        self.proposal = proposal;
+        Ok(self)
+    }
+
+    /// The proposal in use.
+    pub fn proposal(&self) -> Proposal {
+        self.proposal
+    }
+
     /// Time update: `x_i ← f(x_i, u) + w_i`, `w_i ~ N(0, Q)` (003: §2.2.4, "Prädiktion").
     /// A particle that becomes non-finite gets weight zero; if every particle does, the set is
     /// redrawn around the last estimate and [`FilterIssue::WeightsReset`] is reported.
+    /// With the linearised optimal proposal the noise is drawn in the next update, when the
+    /// measurement is known; meanwhile the estimate is the mean of `f(x_i, u)` and the
+    /// covariance their spread plus `Q`.
     pub fn propagate(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
-        for (particle, log_weight) in self.particles.iter_mut().zip(self.log_weights.iter_mut()) {
-            let noise = self.process_noise_root * standard_normal_vector::<N, _>(&mut self.rng);
-            *particle = self.model.transition(particle, input) + noise;
-            if particle.iter().any(|value| !value.is_finite()) {
-                *log_weight = f64::NEG_INFINITY;
+        self.draw_pending_noise_from_prior();
+        match self.proposal {
+            Proposal::Bootstrap => {
+                for (particle, log_weight) in
+                    self.particles.iter_mut().zip(self.log_weights.iter_mut())
+                {
+                    let noise =
+                        self.process_noise_root * standard_normal_vector::<N, _>(&mut self.rng);
+                    *particle = self.model.transition(particle, input) + noise;
+                    if particle.iter().any(|value| !value.is_finite()) {
+                        *log_weight = f64::NEG_INFINITY;
+                    }
+                }
+            }
+            Proposal::LinearisedOptimal => {
+                for ((particle, mean), log_weight) in self
+                    .particles
+                    .iter_mut()
+                    .zip(self.predicted_means.iter_mut())
+                    .zip(self.log_weights.iter_mut())
+                {
+                    *mean = self.model.transition(particle, input);
+                    *particle = *mean;
+                    if mean.iter().any(|value| !value.is_finite()) {
+                        *log_weight = f64::NEG_INFINITY;
+                    }
+                }
+                self.noise_pending = true;
             }
         }
         if normalise_log_weights(&mut self.log_weights, &mut self.weights).is_none() {
+            self.noise_pending = false;
             self.reset_around_estimate();
             return Err(FilterIssue::WeightsReset);
         }
         self.refresh_estimate();
+        if self.noise_pending {
+            self.covariance += self.process_noise;
+        }
         Ok(())
+    }
+
+    /// A predict without a following update (no measurement row present): the deferred noise
+    /// of the optimal proposal is drawn from the prior, i.e. a bootstrap step.
+    fn draw_pending_noise_from_prior(&mut self) {
+        if !self.noise_pending {
+            return;
+        }
+        for (particle, mean) in self.particles.iter_mut().zip(&self.predicted_means) {
+            *particle =
+                mean + self.process_noise_root * standard_normal_vector::<N, _>(&mut self.rng);
+        }
+        self.noise_pending = false;
+        self.refresh_estimate();
+    }
+
+    /// The optimal-proposal draw and weight of every particle: `x ~ N(m, Σ)` with
+    /// `S = H Q Hᵀ + R`, `K = Q Hᵀ S⁻¹`, `m = f + K (y - h(f))`, `Σ = Q - K H Q` over the used
+    /// rows, and `log w += log p(y|x) + log p(x|f) - log q(x)`.
+    fn draw_from_optimal_proposal(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        used: &MeasurementMask<M>,
+        noise_cholesky: &nalgebra::Cholesky<f64, nalgebra::Const<M>>,
+    ) {
+        // Positive definite by the check in `with_proposal`; should that ever fail, fall back to
+        // the bootstrap draw and weight rather than panic inside a step.
+        let Some(process_cholesky) = self.process_noise.cholesky() else {
+            self.draw_pending_noise_from_prior();
+            self.weigh_by_likelihood(measurement, input, used, noise_cholesky, true);
+            return;
+        };
+        for ((particle, mean), log_weight) in self
+            .particles
+            .iter_mut()
+            .zip(&self.predicted_means)
+            .zip(self.log_weights.iter_mut())
+        {
+            if !log_weight.is_finite() {
+                continue;
+            }
+            let mut jacobian = self.model.measurement_jacobian(mean, input);
+            let mut innovation = measurement - self.model.measurement(mean, input);
+            for (row, &flag) in used.iter().enumerate() {
+                if !flag {
+                    jacobian.row_mut(row).fill(0.0);
+                    innovation[row] = 0.0;
+                }
+            }
+            let q_ht = self.process_noise * jacobian.transpose();
+            let innovation_covariance =
+                masked_covariance(&(jacobian * q_ht + self.measurement_noise), used);
+            let Some(s_cholesky) = innovation_covariance.cholesky() else {
+                *log_weight = f64::NEG_INFINITY;
+                continue;
+            };
+            let gain = q_ht * s_cholesky.inverse();
+            let proposal_mean = mean + gain * innovation;
+            let proposal_covariance = self.process_noise - gain * jacobian * self.process_noise;
+            let proposal_covariance = (proposal_covariance + proposal_covariance.transpose()) * 0.5;
+            let Some(proposal_cholesky) = proposal_covariance.cholesky() else {
+                *log_weight = f64::NEG_INFINITY;
+                continue;
+            };
+            let standard = standard_normal_vector::<N, _>(&mut self.rng);
+            let proposal_factor = proposal_cholesky.l();
+            *particle = proposal_mean + proposal_factor * standard;
+            // log q(x) = -½|z|² - Σ log L_ii (constants shared by all particles dropped).
+            let log_proposal = -0.5 * standard.norm_squared()
+                - proposal_factor
+                    .diagonal()
+                    .iter()
+                    .map(|d| d.ln())
+                    .sum::<f64>();
+            let deviation = *particle - mean;
+            let log_transition = -0.5 * deviation.dot(&process_cholesky.solve(&deviation));
+            let mut residual = measurement - self.model.measurement(particle, input);
+            for (row, &flag) in used.iter().enumerate() {
+                if !flag {
+                    residual[row] = 0.0;
+                }
+            }
+            let whitened = noise_cholesky
+                .l_dirty()
+                .solve_lower_triangular(&residual)
+                .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
+            let log_likelihood = -0.5 * whitened.norm_squared();
+            let increment = log_likelihood + log_transition - log_proposal;
+            *log_weight += if increment.is_nan() || particle.iter().any(|v| !v.is_finite()) {
+                f64::NEG_INFINITY
+            } else {
+                increment
+            };
+        }
+        self.noise_pending = false;
+    }
+
+    /// `log w_i += log N(y; h(x_i, u), R)` over the used rows, up to a constant shared by all
+    /// particles (003: 2.60). `recompute`: the particles moved since `predicted_measurements`
+    /// was filled.
+    fn weigh_by_likelihood(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        used: &MeasurementMask<M>,
+        noise_cholesky: &nalgebra::Cholesky<f64, nalgebra::Const<M>>,
+        recompute: bool,
+    ) {
+        if recompute {
+            for (particle, predicted) in self
+                .particles
+                .iter()
+                .zip(self.predicted_measurements.iter_mut())
+            {
+                *predicted = self.model.measurement(particle, input);
+            }
+        }
+        // log N(y; h(x_i), R) up to a constant shared by all particles (003: 2.60).
+        for (predicted, log_weight) in self
+            .predicted_measurements
+            .iter()
+            .zip(self.log_weights.iter_mut())
+        {
+            let mut residual = measurement - predicted;
+            for (row, &flag) in used.iter().enumerate() {
+                if !flag {
+                    residual[row] = 0.0;
+                }
+            }
+            let whitened = noise_cholesky
+                .l_dirty()
+                .solve_lower_triangular(&residual)
+                .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
+            let log_likelihood = -0.5 * whitened.norm_squared();
+            *log_weight += if log_likelihood.is_nan() {
+                f64::NEG_INFINITY
+            } else {
+                log_likelihood
+            };
+        }
     }
 
     /// Measurement weighting without resampling: `log w_i += log N(y; h(x_i, u), R)` over the
@@ -400,10 +615,12 @@ where
         let used = used_rows(measurement, mask);
         let rows_used = used.iter().filter(|&&flag| flag).count();
         if rows_used == 0 {
+            self.draw_pending_noise_from_prior();
             return Ok(UpdateReport::skipped());
         }
         let Some(noise_cholesky) = masked_covariance(&self.measurement_noise, &used).cholesky()
         else {
+            self.draw_pending_noise_from_prior();
             return Err(FilterIssue::UpdateSkipped);
         };
 
@@ -427,6 +644,12 @@ where
                 innovation_covariance.ger(weight, &deviation, &deviation, 1.0);
             }
         }
+        if self.noise_pending {
+            // The particles are still the noise-free predictions: add the process noise seen
+            // through the measurement.
+            let jacobian = self.model.measurement_jacobian(&self.estimate, input);
+            innovation_covariance += jacobian * self.process_noise * jacobian.transpose();
+        }
         let mut innovation = measurement - predicted_mean;
         for (row, &flag) in used.iter().enumerate() {
             if !flag {
@@ -439,28 +662,10 @@ where
             .filter(|value| value.is_finite())
             .unwrap_or(0.0);
 
-        // log N(y; h(x_i), R) up to a constant shared by all particles (003: 2.60).
-        for (predicted, log_weight) in self
-            .predicted_measurements
-            .iter()
-            .zip(self.log_weights.iter_mut())
-        {
-            let mut residual = measurement - predicted;
-            for (row, &flag) in used.iter().enumerate() {
-                if !flag {
-                    residual[row] = 0.0;
-                }
-            }
-            let whitened = noise_cholesky
-                .l_dirty()
-                .solve_lower_triangular(&residual)
-                .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
-            let log_likelihood = -0.5 * whitened.norm_squared();
-            *log_weight += if log_likelihood.is_nan() {
-                f64::NEG_INFINITY
-            } else {
-                log_likelihood
-            };
+        if self.noise_pending {
+            self.draw_from_optimal_proposal(measurement, input, &used, &noise_cholesky);
+        } else {
+            self.weigh_by_likelihood(measurement, input, &used, &noise_cholesky, false);
         }
         if normalise_log_weights(&mut self.log_weights, &mut self.weights).is_none() {
             self.reset_around_estimate();

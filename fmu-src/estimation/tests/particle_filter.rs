@@ -3,7 +3,7 @@
 
 use estimation::particle::{
     effective_sample_size, filter_run, resample_indices, ParticleFilter, ParticleFilterConfig,
-    RecordedRun, ResamplingPolicy, ResamplingScheme,
+    Proposal, RecordedRun, ResamplingPolicy, ResamplingScheme,
 };
 use estimation::{Estimator, FilterIssue, StateSpaceModel};
 use nalgebra::{SMatrix, SVector};
@@ -186,6 +186,90 @@ fn particle_filter_agrees_with_the_exact_kalman_filter_within_monte_carlo_error(
             worst_t < 5.0,
             "{scheme:?}: mean error {worst_t} standard errors from the Kalman filter"
         );
+    }
+}
+
+/// Mean ESS before resampling, errors against the Kalman filter, and filter variances of one
+/// run of `filter` over `run` (prior as in the Kalman reference).
+fn run_against_reference(
+    mut filter: ParticleFilter<LinearOscillator, 2, 1, 1>,
+    run: &RecordedRun<1, 1>,
+    reference: &[(SVector<f64, 2>, SMatrix<f64, 2, 2>)],
+) -> (f64, Vec<SVector<f64, 2>>, Vec<SVector<f64, 2>>) {
+    let mut ess = 0.0;
+    let mut errors = Vec::new();
+    let mut variances = Vec::new();
+    for (k, (kf_mean, _)) in reference.iter().enumerate() {
+        if k > 0 {
+            filter.predict(&run.inputs[k - 1]).unwrap();
+        }
+        filter
+            .update(&run.measurements[k], &run.inputs[k], &[true])
+            .unwrap();
+        ess += filter.effective_sample_size() / reference.len() as f64;
+        errors.push(filter.state() - kf_mean);
+        variances.push(filter.covariance().diagonal());
+    }
+    (ess, errors, variances)
+}
+
+#[test]
+fn particle_filter_with_the_linearised_optimal_proposal_agrees_with_kalman_and_keeps_more_particles(
+) {
+    // A position measurement far more precise than the process noise: the bootstrap proposal
+    // wastes most particles, the optimal one (exact here, the measurement being linear) not.
+    let mut model = LinearOscillator::new();
+    model.r = SMatrix::<f64, 1, 1>::new(0.0005);
+    let run = simulate_oscillator(&model, 40, 11);
+    let prior_mean = SVector::<f64, 2>::new(0.8, 0.1);
+    let prior_covariance = SMatrix::<f64, 2, 2>::new(0.2, 0.0, 0.0, 0.2);
+    let reference = kalman_reference(&model, &run, prior_mean, prior_covariance);
+    let runs = 8;
+    let (mut bootstrap_ess, mut optimal_ess) = (0.0, 0.0);
+    let mut errors = Vec::new();
+    let mut variances = vec![SVector::<f64, 2>::zeros(); reference.len()];
+    for r in 0..runs {
+        let config = ParticleFilterConfig {
+            particle_count: 500,
+            scheme: ResamplingScheme::Systematic,
+            policy: ResamplingPolicy::EveryStep,
+            seed: 300 + r as u64,
+        };
+        let bootstrap = ParticleFilter::new(model, config, prior_mean, prior_covariance).unwrap();
+        bootstrap_ess += run_against_reference(bootstrap, &run, &reference).0 / runs as f64;
+        let optimal = ParticleFilter::new(model, config, prior_mean, prior_covariance)
+            .unwrap()
+            .with_proposal(Proposal::LinearisedOptimal)
+            .unwrap();
+        assert_eq!(optimal.proposal(), Proposal::LinearisedOptimal);
+        let (ess, run_errors, run_variances) = run_against_reference(optimal, &run, &reference);
+        optimal_ess += ess / runs as f64;
+        for (total, variance) in variances.iter_mut().zip(run_variances) {
+            *total += variance / runs as f64;
+        }
+        errors.push(run_errors);
+    }
+    assert!(
+        optimal_ess > 1.5 * bootstrap_ess,
+        "optimal proposal ESS {optimal_ess} not clearly above bootstrap {bootstrap_ess}"
+    );
+    // Skip the first steps, where the broad prior dominates the weights of either proposal.
+    for (k, (_, kf_cov)) in reference.iter().enumerate().skip(2) {
+        for i in 0..2 {
+            let mean = errors.iter().map(|e| e[k][i]).sum::<f64>() / runs as f64;
+            let sigma = kf_cov[(i, i)].sqrt();
+            assert!(
+                mean.abs() < 0.3 * sigma,
+                "step {k}, state {i}: mean error {mean} vs Kalman sigma {sigma}"
+            );
+            let relative = (variances[k][i] - kf_cov[(i, i)]).abs() / kf_cov[(i, i)];
+            assert!(
+                relative < 0.25,
+                "step {k}, state {i}: variance {} vs Kalman {}",
+                variances[k][i],
+                kf_cov[(i, i)]
+            );
+        }
     }
 }
 
