@@ -41,15 +41,13 @@ use estimation::models::two_track::{two_track_kind, TwoTrackEstimationModel};
 use estimation::particle::{
     ParticleFilter, ParticleFilterConfig, ResamplingPolicy, ResamplingScheme,
 };
-use estimation::{Estimator, FilterIssue, StateSpaceModel};
+use estimation::{Estimator, FilterIssue};
 use fmi_export::{
     CoSimulationModel, InstantiationContext, StateError, StateReader, StateWriter, StepOutcome,
 };
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
-use vehicle_models::single_track::{
-    measurement_index, state_index, SingleTrackParams, MEASUREMENT_DIM, STATE_DIM,
-};
+use vehicle_models::single_track::{state_index, SingleTrackParams, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::two_track_lateral as model_b;
 use vehicle_models::tyre::{HsriParams, MagicFormulaParams};
 use vehicle_models::{
@@ -840,8 +838,11 @@ impl Runner {
         let x = *estimator.state();
         let p = *estimator.covariance();
         let u = self.input;
+        // One model evaluation for every derived output: its ay is v̇y + vx r (000: 5.40), the
+        // measurement function h(x, u) of the ay row in exact arithmetic, so evaluating h again
+        // would only repeat the tyre forces.
         let derived = model.vehicle().outputs(&x, &u);
-        let ay = model.measurement(&x, &u)[measurement_index::LATERAL_ACCELERATION];
+        let ay = derived.lateral_acceleration;
         let std = |i: usize| p[(i, i)].max(0.0).sqrt();
         // First-order propagation of P through atan2(vy, vx).
         let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
