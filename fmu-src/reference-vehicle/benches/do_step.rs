@@ -15,7 +15,10 @@ use std::cell::Cell;
 use divan::Bencher;
 use fmi_export::testing::Slave;
 use fmi_export::{CoSimulationModel, InstantiationContext};
-use vehicle_models::{DriverInputVector, Integrator, SingleTrackHsri};
+use vehicle_models::{
+    DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
+    ReferenceVehicleParams, SingleTrackHsri,
+};
 use ReferenceVehicle::model_description::{vr, GUID};
 use ReferenceVehicle::ReferenceVehicle as Fmu;
 
@@ -70,4 +73,34 @@ fn fmi2_do_step(bencher: Bencher) {
         time.set(t + STEP);
         divan::black_box(status)
     });
+}
+
+/// The same doStep with model B (two-track, Magic Formula, 7 states).
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn fmi2_do_step_model_b(bencher: Bencher) {
+    let mut slave = Slave::instantiate(fmi_export::fmi2_api_of!(ReferenceVehicle), "bench", GUID)
+        .expect("instantiate");
+    slave.set_integer(vr::MODEL, 2);
+    slave.set_real(vr::STEERING_ANGLE, 0.05);
+    slave.initialize(0.0);
+    let time = Cell::new(0.0);
+    bencher.bench_local(|| {
+        let t = time.get();
+        let status = slave.do_step(t, STEP);
+        time.set(t + STEP);
+        divan::black_box(status)
+    });
+}
+
+/// The bare model-B step (vehicle-models' switchable reference vehicle), to compare with
+/// `fmi2_do_step_model_b`.
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn bare_vehicle_step_model_b(bencher: Bencher) {
+    let params = ReferenceVehicleParams {
+        model: ReferenceModelKind::TwoTrack,
+        ..ReferenceVehicleParams::default()
+    };
+    let mut vehicle = VehicleModel::new(&params, 18.0);
+    let input = DriverInputVector::new(0.05, 0.0, 0.0);
+    bencher.bench_local(|| divan::black_box(vehicle.step(divan::black_box(&input), STEP)));
 }

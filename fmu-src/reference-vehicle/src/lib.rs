@@ -123,6 +123,9 @@ struct Simulation {
     held: [f64; SENSORS],
     next_sample_time: f64,
     time: f64,
+    /// The truth at the current state and input, computed once per integration step and reused
+    /// by the outputs (model B's truth costs a load-transfer loop).
+    truth: VehicleTruth,
 }
 
 fn check_positive(name: &str, value: f64) -> Result<f64, String> {
@@ -219,8 +222,9 @@ impl Simulation {
             finite_or(v.drive_torque, 0.0),
             finite_or(v.brake_torque, 0.0),
         );
+        let truth = vehicle.truth(&input);
         let initial = quantised_sensors(
-            &sensor_values(&vehicle.truth(&input)),
+            &sensor_values(&truth),
             &[
                 v.quantum_yaw_rate_meas,
                 v.quantum_ay_meas,
@@ -232,6 +236,7 @@ impl Simulation {
             v.noise,
         );
         Ok(Self {
+            truth,
             vehicle,
             integration_step,
             noise_on: v.noise,
@@ -298,7 +303,8 @@ impl Simulation {
             ));
         }
         self.time += dt;
-        let truth = sensor_values(&self.vehicle.truth(&self.input));
+        self.truth = self.vehicle.truth(&self.input);
+        let truth = sensor_values(&self.truth);
         if !self.noise_on {
             self.held = truth;
             return Ok(());
@@ -395,6 +401,7 @@ impl Simulation {
         reader.f64s_into(&mut self.held, "held sensor values")?;
         self.next_sample_time = reader.f64("next sample time")?;
         self.time = reader.f64("simulation time")?;
+        self.truth = self.vehicle.truth(&self.input);
         Ok(())
     }
 }
@@ -433,7 +440,7 @@ impl ReferenceVehicle {
         let Some(simulation) = &self.simulation else {
             return;
         };
-        let truth = simulation.vehicle.truth(&simulation.input);
+        let truth = simulation.truth;
         let v = &mut self.variables;
         v.vx = truth.longitudinal_velocity;
         v.vy = truth.lateral_velocity;
