@@ -189,3 +189,28 @@ fn model_b_fmi2_do_step(bencher: Bencher, name: &str) {
         divan::black_box(status)
     });
 }
+
+#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
+fn model_b_model_do_step(bencher: Bencher, name: &str) {
+    let mut fmu = Fmu::instantiate(&InstantiationContext {
+        instance_name: String::from("bench"),
+        resource_location: None,
+    });
+    let v = fmu.variables_mut();
+    v.model = estimator_model::TWO_TRACK_3_STATE;
+    v.estimator = estimator(name);
+    v.steering_angle = 0.05;
+    v.yaw_rate_meas = SENSORS_B[0];
+    v.ay_meas = SENSORS_B[1];
+    v.omega_front_meas = SENSORS_B[2];
+    v.omega_rear_meas = SENSORS_B[3];
+    v.vx_meas = SENSORS_B[4];
+    fmu.initialize(0.0).expect("initialise");
+    let time = Cell::new(0.0);
+    bencher.bench_local(|| {
+        let t = time.get();
+        let outcome = fmu.do_step(t, STEP);
+        time.set(t + STEP);
+        divan::black_box(outcome)
+    });
+}
