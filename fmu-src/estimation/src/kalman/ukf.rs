@@ -124,11 +124,15 @@ fn sigma_deviations<const N: usize>(
     covariance: &SMatrix<f64, N, N>,
     spread: f64,
 ) -> Option<SigmaSet<N>> {
-    let factor = cholesky_with_repair(&(covariance * spread))?;
+    // chol(c P) = √c · chol(P): factorising P itself keeps the (rare) repaired matrix a
+    // covariance without a division per entry on every step.
+    let factor = cholesky_with_repair(covariance)?;
+    let mut deviations = factor.cholesky.unpack();
+    deviations *= spread.sqrt();
     Some(SigmaSet {
-        deviations: factor.cholesky.l(),
+        deviations,
         repaired: factor.repaired,
-        repaired_covariance: factor.matrix / spread,
+        repaired_covariance: factor.matrix,
     })
 }
 
