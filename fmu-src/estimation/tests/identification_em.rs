@@ -1,6 +1,8 @@
 //! EM identification: the minimisers, and recovery of model C's parameters on a short run.
 
-use estimation::identification::seed003::{identify_seed003, simulate, Seed003Config};
+use estimation::identification::seed003::{
+    identify_from_arrays, identify_seed003, simulate, Seed003Config,
+};
 use estimation::identification::{minimise_powell, minimise_scalar, EmSchedule, LineSearchConfig};
 use nalgebra::SVector;
 
@@ -86,4 +88,46 @@ fn em_moves_model_c_parameters_towards_the_truth_on_a_short_run() {
     // Deterministic: the same data and seed give the same bits.
     let again = identify_seed003(&config, &simulated).unwrap();
     assert_eq!(result.parameters, again.parameters);
+}
+
+#[test]
+fn identification_from_plain_arrays_matches_the_simulated_run_and_rejects_bad_data() {
+    let config = Seed003Config {
+        samples: 120,
+        noise_seeds: vec![1],
+        tolerance: 1e-3,
+        max_iterations: 2,
+        ..Seed003Config::default()
+    };
+    let simulated = simulate(&config, 5).unwrap();
+    let inputs: Vec<[f64; 3]> = simulated
+        .run
+        .inputs
+        .iter()
+        .map(|u| [u[0], u[1], u[2]])
+        .collect();
+    let measurements: Vec<[f64; 3]> = simulated
+        .run
+        .measurements
+        .iter()
+        .map(|y| [y[0], y[1], y[2]])
+        .collect();
+    let from_arrays =
+        identify_from_arrays(&inputs, &measurements, config.sample_time, &config).unwrap();
+    let direct = identify_seed003(&config, &simulated).unwrap();
+    assert_eq!(from_arrays.parameters, direct.parameters);
+    assert_eq!(from_arrays.iterations, direct.iterations);
+    assert!(
+        from_arrays.iterations.len() >= 2,
+        "history holds start and iterations"
+    );
+
+    let error = identify_from_arrays(&inputs[1..], &measurements, 0.01, &config).unwrap_err();
+    assert!(error.to_string().contains("rows"), "{error}");
+    let mut bad_inputs = inputs.clone();
+    bad_inputs[3][1] = f64::NAN;
+    let error = identify_from_arrays(&bad_inputs, &measurements, 0.01, &config).unwrap_err();
+    assert!(error.to_string().contains("input row 3"), "{error}");
+    let error = identify_from_arrays(&inputs, &measurements, -0.01, &config).unwrap_err();
+    assert!(error.to_string().contains("sample_time"), "{error}");
 }
