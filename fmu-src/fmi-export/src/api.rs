@@ -499,6 +499,7 @@ unsafe fn get_values<M: CoSimulationModel, T>(
             if let Err(message) = refresh_initial_outputs(instance, function) {
                 return Outcome::Error(message);
             }
+            instance.model.refresh_outputs();
             for i in 0..nvr {
                 // SAFETY: both arrays hold nvr elements.
                 let reference = *vr.add(i);
@@ -942,6 +943,9 @@ pub unsafe fn get_fmu_state<M: CoSimulationModel>(
             if state.is_null() {
                 return Outcome::Error(String::from("fmi2GetFMUstate: FMUstate is NULL"));
             }
+            // The snapshot holds the outputs as a read now would see them, so its serialized
+            // bytes do not depend on whether the outputs were read before.
+            instance.model.refresh_outputs();
             let snapshot = Snapshot::of(instance);
             if (*state).is_null() {
                 *state = Box::into_raw(Box::new(snapshot)) as Fmi2FmuState;

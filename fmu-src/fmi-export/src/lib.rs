@@ -108,6 +108,11 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     /// currently set, and updates the outputs. Must not allocate on the heap in the normal path.
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome;
 
+    /// Brings outputs a model computes lazily up to date. Called before any variable is read
+    /// (fmi2Get*) and before fmi2GetFMUstate; a model that updates its outputs in `do_step`
+    /// keeps this default, which does nothing.
+    fn refresh_outputs(&mut self) {}
+
     /// Appends the internal state (everything beyond the variables) for fmi2SerializeFMUstate;
     /// `Err` (a message) when this state cannot be serialized.
     fn write_state(&self, writer: &mut StateWriter) -> Result<(), String>;

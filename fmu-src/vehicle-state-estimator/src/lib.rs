@@ -825,19 +825,55 @@ impl Runner {
         Ok(runner)
     }
 
-    /// The output values in the order of `OUTPUTS` (see `publish`).
-    fn outputs(&self) -> [f64; OUTPUT_COUNT] {
+    /// What the outputs after the latest sample are computed from (see `PendingOutputs`).
+    fn output_sample(&self) -> OutputSample {
+        let mut sample = OutputSample {
+            state: StateA::zeros(),
+            covariance: CovarianceA::zeros(),
+            input: self.input,
+            speed: 0.0,
+            omega_front: 0.0,
+            omega_rear: 0.0,
+            nis: self.nis,
+            rows_used: self.rows_used,
+        };
         match &self.core {
-            Core::A { filter, model } => self.outputs_a(filter, model),
-            Core::B(runner) => self.outputs_b(runner),
+            Core::A { filter, .. } => {
+                let estimator = filter.estimator();
+                sample.state = *estimator.state();
+                sample.covariance = *estimator.covariance();
+            }
+            Core::B(runner) => {
+                // Model B's 3 states sit in the leading entries (copies, so bit-exact).
+                let estimator = runner.filter.estimator();
+                sample
+                    .state
+                    .fixed_rows_mut::<{ model_b::STATE_DIM }>(0)
+                    .copy_from(estimator.state());
+                sample
+                    .covariance
+                    .fixed_view_mut::<{ model_b::STATE_DIM }, { model_b::STATE_DIM }>(0, 0)
+                    .copy_from(estimator.covariance());
+                sample.speed = runner.speed;
+                sample.omega_front = runner.omega_front;
+                sample.omega_rear = runner.omega_rear;
+            }
+        }
+        sample
+    }
+
+    /// The output values in the order of `OUTPUTS` (see `publish`) for one sample's result.
+    fn outputs(&self, sample: &OutputSample) -> [f64; OUTPUT_COUNT] {
+        match &self.core {
+            Core::A { model, .. } => Self::outputs_a(model, sample),
+            Core::B(runner) => self.outputs_b(&runner.model, sample),
         }
     }
 
-    fn outputs_a(&self, filter: &FilterA, model: &ModelA) -> [f64; OUTPUT_COUNT] {
-        let estimator = filter.estimator();
-        let x = *estimator.state();
-        let p = *estimator.covariance();
-        let u = self.input;
+    fn outputs_a(model: &ModelA, sample: &OutputSample) -> [f64; OUTPUT_COUNT] {
+        let x = sample.state;
+        let p = sample.covariance;
+        let u = sample.input;
         // One model evaluation for every derived output: its ay is v̇y + vx r (000: 5.40), the
         // measurement function h(x, u) of the ay row in exact arithmetic, so evaluating h again
         // would only repeat the tyre forces.
@@ -869,22 +905,27 @@ impl Runner {
             std(state_index::OMEGA_FRONT),
             std(state_index::OMEGA_REAR),
             sideslip_variance.max(0.0).sqrt(),
-            self.nis,
+            sample.nis,
         ]
     }
 
     /// Model B's outputs as the XML descriptions state them.
-    fn outputs_b(&self, runner: &RunnerB) -> [f64; OUTPUT_COUNT] {
+    fn outputs_b(&self, model: &ModelB, sample: &OutputSample) -> [f64; OUTPUT_COUNT] {
         use model_b::state_index as b;
         let v = &*self.parameters;
-        let estimator = runner.filter.estimator();
-        let x = *estimator.state();
-        let p = *estimator.covariance();
-        let steering = self.input[0];
-        let u = InputB::from([steering, runner.speed]);
+        let x: StateB = sample
+            .state
+            .fixed_rows::<{ model_b::STATE_DIM }>(0)
+            .into_owned();
+        let p: CovarianceB = sample
+            .covariance
+            .fixed_view::<{ model_b::STATE_DIM }, { model_b::STATE_DIM }>(0, 0)
+            .into_owned();
+        let steering = sample.input[0];
+        let u = InputB::from([steering, sample.speed]);
         // vy = vx tan β and the axle slip angles (001: eqs 4-5).
-        let derived = runner.model.vehicle().outputs(&x, &u);
-        let vx = runner.speed;
+        let derived = model.vehicle().outputs(&x, &u);
+        let vx = sample.speed;
         let (sideslip, yaw_rate) = (x[b::SIDESLIP], x[b::YAW_RATE]);
         let vy = derived.lateral_velocity;
         // Longitudinal slip (ω r_w − vxW) / vxW with the wheel-centre speed along the wheel
@@ -898,14 +939,14 @@ impl Runner {
             vx,
             vy,
             yaw_rate,
-            runner.omega_front,
-            runner.omega_rear,
+            sample.omega_front,
+            sample.omega_rear,
             sideslip,
             x[b::LATERAL_ACCELERATION],
             derived.slip_angle_front,
             derived.slip_angle_rear,
-            slip(runner.omega_front, front_along_wheel),
-            slip(runner.omega_rear, vx),
+            slip(sample.omega_front, front_along_wheel),
+            slip(sample.omega_rear, vx),
             v.measurement_noise_std_vx,
             // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
             vx * std(b::SIDESLIP) / (cos_sideslip * cos_sideslip),
@@ -913,13 +954,73 @@ impl Runner {
             v.measurement_noise_std_omega_front,
             v.measurement_noise_std_omega_rear,
             std(b::SIDESLIP),
-            self.nis,
+            sample.nis,
         ]
     }
 }
 
 /// Number of real outputs written by `publish`.
 const OUTPUT_COUNT: usize = 18;
+
+/// What the outputs after a sample are computed from: the filter's estimate and covariance
+/// and the values beside it, copied when the sample is processed.
+#[derive(Clone, Copy, Debug)]
+struct OutputSample {
+    /// Model A's state; model B's 3 states in the leading entries.
+    state: StateA,
+    /// Model A's covariance; model B's in the leading 3 × 3 block.
+    covariance: CovarianceA,
+    input: InputVector,
+    /// Model B only: the speed input and the wheel speeds passed through.
+    speed: f64,
+    omega_front: f64,
+    omega_rear: f64,
+    nis: f64,
+    rows_used: i32,
+}
+
+impl OutputSample {
+    fn empty() -> Self {
+        Self {
+            state: StateA::zeros(),
+            covariance: CovarianceA::zeros(),
+            input: InputVector::zeros(),
+            speed: 0.0,
+            omega_front: 0.0,
+            omega_rear: 0.0,
+            nis: 0.0,
+            rows_used: 0,
+        }
+    }
+}
+
+/// How many doSteps with a sample may pass without an output read before the outputs are
+/// computed anyway (bounds the memory; one evaluation per this many doSteps).
+const PENDING_CAPACITY: usize = 8;
+
+/// The derived outputs (slip quantities, ay, standard deviations, sideslip) cost about as much
+/// as a filter step, so they are computed lazily: each doStep that processed a sample stores
+/// what its outputs are computed from, and the first output read (`refresh_outputs`) computes
+/// them. The values are exactly those of publishing after every doStep: an output that is not
+/// finite keeps its previous value, so the samples since the last publish are kept and a
+/// non-finite output is looked up in the older ones, newest first.
+#[derive(Clone, Debug)]
+struct PendingOutputs {
+    samples: [OutputSample; PENDING_CAPACITY],
+    len: usize,
+    /// The latest doStep processed a sample, so its `status` includes the publish bits.
+    status_awaits_publish: bool,
+}
+
+impl PendingOutputs {
+    fn new() -> Self {
+        Self {
+            samples: [OutputSample::empty(); PENDING_CAPACITY],
+            len: 0,
+            status_awaits_publish: false,
+        }
+    }
+}
 
 fn finite_or(value: f64, fallback: f64) -> f64 {
     if value.is_finite() {
@@ -934,6 +1035,7 @@ fn finite_or(value: f64, fallback: f64) -> f64 {
 pub struct VehicleStateEstimator {
     variables: Variables,
     runner: Option<Runner>,
+    pending: PendingOutputs,
 }
 
 impl VehicleStateEstimator {
@@ -942,13 +1044,49 @@ impl VehicleStateEstimator {
         self.runner.as_ref()
     }
 
-    /// Writes the estimate into the outputs; keeps an output's previous value (and reports
-    /// status bit 8) if it would not be finite.
-    fn publish(&mut self) -> i32 {
+    /// Stores the outputs of the sample just processed, to be computed at the next read.
+    fn defer_publish(&mut self) {
+        if self.pending.len == PENDING_CAPACITY {
+            self.publish();
+        }
+        if let Some(runner) = &self.runner {
+            self.pending.samples[self.pending.len] = runner.output_sample();
+            self.pending.len += 1;
+        }
+    }
+
+    /// Writes the pending estimate into the outputs; keeps an output's previous value (and
+    /// reports status bit 8 for the latest doStep) if it would not be finite.
+    fn publish(&mut self) {
+        let pending = &mut self.pending;
         let Some(runner) = &self.runner else {
-            return 0;
+            pending.len = 0;
+            return;
         };
-        let values = runner.outputs();
+        if pending.len == 0 {
+            return;
+        }
+        let newest = &pending.samples[pending.len - 1];
+        let rows_used = newest.rows_used;
+        let mut values = runner.outputs(newest);
+        let mut finite = values.map(f64::is_finite);
+        let reset = finite.contains(&false);
+        // Eager publishing would have kept the value of the newest older sample where it was
+        // finite; walk back only while some output is still missing.
+        for older in pending.samples[..pending.len - 1].iter().rev() {
+            if !finite.contains(&false) {
+                break;
+            }
+            let older_values = runner.outputs(older);
+            for ((value, is_finite), older_value) in
+                values.iter_mut().zip(finite.iter_mut()).zip(older_values)
+            {
+                if !*is_finite && older_value.is_finite() {
+                    *value = older_value;
+                    *is_finite = true;
+                }
+            }
+        }
         let v = &mut self.variables;
         let targets: [&mut f64; OUTPUT_COUNT] = [
             &mut v.vx_est,
@@ -970,16 +1108,17 @@ impl VehicleStateEstimator {
             &mut v.sideslip_std,
             &mut v.nis,
         ];
-        let mut bits = 0;
-        for (target, value) in targets.into_iter().zip(values) {
-            if value.is_finite() {
+        for ((target, value), is_finite) in targets.into_iter().zip(values).zip(finite) {
+            if is_finite {
                 *target = value;
-            } else {
-                bits |= status::STATE_RESET;
             }
         }
-        v.rows_used = runner.rows_used;
-        bits
+        v.rows_used = rows_used;
+        if reset && pending.status_awaits_publish {
+            v.status |= status::STATE_RESET;
+        }
+        pending.len = 0;
+        pending.status_awaits_publish = false;
     }
 }
 
@@ -994,6 +1133,7 @@ impl CoSimulationModel for VehicleStateEstimator {
         Self {
             variables: Variables::default(),
             runner: None,
+            pending: PendingOutputs::new(),
         }
     }
 
@@ -1007,8 +1147,12 @@ impl CoSimulationModel for VehicleStateEstimator {
 
     fn initialize(&mut self, start_time: f64) -> Result<(), String> {
         self.runner = Some(Runner::build(&self.variables, start_time)?);
-        let bits = self.publish();
-        self.variables.status = bits;
+        self.pending.len = 0;
+        self.variables.status = 0;
+        self.defer_publish();
+        self.pending.status_awaits_publish = true;
+        // Initialisation is not the hot path: publish at once.
+        self.publish();
         Ok(())
     }
 
@@ -1030,10 +1174,15 @@ impl CoSimulationModel for VehicleStateEstimator {
         let (sample_bits, processed) = runner.advance(current_time, step_size, &sensors);
         bits |= sample_bits;
         if processed {
-            bits |= self.publish();
+            self.defer_publish();
         }
         self.variables.status = bits;
+        self.pending.status_awaits_publish = processed;
         StepOutcome::Ok
+    }
+
+    fn refresh_outputs(&mut self) {
+        self.publish();
     }
 
     fn write_state(&self, writer: &mut StateWriter) -> Result<(), String> {
@@ -1048,6 +1197,8 @@ impl CoSimulationModel for VehicleStateEstimator {
     }
 
     fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
+        // The outputs were published before the state was taken (see `refresh_outputs`).
+        self.pending = PendingOutputs::new();
         self.runner = if reader.bool("estimator present")? {
             Some(Runner::read_state(&self.variables, reader)?)
         } else {
