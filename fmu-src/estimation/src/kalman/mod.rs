@@ -370,22 +370,27 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
     *state += step.gain * step.report.innovation;
     // Skipped rows have zero gain columns; zero their H rows too so that a non-finite entry in
     // a skipped row cannot leak into K H as 0 · NaN.
-    let mut used_output_matrix = *output_matrix;
-    for row in 0..M {
-        if !step.report.used[row] {
-            used_output_matrix.row_mut(row).fill(0.0);
+    // With every row used (the common case) H is taken as it is, without a masked copy.
+    *covariance = if step.report.rows_used == M {
+        joseph_update(covariance, &step.gain, output_matrix, measurement_noise)
+    } else {
+        let mut used_output_matrix = *output_matrix;
+        for row in 0..M {
+            if !step.report.used[row] {
+                used_output_matrix.row_mut(row).fill(0.0);
+            }
         }
-    }
-    *covariance = joseph_update(
-        covariance,
-        &step.gain,
-        &used_output_matrix,
-        measurement_noise,
-    );
+        joseph_update(
+            covariance,
+            &step.gain,
+            &used_output_matrix,
+            measurement_noise,
+        )
+    };
+    // `keep_positive_definite` already checks the covariance for finiteness; only the state is
+    // left to check.
     let repaired = keep_positive_definite(covariance);
-    if !finite_or_restore(state, covariance, previous_state, previous_covariance)
-        || repaired.is_none()
-    {
+    if repaired.is_none() || !all_finite(state) {
         *state = previous_state;
         *covariance = previous_covariance;
         return Err(FilterIssue::StateReset);
