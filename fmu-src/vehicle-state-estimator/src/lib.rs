@@ -829,7 +829,8 @@ impl Runner {
     fn output_sample(&self) -> OutputSample {
         let mut sample = OutputSample {
             state: StateA::zeros(),
-            covariance: CovarianceA::zeros(),
+            variances: StateA::zeros(),
+            covariance_vx_vy: 0.0,
             input: self.input,
             speed: 0.0,
             omega_front: 0.0,
@@ -841,7 +842,9 @@ impl Runner {
             Core::A { filter, .. } => {
                 let estimator = filter.estimator();
                 sample.state = *estimator.state();
-                sample.covariance = *estimator.covariance();
+                let covariance = estimator.covariance();
+                sample.variances = covariance.diagonal();
+                sample.covariance_vx_vy = covariance[(state_index::VX, state_index::VY)];
             }
             Core::B(runner) => {
                 // Model B's 3 states sit in the leading entries (copies, so bit-exact).
@@ -851,9 +854,9 @@ impl Runner {
                     .fixed_rows_mut::<{ model_b::STATE_DIM }>(0)
                     .copy_from(estimator.state());
                 sample
-                    .covariance
-                    .fixed_view_mut::<{ model_b::STATE_DIM }, { model_b::STATE_DIM }>(0, 0)
-                    .copy_from(estimator.covariance());
+                    .variances
+                    .fixed_rows_mut::<{ model_b::STATE_DIM }>(0)
+                    .copy_from(&estimator.covariance().diagonal());
                 sample.speed = runner.speed;
                 sample.omega_front = runner.omega_front;
                 sample.omega_rear = runner.omega_rear;
@@ -872,21 +875,21 @@ impl Runner {
 
     fn outputs_a(model: &ModelA, sample: &OutputSample) -> [f64; OUTPUT_COUNT] {
         let x = sample.state;
-        let p = sample.covariance;
+        let variances = sample.variances;
         let u = sample.input;
         // One model evaluation for every derived output: its ay is v̇y + vx r (000: 5.40), the
         // measurement function h(x, u) of the ay row in exact arithmetic, so evaluating h again
         // would only repeat the tyre forces.
         let derived = model.vehicle().outputs(&x, &u);
         let ay = derived.lateral_acceleration;
-        let std = |i: usize| p[(i, i)].max(0.0).sqrt();
+        let std = |i: usize| variances[i].max(0.0).sqrt();
         // First-order propagation of P through atan2(vy, vx).
         let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
         let speed_squared = vx * vx + vy * vy;
         let gradient = [-vy / speed_squared, vx / speed_squared];
-        let sideslip_variance = gradient[0] * gradient[0] * p[(0, 0)]
-            + 2.0 * gradient[0] * gradient[1] * p[(0, 1)]
-            + gradient[1] * gradient[1] * p[(1, 1)];
+        let sideslip_variance = gradient[0] * gradient[0] * variances[state_index::VX]
+            + 2.0 * gradient[0] * gradient[1] * sample.covariance_vx_vy
+            + gradient[1] * gradient[1] * variances[state_index::VY];
         [
             x[state_index::VX],
             x[state_index::VY],
@@ -917,10 +920,7 @@ impl Runner {
             .state
             .fixed_rows::<{ model_b::STATE_DIM }>(0)
             .into_owned();
-        let p: CovarianceB = sample
-            .covariance
-            .fixed_view::<{ model_b::STATE_DIM }, { model_b::STATE_DIM }>(0, 0)
-            .into_owned();
+        let variances = sample.variances;
         let steering = sample.input[0];
         let u = InputB::from([steering, sample.speed]);
         // vy = vx tan β and the axle slip angles (001: eqs 4-5).
@@ -933,7 +933,7 @@ impl Runner {
         let front_along_wheel =
             vx * steering.cos() + (vy + v.cog_to_front_axle * yaw_rate) * steering.sin();
         let slip = |omega: f64, along: f64| (omega * v.wheel_radius - along) / along;
-        let std = |i: usize| p[(i, i)].max(0.0).sqrt();
+        let std = |i: usize| variances[i].max(0.0).sqrt();
         let cos_sideslip = sideslip.cos();
         [
             vx,
@@ -962,14 +962,16 @@ impl Runner {
 /// Number of real outputs written by `publish`.
 const OUTPUT_COUNT: usize = 18;
 
-/// What the outputs after a sample are computed from: the filter's estimate and covariance
-/// and the values beside it, copied when the sample is processed.
+/// What the outputs after a sample are computed from: the filter's estimate, the covariance
+/// entries the outputs use and the values beside it, copied when the sample is processed.
 #[derive(Clone, Copy, Debug)]
 struct OutputSample {
     /// Model A's state; model B's 3 states in the leading entries.
     state: StateA,
-    /// Model A's covariance; model B's in the leading 3 × 3 block.
-    covariance: CovarianceA,
+    /// The diagonal of the covariance (model B's in the leading entries).
+    variances: StateA,
+    /// Model A only: cov(vx, vy), for the sideslip standard deviation.
+    covariance_vx_vy: f64,
     input: InputVector,
     /// Model B only: the speed input and the wheel speeds passed through.
     speed: f64,
@@ -983,7 +985,8 @@ impl OutputSample {
     fn empty() -> Self {
         Self {
             state: StateA::zeros(),
-            covariance: CovarianceA::zeros(),
+            variances: StateA::zeros(),
+            covariance_vx_vy: 0.0,
             input: InputVector::zeros(),
             speed: 0.0,
             omega_front: 0.0,
