@@ -25,5 +25,8 @@ pub mod smoother;
 /// EM parameter identification with the particle smoother (003: 2.76-2.78, 3.3-3.12).
 pub mod identification;
 
+#[cfg(test)]
+mod test_oracle;
+
 pub use estimator::{Estimator, FilterIssue, MeasurementMask, UpdateReport};
 pub use model::StateSpaceModel;

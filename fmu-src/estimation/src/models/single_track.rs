@@ -293,23 +293,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Central differences as the test oracle for the analytic (AD) Jacobians.
-    fn finite_difference<const R: usize, const K: usize>(
-        f: impl Fn(&SVector<f64, K>) -> SVector<f64, R>,
-        at: &SVector<f64, K>,
-    ) -> SMatrix<f64, R, K> {
-        let mut jacobian = SMatrix::<f64, R, K>::zeros();
-        for j in 0..K {
-            let h = 1e-6 * at[j].abs().max(1e-2);
-            let mut plus = *at;
-            let mut minus = *at;
-            plus[j] += h;
-            minus[j] -= h;
-            jacobian.set_column(j, &((f(&plus) - f(&minus)) / (2.0 * h)));
-        }
-        jacobian
-    }
+    use crate::test_oracle::central_difference;
 
     #[test]
     fn jacobians_match_finite_differences_in_a_braked_turn() {
@@ -318,7 +302,7 @@ mod tests {
         let u = SVector::<f64, 3>::from([0.06, 50.0, 800.0]);
         let checks = [(
             model.transition_jacobian(&x, &u),
-            finite_difference(|x| model.transition(x, &u), &x),
+            central_difference(|x| model.transition(x, &u), &x),
         )];
         for (analytic, numeric) in checks {
             assert!(
@@ -326,11 +310,11 @@ mod tests {
                 "{analytic} vs {numeric}"
             );
         }
-        let numeric = finite_difference(|u| model.transition(&x, u), &u);
+        let numeric = central_difference(|u| model.transition(&x, u), &u);
         assert!((model.transition_input_jacobian(&x, &u) - numeric).amax() < 1e-5 * numeric.amax());
-        let numeric = finite_difference(|x| model.measurement(x, &u), &x);
+        let numeric = central_difference(|x| model.measurement(x, &u), &x);
         assert!((model.measurement_jacobian(&x, &u) - numeric).amax() < 1e-5 * numeric.amax());
-        let numeric = finite_difference(|u| model.measurement(&x, u), &u);
+        let numeric = central_difference(|u| model.measurement(&x, u), &u);
         assert!(
             (model.measurement_input_jacobian(&x, &u) - numeric).amax() < 1e-5 * numeric.amax()
         );

@@ -257,23 +257,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
 mod tests {
     use super::*;
     use crate::kalman::LinearisedModel;
-
-    /// Central differences as the test oracle for the AD Jacobians.
-    fn finite_difference<const R: usize, const K: usize>(
-        f: impl Fn(&SVector<f64, K>) -> SVector<f64, R>,
-        at: &SVector<f64, K>,
-    ) -> SMatrix<f64, R, K> {
-        let mut jacobian = SMatrix::<f64, R, K>::zeros();
-        for j in 0..K {
-            let h = 1e-6 * at[j].abs().max(1e-2);
-            let mut plus = *at;
-            let mut minus = *at;
-            plus[j] += h;
-            minus[j] -= h;
-            jacobian.set_column(j, &((f(&plus) - f(&minus)) / (2.0 * h)));
-        }
-        jacobian
-    }
+    use crate::test_oracle::central_difference;
 
     #[test]
     fn jacobians_match_finite_differences_in_a_hard_turn() {
@@ -282,19 +266,19 @@ mod tests {
             model.integrator = integrator;
             let x = SVector::<f64, 3>::from([-0.03, 0.35, 6.5]);
             let u = SVector::<f64, 2>::from([0.06, 17.5]);
-            let numeric = finite_difference(|x| model.transition(x, &u), &x);
+            let numeric = central_difference(|x| model.transition(x, &u), &x);
             let analytic = model.transition_jacobian(&x, &u);
             assert!(
                 (analytic - numeric).amax() < 1e-6 * numeric.amax(),
                 "{analytic} vs {numeric}"
             );
-            let numeric = finite_difference(|u| model.transition(&x, u), &u);
+            let numeric = central_difference(|u| model.transition(&x, u), &u);
             let analytic = model.transition_input_jacobian(&x, &u);
             assert!(
                 (analytic - numeric).amax() < 1e-6 * numeric.amax(),
                 "{analytic} vs {numeric}"
             );
-            let numeric = finite_difference(|x| model.measurement(x, &u), &x);
+            let numeric = central_difference(|x| model.measurement(x, &u), &x);
             assert!((model.measurement_jacobian(&x, &u) - numeric).amax() < 1e-9);
             assert_eq!(
                 model.measurement_input_jacobian(&x, &u),
