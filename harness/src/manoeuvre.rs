@@ -141,10 +141,34 @@ pub struct SineWithDwell {
     pub duration: f64,
 }
 
-/// ISO 3888-1 double lane change driven by a path-following (pure pursuit) driver.
+/// The standard whose course a [`DoubleLaneChange`] lays out; the geometry itself is in the
+/// section lengths and the offset, this names it in the report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LaneChangeCourse {
+    /// ISO 3888-1 (severe lane change, the issue's "double lane change").
+    #[default]
+    Iso3888Part1,
+    /// ISO 3888-2 (obstacle avoidance, the "Elchtest"/moose test).
+    Iso3888Part2,
+}
+
+impl LaneChangeCourse {
+    pub fn label(self) -> &'static str {
+        match self {
+            LaneChangeCourse::Iso3888Part1 => "ISO 3888-1",
+            LaneChangeCourse::Iso3888Part2 => "ISO 3888-2",
+        }
+    }
+}
+
+/// Double lane change (ISO 3888-1 or -2 course) driven by a path-following (pure pursuit) driver.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DoubleLaneChange {
+    /// Which standard the course follows (default ISO 3888-1).
+    #[serde(default)]
+    pub course: LaneChangeCourse,
     pub initial_speed: f64,
     /// Distance driven straight before the course starts [m].
     pub approach: f64,
@@ -155,6 +179,10 @@ pub struct DoubleLaneChange {
     pub first_transition: f64,
     pub offset_length: f64,
     pub second_transition: f64,
+    /// Lateral offset of the exit lane's centre line [m] (0 for ISO 3888-1, where the exit lane
+    /// continues the entry lane).
+    #[serde(default)]
+    pub exit_offset: f64,
     /// Preview time of the driver [s]: look-ahead distance = speed * preview_time.
     pub preview_time: f64,
     /// Wheelbase used by the driver's steering law [m].
@@ -179,13 +207,14 @@ pub enum Manoeuvre {
 }
 
 /// Names of the library manoeuvres, in report order.
-pub const LIBRARY: [&str; 10] = [
+pub const LIBRARY: [&str; 11] = [
     "seed000_ramp_moderate_ay",
     "seed000_ramp_high_ay",
     "seed000_ramp_high_ay_braking",
     "seed000_step_steer_2deg",
     "seed001_step_steer_40deg",
     "seed001_double_lane_change",
+    "seed001_moose_test",
     "seed001_wobble",
     "fmvss126_slowly_increasing_steer",
     "fmvss126_sine_with_dwell",
@@ -242,6 +271,7 @@ pub fn library(name: &str) -> Option<Manoeuvre> {
         // 001: double lane change at 65 km/h along the ISO 3888-1 course (sections 15, 30, 25,
         // 25 m, lateral offset 3.5 m), 1 s of approach.
         "seed001_double_lane_change" => Manoeuvre::DoubleLaneChange(DoubleLaneChange {
+            course: LaneChangeCourse::Iso3888Part1,
             initial_speed: 65.0 * KMH,
             approach: 65.0 * KMH,
             lateral_offset: 3.5,
@@ -249,6 +279,7 @@ pub fn library(name: &str) -> Option<Manoeuvre> {
             first_transition: 30.0,
             offset_length: 25.0,
             second_transition: 25.0,
+            exit_offset: 0.0,
             preview_time: 0.6,
             // lF + lR of the seed-000 car (000: table 5.1).
             wheelbase: 1.4346 + 1.4831,
@@ -258,6 +289,36 @@ pub fn library(name: &str) -> Option<Manoeuvre> {
         }),
         // 001: one sine of rising amplitude, 150 deg left then 225 deg right (steering wheel)
         // at 80 km/h. The seed gives no frequency: 0.5 Hz (1 s per lobe).
+        // 001 calls its lane change an "Elchtest" (moose test) with large sideslip: that is
+        // the ISO 3888-2 obstacle-avoidance course, much tighter than ISO 3888-1. Sections
+        // 12, 13.5, 11, 12.5 m (exit lane 12 m); lane 1 is 1.1 b + 0.25 m wide, lane 3 b + 1 m,
+        // and lane 3 starts 1 m beyond lane 1's left edge, so the centre lines are
+        // (1.1 b + 0.25) / 2 + 1 + (b + 1) / 2 apart; b = 1.75 m (vehicle width; model B's track
+        // is 1.5 m). The exit lane (1.3 b + 0.25 m wide, right edge on lane 1's) is centred
+        // (1.3 b + 0.25 - 1.1 b - 0.25) / 2 = 0.1 b left of lane 1's centre line. Preview 0.45 s: of 0.25-0.6 s the one that keeps the
+        // body of the model-B car (4.6 m x b) inside lanes 1 and 3 with the widest margin at
+        // 65 km/h (6 and 10 cm); recovering from the swing back it leaves the exit lane by up
+        // to 0.2 m, which a centre-line pure-pursuit driver does not avoid. Peak ay 9.2 m/s²,
+        // peak sideslip 2°: the high-sideslip manoeuvre seed 001 describes.
+        "seed001_moose_test" => {
+            let width = 1.75;
+            Manoeuvre::DoubleLaneChange(DoubleLaneChange {
+                course: LaneChangeCourse::Iso3888Part2,
+                initial_speed: 65.0 * KMH,
+                approach: 65.0 * KMH,
+                lateral_offset: 0.5 * (1.1 * width + 0.25) + 1.0 + 0.5 * (width + 1.0),
+                entry_length: 12.0,
+                first_transition: 13.5,
+                offset_length: 11.0,
+                second_transition: 12.5,
+                exit_offset: 0.1 * width,
+                preview_time: 0.45,
+                wheelbase: 1.4346 + 1.4831,
+                max_steering_angle: 0.5,
+                speed_gain: 400.0,
+                duration: 7.0,
+            })
+        }
         "seed001_wobble" => Manoeuvre::Wobble(Wobble {
             start_time: 1.0,
             frequency: 0.5,
@@ -473,7 +534,8 @@ impl Manoeuvre {
         } else if s < back_start {
             m.lateral_offset
         } else {
-            m.lateral_offset * (1.0 - blend((s - back_start) / m.second_transition))
+            m.lateral_offset
+                + (m.exit_offset - m.lateral_offset) * blend((s - back_start) / m.second_transition)
         })
     }
 }
@@ -672,18 +734,21 @@ pub fn describe(name: &str) -> Option<String> {
             s.duration
         ),
         Manoeuvre::DoubleLaneChange(d) => format!(
-            "ISO 3888-1 course after {:.1} m of approach: entry lane {:.0} m, transition {:.0} m \
-             to a lateral offset of {:.1} m, offset lane {:.0} m, transition {:.0} m back; \
+            "{} course after {:.1} m of approach: entry lane {:.0} m, transition {:.0} m \
+             to a lateral offset of {:.2} m, offset lane {:.0} m, transition {:.0} m to the \
+             exit lane at {:.2} m; \
              cosine-shaped centre line; pure-pursuit driver with {:.2} s preview, wheelbase \
              {:.4} m, |delta| <= {:.2} rad; speed held at {:.0} km/h by drive torque \
              ({:.0} N·m per m/s); position integrated by the master from vx, vy, yaw rate; run \
              {:.1} s",
+            d.course.label(),
             d.approach,
             d.entry_length,
             d.first_transition,
             d.lateral_offset,
             d.offset_length,
             d.second_transition,
+            d.exit_offset,
             d.preview_time,
             d.wheelbase,
             d.max_steering_angle,

@@ -205,6 +205,44 @@ fn driver_follows_the_lane_change_course() {
     assert_eq!(run.value(Channel::DriveTorque, d.duration), 0.0);
 }
 
+/// ISO 3888-2: lane 3 (b + 1 m wide) begins 1 m beyond the left edge of lane 1 (1.1 b + 0.25 m
+/// wide), the exit lane (1.3 b + 0.25 m) shares lane 1's right edge; b = 1.75 m. Worked out by
+/// hand: centre lines at 0, 1.0875 + 1 + 1.375 = 3.4625 m and 0.175 m.
+#[test]
+fn moose_test_course_follows_iso_3888_2() {
+    let m = library("seed001_moose_test").unwrap();
+    let Manoeuvre::DoubleLaneChange(d) = &m else {
+        panic!()
+    };
+    assert_eq!(d.course, harness::manoeuvre::LaneChangeCourse::Iso3888Part2);
+    let lane_1_end = d.approach + 12.0;
+    let lane_3_start = lane_1_end + 13.5;
+    let lane_3_end = lane_3_start + 11.0;
+    let lane_5_start = lane_3_end + 12.5;
+    assert_eq!(m.path_lateral_position(lane_1_end - 0.5), Some(0.0));
+    for x in [lane_3_start + 0.1, lane_3_end - 0.1] {
+        assert_relative_eq!(
+            m.path_lateral_position(x).unwrap(),
+            3.4625,
+            max_relative = 1e-12
+        );
+    }
+    for x in [lane_5_start + 0.1, lane_5_start + 12.0] {
+        assert_relative_eq!(
+            m.path_lateral_position(x).unwrap(),
+            0.175,
+            max_relative = 1e-12
+        );
+    }
+    // Continuous centre line: no jump between 0.1 m samples.
+    let mut previous = 0.0;
+    for k in 0..1500 {
+        let y = m.path_lateral_position(k as f64 * 0.1).unwrap();
+        assert!((y - previous).abs() < 0.1, "jump at x = {}", k as f64 * 0.1);
+        previous = y;
+    }
+}
+
 #[test]
 fn speed_controller_drives_when_slower_than_the_target() {
     let m = library("seed001_double_lane_change").unwrap();
