@@ -93,6 +93,38 @@ pub enum ParticleFilterError {
         "the {0} covariance must be finite, symmetric and positive semi-definite (smallest eigenvalue {1})"
     )]
     NotPositiveSemiDefinite(&'static str, f64),
+    #[error("the snapshot holds {found} {what}, the filter has {expected} particles")]
+    SnapshotSize {
+        what: &'static str,
+        found: usize,
+        expected: usize,
+    },
+    #[error("the snapshot's ancestor index {0} is not a particle index")]
+    SnapshotAncestor(usize),
+}
+
+/// Everything of a [`ParticleFilter`] that changes while it runs: with the same model, settings
+/// and proposal, [`ParticleFilter::restore`] of a snapshot continues bit-identically to the
+/// filter it was taken from (an FMU's fmi2SerializeFMUstate needs this). The scratch buffers
+/// (resampling, predicted measurements) are rewritten before every use and are not part of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParticleFilterSnapshot<const N: usize> {
+    /// The ChaCha8 generator: its seed, stream and position in the stream (in 32-bit words).
+    pub rng_seed: [u8; 32],
+    pub rng_stream: u64,
+    pub rng_word_pos: u128,
+    pub particles: Vec<SVector<f64, N>>,
+    pub log_weights: Vec<f64>,
+    pub weights: Vec<f64>,
+    pub ancestors: Vec<usize>,
+    /// `f(x_i, u)` of the last prediction; only meaningful while `noise_pending`.
+    pub predicted_means: Vec<SVector<f64, N>>,
+    /// The linearised optimal proposal predicted and waits for the measurement to draw noise.
+    pub noise_pending: bool,
+    pub estimate: SVector<f64, N>,
+    pub covariance: SMatrix<f64, N, N>,
+    pub effective_sample_size: f64,
+    pub resampled_in_last_update: bool,
 }
 
 /// A lower-triangular square root `S` with `S Sᵀ = P` of a symmetric positive semi-definite
@@ -716,6 +748,68 @@ where
     /// The ancestor of every particle in the last resampling (identity if none happened yet).
     pub fn ancestors(&self) -> &[usize] {
         &self.ancestors
+    }
+
+    /// The filter's running state (allocates; not meant for the step loop).
+    pub fn snapshot(&self) -> ParticleFilterSnapshot<N> {
+        ParticleFilterSnapshot {
+            rng_seed: self.rng.get_seed(),
+            rng_stream: self.rng.get_stream(),
+            rng_word_pos: self.rng.get_word_pos(),
+            particles: self.particles.clone(),
+            log_weights: self.log_weights.clone(),
+            weights: self.weights.clone(),
+            ancestors: self.ancestors.clone(),
+            predicted_means: self.predicted_means.clone(),
+            noise_pending: self.noise_pending,
+            estimate: self.estimate,
+            covariance: self.covariance,
+            effective_sample_size: self.effective_sample_size,
+            resampled_in_last_update: self.resampled_in_last_update,
+        }
+    }
+
+    /// Continues from `snapshot`, taken from a filter with the same particle count (checked);
+    /// the model, settings and proposal are this filter's. On an error nothing is changed.
+    pub fn restore(
+        &mut self,
+        snapshot: &ParticleFilterSnapshot<N>,
+    ) -> Result<(), ParticleFilterError> {
+        let expected = self.config.particle_count;
+        for (what, found) in [
+            ("particles", snapshot.particles.len()),
+            ("log weights", snapshot.log_weights.len()),
+            ("weights", snapshot.weights.len()),
+            ("ancestors", snapshot.ancestors.len()),
+            ("predicted means", snapshot.predicted_means.len()),
+        ] {
+            if found != expected {
+                return Err(ParticleFilterError::SnapshotSize {
+                    what,
+                    found,
+                    expected,
+                });
+            }
+        }
+        if let Some(&bad) = snapshot.ancestors.iter().find(|&&a| a >= expected) {
+            return Err(ParticleFilterError::SnapshotAncestor(bad));
+        }
+        let mut rng = ChaCha8Rng::from_seed(snapshot.rng_seed);
+        rng.set_stream(snapshot.rng_stream);
+        rng.set_word_pos(snapshot.rng_word_pos);
+        self.rng = rng;
+        self.particles.copy_from_slice(&snapshot.particles);
+        self.log_weights.copy_from_slice(&snapshot.log_weights);
+        self.weights.copy_from_slice(&snapshot.weights);
+        self.ancestors.copy_from_slice(&snapshot.ancestors);
+        self.predicted_means
+            .copy_from_slice(&snapshot.predicted_means);
+        self.noise_pending = snapshot.noise_pending;
+        self.estimate = snapshot.estimate;
+        self.covariance = snapshot.covariance;
+        self.effective_sample_size = snapshot.effective_sample_size;
+        self.resampled_in_last_update = snapshot.resampled_in_last_update;
+        Ok(())
     }
 
     fn refresh_estimate(&mut self) {

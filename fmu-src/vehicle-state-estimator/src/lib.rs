@@ -39,7 +39,8 @@ use estimation::kalman::{
 use estimation::models::single_track::SingleTrackEstimationModel;
 use estimation::models::two_track::{two_track_kind, TwoTrackEstimationModel};
 use estimation::particle::{
-    ParticleFilter, ParticleFilterConfig, ResamplingPolicy, ResamplingScheme,
+    ParticleFilter, ParticleFilterConfig, ParticleFilterSnapshot, ResamplingPolicy,
+    ResamplingScheme,
 };
 use estimation::{Estimator, FilterIssue};
 use fmi_export::{
@@ -202,6 +203,91 @@ pub fn initial_estimate_a(v: &Variables) -> Result<InitialEstimate<STATE_DIM>, S
         ]),
         StateA::from(stds.map(|std| std * std)),
     ))
+}
+
+/// Appends a particle filter's running state (see [`ParticleFilterSnapshot`]) to an FMU state.
+fn write_particles<const N: usize>(writer: &mut StateWriter, snapshot: &ParticleFilterSnapshot<N>) {
+    writer.bytes(&snapshot.rng_seed);
+    writer.u64(snapshot.rng_stream);
+    writer.u64(snapshot.rng_word_pos as u64);
+    writer.u64((snapshot.rng_word_pos >> 64) as u64);
+    let flat = |vectors: &[SVector<f64, N>]| -> Vec<f64> {
+        vectors.iter().flat_map(|v| v.iter().copied()).collect()
+    };
+    writer.f64s(&flat(&snapshot.particles));
+    writer.f64s(&snapshot.log_weights);
+    writer.f64s(&snapshot.weights);
+    writer.u64(snapshot.ancestors.len() as u64);
+    for &ancestor in &snapshot.ancestors {
+        writer.u64(ancestor as u64);
+    }
+    writer.f64s(&flat(&snapshot.predicted_means));
+    writer.bool(snapshot.noise_pending);
+    writer.f64s(snapshot.estimate.as_slice());
+    writer.f64s(snapshot.covariance.as_slice());
+    writer.f64(snapshot.effective_sample_size);
+    writer.bool(snapshot.resampled_in_last_update);
+}
+
+/// Reads what [`write_particles`] wrote into `filter` (built from the same parameters); sizes
+/// are checked against the filter's particle count before anything is allocated for them.
+fn restore_particles<Model, const N: usize, const M: usize, const U: usize>(
+    reader: &mut StateReader<'_>,
+    filter: &mut ParticleFilter<Model, N, M, U>,
+) -> Result<(), StateError>
+where
+    Model: estimation::StateSpaceModel<N, M, U>,
+{
+    let count = filter.config().particle_count;
+    let seed: [u8; 32] = reader
+        .bytes("particle filter random seed")?
+        .try_into()
+        .map_err(|_| StateError::new("'particle filter random seed' must be 32 bytes"))?;
+    let stream = reader.u64("particle filter random stream")?;
+    let word_low = reader.u64("particle filter random position")?;
+    let word_high = reader.u64("particle filter random position")?;
+    let vectors = |values: Vec<f64>| -> Vec<SVector<f64, N>> {
+        values
+            .chunks_exact(N)
+            .map(SVector::from_column_slice)
+            .collect()
+    };
+    let particles = vectors(reader.f64s("particles", count * N)?);
+    let log_weights = reader.f64s("particle log weights", count)?;
+    let weights = reader.f64s("particle weights", count)?;
+    let ancestor_count = reader.u64("particle ancestors")?;
+    if ancestor_count != count as u64 {
+        return Err(StateError::new(format!(
+            "'particle ancestors' has {ancestor_count} entries; expected {count} (particle_count)"
+        )));
+    }
+    let ancestors = (0..count)
+        .map(|_| reader.u64("particle ancestors").map(|a| a as usize))
+        .collect::<Result<Vec<_>, _>>()?;
+    let predicted_means = vectors(reader.f64s("particle predictions", count * N)?);
+    let noise_pending = reader.bool("particle noise pending")?;
+    let mut estimate = SVector::<f64, N>::zeros();
+    reader.f64s_into(estimate.as_mut_slice(), "particle estimate")?;
+    let mut covariance = SMatrix::<f64, N, N>::zeros();
+    reader.f64s_into(covariance.as_mut_slice(), "particle covariance")?;
+    let snapshot = ParticleFilterSnapshot {
+        rng_seed: seed,
+        rng_stream: stream,
+        rng_word_pos: u128::from(word_low) | (u128::from(word_high) << 64),
+        particles,
+        log_weights,
+        weights,
+        ancestors,
+        predicted_means,
+        noise_pending,
+        estimate,
+        covariance,
+        effective_sample_size: reader.f64("particle effective sample size")?,
+        resampled_in_last_update: reader.bool("particle resampled flag")?,
+    };
+    filter
+        .restore(&snapshot)
+        .map_err(|e| StateError::new(format!("particle filter state: {e}")))
 }
 
 /// Builds the filter selected by `estimator` on model A, starting from `initial`.
@@ -762,23 +848,24 @@ impl Runner {
     }
 
     fn write_state(&self, writer: &mut StateWriter) -> Result<(), String> {
-        const NO_PARTICLES: &str = "the particle filter's state (particles and random stream) \
-            cannot be serialized: estimation::particle::ParticleFilter offers no way to restore \
-            it; fmi2GetFMUstate/fmi2SetFMUstate work for it";
+        // Kalman-type filters: (x, P). The particle filter: its whole running state, random
+        // generator position included (the estimator kind is a parameter, restored first).
         match &self.core {
-            Core::A { filter, .. } => {
-                let FilterA::Kalman(estimator) = filter else {
-                    return Err(String::from(NO_PARTICLES));
-                };
-                writer.f64s(estimator.state().as_slice());
-                writer.f64s(estimator.covariance().as_slice());
-            }
+            Core::A { filter, .. } => match filter {
+                FilterA::Kalman(estimator) => {
+                    writer.f64s(estimator.state().as_slice());
+                    writer.f64s(estimator.covariance().as_slice());
+                }
+                FilterA::Particle(particles) => write_particles(writer, &particles.snapshot()),
+            },
             Core::B(runner) => {
-                let FilterB::Kalman(estimator) = &runner.filter else {
-                    return Err(String::from(NO_PARTICLES));
-                };
-                writer.f64s(estimator.state().as_slice());
-                writer.f64s(estimator.covariance().as_slice());
+                match &runner.filter {
+                    FilterB::Kalman(estimator) => {
+                        writer.f64s(estimator.state().as_slice());
+                        writer.f64s(estimator.covariance().as_slice());
+                    }
+                    FilterB::Particle(particles) => write_particles(writer, &particles.snapshot()),
+                }
                 writer.f64(runner.speed);
                 writer.f64(runner.omega_front);
                 writer.f64(runner.omega_rear);
@@ -795,23 +882,34 @@ impl Runner {
     fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
         // The Kalman-type filters are fully described by (x, P) and their parameters: rebuilding
         // them from the stored pair continues bit-identically.
+        // The particle filter is built from its parameters as at instantiation and then
+        // continues from the stored snapshot.
         let mut runner = Runner::build(v, 0.0).map_err(StateError::new)?;
         match &mut runner.core {
-            Core::A { filter, model } => {
-                let mut state = StateA::zeros();
-                reader.f64s_into(state.as_mut_slice(), "estimate")?;
-                let mut covariance = CovarianceA::zeros();
-                reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
-                let initial = InitialEstimate { state, covariance };
-                *filter = filter_a(v, model.clone(), &initial).map_err(StateError::new)?;
-            }
+            Core::A { filter, model } => match filter {
+                FilterA::Particle(particles) => restore_particles(reader, particles)?,
+                FilterA::Kalman(_) => {
+                    let mut state = StateA::zeros();
+                    reader.f64s_into(state.as_mut_slice(), "estimate")?;
+                    let mut covariance = CovarianceA::zeros();
+                    reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
+                    let initial = InitialEstimate { state, covariance };
+                    *filter = filter_a(v, model.clone(), &initial).map_err(StateError::new)?;
+                }
+            },
             Core::B(core) => {
-                let mut state = StateB::zeros();
-                reader.f64s_into(state.as_mut_slice(), "estimate")?;
-                let mut covariance = CovarianceB::zeros();
-                reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
-                let initial = InitialEstimate { state, covariance };
-                core.filter = filter_b(v, core.model.clone(), &initial).map_err(StateError::new)?;
+                match &mut core.filter {
+                    FilterB::Particle(particles) => restore_particles(reader, particles)?,
+                    FilterB::Kalman(_) => {
+                        let mut state = StateB::zeros();
+                        reader.f64s_into(state.as_mut_slice(), "estimate")?;
+                        let mut covariance = CovarianceB::zeros();
+                        reader.f64s_into(covariance.as_mut_slice(), "covariance")?;
+                        let initial = InitialEstimate { state, covariance };
+                        core.filter =
+                            filter_b(v, core.model.clone(), &initial).map_err(StateError::new)?;
+                    }
+                }
                 core.speed = reader.f64("speed")?;
                 core.omega_front = reader.f64("front wheel speed")?;
                 core.omega_rear = reader.f64("rear wheel speed")?;

@@ -259,6 +259,7 @@ fn model_b_states_continue_bit_identically() {
         estimator_kind::EKF,
         estimator_kind::UKF,
         estimator_kind::UKF_SCALED,
+        estimator_kind::PARTICLE_FILTER,
     ] {
         let mut s = slave(estimator);
         assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
