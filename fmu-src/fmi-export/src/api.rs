@@ -448,17 +448,55 @@ fn check_arrays(
     Ok(())
 }
 
+/// The table row of `(value_type, value_reference)`. The generated direct index
+/// ([`VariableStore::variable_row`]) answers in one step; the row it names is confirmed, so a
+/// model whose `VARIABLES` is not the generated table still gets the right answer, by binary
+/// search.
+#[inline]
+fn find_variable<M: CoSimulationModel>(
+    value_type: ValueType,
+    value_reference: u32,
+) -> Option<&'static VariableInfo> {
+    let indexed = M::Variables::variable_row(value_type, value_reference)
+        .and_then(|row| M::VARIABLES.get(row))
+        .filter(|row| row.value_type == value_type && row.value_reference == value_reference);
+    indexed.or_else(|| VariableInfo::find(M::VARIABLES, value_type, value_reference))
+}
+
+#[inline]
 fn lookup<M: CoSimulationModel>(
     function: &str,
     value_type: ValueType,
     value_reference: u32,
 ) -> Result<&'static VariableInfo, String> {
-    VariableInfo::find(M::VARIABLES, value_type, value_reference).ok_or_else(|| {
-        format!(
-            "{function}: unknown value reference {value_reference}; {} has no {value_type:?} variable with it (see modelDescription.xml)",
-            M::MODEL_IDENTIFIER
-        )
-    })
+    find_variable::<M>(value_type, value_reference)
+        .ok_or_else(|| unknown_reference::<M>(function, value_type, value_reference))
+}
+
+#[cold]
+#[inline(never)]
+fn unknown_reference<M: CoSimulationModel>(
+    function: &str,
+    value_type: ValueType,
+    value_reference: u32,
+) -> String {
+    format!(
+        "{function}: unknown value reference {value_reference}; {} has no {value_type:?} variable with it (see modelDescription.xml)",
+        M::MODEL_IDENTIFIER
+    )
+}
+
+/// The master's `vr[]` as a slice (`nvr` = 0 may come with a null pointer).
+///
+/// # Safety
+/// `vr` points to `nvr` elements when `nvr > 0`, and is non-null then ([`check_arrays`]).
+unsafe fn references<'a>(vr: *const Fmi2ValueReference, nvr: usize) -> &'a [Fmi2ValueReference] {
+    if nvr == 0 {
+        &[]
+    } else {
+        // SAFETY: non-null and nvr elements long (caller contract).
+        unsafe { std::slice::from_raw_parts(vr, nvr) }
+    }
 }
 
 /// Makes the outputs consistent with the parameters before they are read in
@@ -500,18 +538,20 @@ unsafe fn get_values<M: CoSimulationModel, T>(
                 return Outcome::Error(message);
             }
             instance.model.refresh_outputs();
-            for i in 0..nvr {
-                // SAFETY: both arrays hold nvr elements.
-                let reference = *vr.add(i);
-                if let Err(message) = lookup::<M>(function, value_type, reference) {
-                    return Outcome::Error(message);
-                }
-                match read(instance.model.variables(), reference) {
+            let variables = instance.model.variables();
+            for (i, &reference) in references(vr, nvr).iter().enumerate() {
+                // The generated storage answers exactly the value references of its type, so a
+                // read needs no look-up in the table; the table only explains a failed read.
+                match read(variables, reference) {
+                    // SAFETY: `value` holds nvr elements (caller contract, checked non-null).
                     Some(v) => value.add(i).write(v),
                     None => {
-                        return Outcome::Error(format!(
-                            "{function}: value reference {reference} is in the variable table but not in the model's storage (internal error)"
-                        ))
+                        return Outcome::Error(match lookup::<M>(function, value_type, reference) {
+                            Err(unknown) => unknown,
+                            Ok(_) => format!(
+                                "{function}: value reference {reference} is in the variable table but not in the model's storage (internal error)"
+                            ),
+                        })
                     }
                 }
             }
@@ -609,6 +649,7 @@ pub unsafe fn get_string<M: CoSimulationModel>(
 /// Whether `variable` may be set in `state` (FMI 2.0.4 section 2.2.7 and the state table):
 /// before the end of initialisation, parameters and inputs; afterwards inputs and tunable
 /// parameters.
+#[inline]
 fn settable(function: &str, variable: &VariableInfo, state: MachineState) -> Result<(), String> {
     let initializing = matches!(
         state,
@@ -620,8 +661,16 @@ fn settable(function: &str, variable: &VariableInfo, state: MachineState) -> Res
         _ => false,
     };
     if ok {
-        return Ok(());
+        Ok(())
+    } else {
+        Err(not_settable(function, variable))
     }
+}
+
+/// The message of a refused [`settable`] (kept out of the per-value path).
+#[cold]
+#[inline(never)]
+fn not_settable(function: &str, variable: &VariableInfo) -> String {
     let what = match variable.causality {
         Causality::Parameter => format!(
             "a {:?} parameter; it can only be set before fmi2ExitInitializationMode",
@@ -629,7 +678,7 @@ fn settable(function: &str, variable: &VariableInfo, state: MachineState) -> Res
         ),
         other => format!("of causality {other:?}; only inputs and parameters can be set"),
     };
-    Err(format!("{function}: {} is {what}", variable.label()))
+    format!("{function}: {} is {what}", variable.label())
 }
 
 /// Shared body of the setters: every value is checked before any is applied.
@@ -653,9 +702,8 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
             if let Err(message) = check_arrays(function, nvr, vr, value.is_null()) {
                 return Outcome::Error(message);
             }
-            for i in 0..nvr {
-                // SAFETY: both arrays hold nvr elements.
-                let reference = *vr.add(i);
+            let references = references(vr, nvr);
+            for (i, &reference) in references.iter().enumerate() {
                 let variable = match lookup::<M>(function, value_type, reference) {
                     Ok(variable) => variable,
                     Err(message) => return Outcome::Error(message),
@@ -663,6 +711,7 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                 if let Err(message) = settable(function, variable, instance.state) {
                     return Outcome::Error(message);
                 }
+                // SAFETY: `value` holds nvr elements (caller contract, checked non-null).
                 if let Err(message) = check(variable, *value.add(i)) {
                     return Outcome::Discard(format!(
                         "{function}: {}: {message}; no value of this call was applied",
@@ -670,9 +719,9 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                     ));
                 }
             }
-            for i in 0..nvr {
-                let reference = *vr.add(i);
-                if !write(instance.model.variables_mut(), reference, *value.add(i)) {
+            let variables = instance.model.variables_mut();
+            for (i, &reference) in references.iter().enumerate() {
+                if !write(variables, reference, *value.add(i)) {
                     return Outcome::Error(format!(
                         "{function}: value reference {reference} is in the variable table but not in the model's storage (internal error)"
                     ));
@@ -686,39 +735,58 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
     }
 }
 
+#[inline]
 fn check_real(variable: &VariableInfo, value: f64) -> Result<(), String> {
     if !value.is_finite() {
         // A non-finite input means "no sample" (sensor dropout); the model decides what to do.
         return if variable.causality == Causality::Input {
             Ok(())
         } else {
-            Err(format!("value {value} is not a finite number"))
+            Err(not_finite(value))
         };
     }
     if value < variable.min || value > variable.max {
-        return Err(format!(
-            "value {value} is outside its range [{}, {}]",
-            variable.min, variable.max
-        ));
+        return Err(out_of_range(variable, value));
     }
     Ok(())
 }
 
+#[inline]
 fn check_integer(variable: &VariableInfo, value: Fmi2Integer) -> Result<(), String> {
     let wide = f64::from(value);
     if wide < variable.min || wide > variable.max {
-        return Err(format!(
-            "value {value} is outside its range [{}, {}]",
-            variable.min, variable.max
-        ));
+        return Err(out_of_range(variable, value));
     }
     if !variable.allowed_values.is_empty() && !variable.allowed_values.contains(&value) {
-        return Err(format!(
-            "value {value} is not an item of the enumeration; expected one of {:?}",
-            variable.allowed_values
-        ));
+        return Err(not_an_item(variable, value));
     }
     Ok(())
+}
+
+// The messages of a refused value, kept out of the per-value path.
+
+#[cold]
+#[inline(never)]
+fn not_finite(value: f64) -> String {
+    format!("value {value} is not a finite number")
+}
+
+#[cold]
+#[inline(never)]
+fn out_of_range(variable: &VariableInfo, value: impl std::fmt::Display) -> String {
+    format!(
+        "value {value} is outside its range [{}, {}]",
+        variable.min, variable.max
+    )
+}
+
+#[cold]
+#[inline(never)]
+fn not_an_item(variable: &VariableInfo, value: Fmi2Integer) -> String {
+    format!(
+        "value {value} is not an item of the enumeration; expected one of {:?}",
+        variable.allowed_values
+    )
 }
 
 /// `fmi2SetReal`.

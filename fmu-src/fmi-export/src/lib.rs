@@ -51,7 +51,9 @@ mod variables;
 
 pub use instance::{Instance, MachineState};
 pub use state::{StateError, StateReader, StateWriter};
-pub use variables::{Causality, ValueType, Variability, VariableInfo, VariableStore};
+pub use variables::{
+    dense_row, Causality, ValueType, Variability, VariableInfo, VariableStore, NO_ROW,
+};
 
 /// Relative tolerance when comparing a master's communication point with the end of the last
 /// step: `|t_master - t_fmu| <= TIME_TOLERANCE * max(1, |t_fmu|)`.

@@ -71,10 +71,33 @@ impl VariableInfo {
     }
 }
 
+/// Marks a value reference that has no variable in a dense row table (see [`dense_row`]).
+pub const NO_ROW: u16 = u16::MAX;
+
+/// The row for `value_reference` in a dense table generated as `table[vr] = row` ([`NO_ROW`]
+/// where no variable of that type has the reference): one bounds-checked index, no search.
+#[inline]
+pub fn dense_row(table: &[u16], value_reference: u32) -> Option<usize> {
+    match table.get(usize::try_from(value_reference).ok()?) {
+        Some(&row) if row != NO_ROW => Some(usize::from(row)),
+        _ => None,
+    }
+}
+
 /// Typed storage of all variable values, generated from the model description.
 /// The plumbing has already checked the value reference, the state and the range when it calls
-/// a setter; a `false`/`None` answer means the table and the storage disagree (a bug).
+/// a setter; a `false` answer means the table and the storage disagree (a bug). The getters
+/// answer exactly the value references of their type (`None` for any other), so fmi2Get*
+/// reads through them without a look-up and consults the table only to explain a `None`.
 pub trait VariableStore {
+    /// The row of the generated variable table (`VARIABLES`, sorted by (value type, value
+    /// reference)) that describes `(value_type, value_reference)`, `None` when there is none.
+    /// Generated as a direct index ([`dense_row`]) or, for sparse value references, a `match`,
+    /// so that fmi2Get/fmi2Set do not search the table once per value. The plumbing confirms the
+    /// row it gets and falls back to [`VariableInfo::find`] if it does not match.
+    fn variable_row(value_type: ValueType, value_reference: u32) -> Option<usize>
+    where
+        Self: Sized;
     fn real(&self, value_reference: u32) -> Option<f64>;
     fn set_real(&mut self, value_reference: u32, value: f64) -> bool;
     fn integer(&self, value_reference: u32) -> Option<i32>;
@@ -85,4 +108,22 @@ pub trait VariableStore {
     fn write_state(&self, writer: &mut crate::StateWriter);
     /// Reads the values written by [`VariableStore::write_state`].
     fn read_state(&mut self, reader: &mut crate::StateReader<'_>) -> Result<(), crate::StateError>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_row_answers_only_the_filled_cells() {
+        let table = [NO_ROW, 0, NO_ROW, 7];
+        assert_eq!(dense_row(&table, 1), Some(0));
+        assert_eq!(dense_row(&table, 3), Some(7));
+        assert_eq!(dense_row(&table, 0), None);
+        assert_eq!(dense_row(&table, 2), None);
+        // Past the end, including the largest value reference FMI allows.
+        assert_eq!(dense_row(&table, 4), None);
+        assert_eq!(dense_row(&table, u32::MAX), None);
+        assert_eq!(dense_row(&[], 0), None);
+    }
 }

@@ -11,7 +11,10 @@
 //!   (base type, value reference) so that the plumbing can binary-search it;
 //! - `struct Variables` with one typed field per variable (f64 / i32 / bool), `Default` = the
 //!   start values (outputs start at 0 / false), an implementation of `fmi_export::VariableStore`
-//!   (get/set by value reference) and `write_state` / `read_state` for FMU-state serialisation.
+//!   (get/set by value reference) and `write_state` / `read_state` for FMU-state serialisation;
+//! - `VariableStore::variable_row`, the row of `VARIABLES` for a (base type, value reference),
+//!   through `REAL_ROWS` / `INTEGER_ROWS` / `BOOLEAN_ROWS` (one `u16` per value reference up to
+//!   the largest) where the value references are dense, through a `match` where they are not.
 //!
 //! Every name must be a Rust identifier (the project uses flat snake_case names); codegen fails
 //! with a message naming the variable otherwise.
@@ -296,7 +299,7 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
             .collect();
         let _ = writeln!(
             w,
-            "    fn {getter}(&self, value_reference: u32) -> Option<{rust_type}> {{"
+            "    #[inline]\n    fn {getter}(&self, value_reference: u32) -> Option<{rust_type}> {{"
         );
         if of_type.is_empty() {
             let _ = writeln!(w, "        let _ = value_reference;\n        None\n    }}");
@@ -314,7 +317,7 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
         }
         let _ = writeln!(
             w,
-            "    fn {setter}(&mut self, value_reference: u32, value: {rust_type}) -> bool {{"
+            "    #[inline]\n    fn {setter}(&mut self, value_reference: u32, value: {rust_type}) -> bool {{"
         );
         if of_type.is_empty() {
             let _ = writeln!(
@@ -334,7 +337,9 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
             let _ = writeln!(w, "            _ => false,\n        }}\n    }}");
         }
     };
+    let rows = row_lookup(w, &sorted);
     let _ = writeln!(w, "impl ::fmi_export::VariableStore for Variables {{");
+    let _ = writeln!(w, "{rows}");
     accessor(w, BaseType::Real, "f64", "real", "set_real");
     accessor(w, BaseType::Integer, "i32", "integer", "set_integer");
     accessor(w, BaseType::Boolean, "bool", "boolean", "set_boolean");
@@ -376,6 +381,77 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
     }
     let _ = writeln!(w, "        Ok(())\n    }}\n}}");
     Ok(out)
+}
+
+/// Value references of one base type are dense enough for a direct index table when the table
+/// (two bytes per value reference up to the largest) stays within this many entries or within
+/// [`DENSE_ENTRIES_PER_VARIABLE`] entries per variable; otherwise a `match` is generated.
+const DENSE_TABLE_MIN_ENTRIES: u64 = 1024;
+const DENSE_ENTRIES_PER_VARIABLE: u64 = 16;
+
+/// Writes, for each base type, how a value reference finds its row in `VARIABLES` (`sorted`,
+/// the table order) and returns the body of `VariableStore::variable_row`.
+///
+/// Dense value references get a static `[u16; max_vr + 1]` with the row at each value
+/// reference (`NO_ROW` elsewhere): fmi2Get/fmi2Set then cost one bounds-checked load per value.
+/// Sparse ones (FMI allows any u32) get a `match`, which the compiler turns into jump tables
+/// or a decision tree; either way no search of the table at run time.
+fn row_lookup(w: &mut String, sorted: &[&crate::ScalarVariable]) -> String {
+    let mut arms = String::new();
+    for (base, name) in [
+        (BaseType::Real, "Real"),
+        (BaseType::Integer, "Integer"),
+        (BaseType::Boolean, "Boolean"),
+        (BaseType::String, "String"),
+    ] {
+        let rows: Vec<(u32, usize)> = sorted
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.base_type() == base)
+            .map(|(row, v)| (v.value_reference, row))
+            .collect();
+        let Some(largest) = rows.iter().map(|(vr, _)| *vr).max() else {
+            continue;
+        };
+        let entries = u64::from(largest) + 1;
+        // u16 rows, u16::MAX (`NO_ROW`) reserved for "none".
+        let dense = sorted.len() < usize::from(u16::MAX)
+            && entries
+                <= DENSE_TABLE_MIN_ENTRIES.max(DENSE_ENTRIES_PER_VARIABLE * rows.len() as u64);
+        if dense {
+            let mut table = vec![None; entries as usize];
+            for &(vr, row) in &rows {
+                table[vr as usize] = Some(row);
+            }
+            let cells: Vec<String> = table
+                .iter()
+                .map(|cell| cell.map_or("NO".to_owned(), |row| row.to_string()))
+                .collect();
+            let _ = writeln!(
+                w,
+                "/// Row in `VARIABLES` of each {name} value reference (`NO_ROW`: none).\nstatic {}_ROWS: [u16; {entries}] = {{\n    const NO: u16 = ::fmi_export::NO_ROW;\n    [{}]\n}};\n",
+                name.to_ascii_uppercase(),
+                cells.join(", ")
+            );
+            let _ = writeln!(
+                arms,
+                "            ::fmi_export::ValueType::{name} => ::fmi_export::dense_row(&{}_ROWS, value_reference),",
+                name.to_ascii_uppercase()
+            );
+        } else {
+            let _ = writeln!(
+                arms,
+                "            ::fmi_export::ValueType::{name} => match value_reference {{"
+            );
+            for (vr, row) in rows {
+                let _ = writeln!(arms, "                {vr} => Some({row}),");
+            }
+            let _ = writeln!(arms, "                _ => None,\n            }},");
+        }
+    }
+    format!(
+        "    #[inline]\n    fn variable_row(value_type: ::fmi_export::ValueType, value_reference: u32) -> Option<usize> {{\n        match value_type {{\n{arms}            _ => {{\n                let _ = value_reference;\n                None\n            }}\n        }}\n    }}"
+    )
 }
 
 /// For an FMU crate's build.rs: parses and validates `xml_path` (relative to the crate's
