@@ -17,17 +17,19 @@
 //!
 //! The derived outputs (slip quantities, ay, standard deviations, sideslip) are computed lazily,
 //! at the first output read after a doStep with a sample. `*_fmi2_do_step_get_outputs` is the
-//! full cost a master pays per step: fmi2DoStep plus fmi2GetReal of all 18 real outputs.
-
-use std::cell::Cell;
+//! full cost a master pays per step: fmi2DoStep plus fmi2GetReal of all 18 real outputs;
+//! `*_model_do_step_outputs` is the same work on the model struct (do_step, the lazy output
+//! computation, the 18 values copied out), so the difference of the two is what the FMI layer
+//! adds to a step with its output read. `fmi2_get_outputs` and `fmi2_set_inputs` are one
+//! batched fmi2GetReal (18 outputs) and fmi2SetReal (9 inputs) alone.
 
 use divan::Bencher;
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::Slave;
-use fmi_export::{CoSimulationModel, InstantiationContext};
+use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use nalgebra::SVector;
 use VehicleStateEstimator::model_description::estimator_model;
-use VehicleStateEstimator::model_description::{estimator_kind, vr, Variables, GUID};
+use VehicleStateEstimator::model_description::{estimator_kind, vr, Variables, GUID, VARIABLES};
 use VehicleStateEstimator::{
     filter_a, filter_b, initial_estimate_a, initial_estimate_b, model_a, model_b,
     VehicleStateEstimator as Fmu,
@@ -57,6 +59,24 @@ const NAMES: [&str; 6] = [
 /// A left turn at 18 m/s as the sensors see it.
 const MEASUREMENT: [f64; 4] = [0.1, 1.8, 60.0, 60.0];
 
+/// Model B (3-state seed-001 form): the Kalman estimators it supports.
+const NAMES_B: [&str; 4] = ["lkf", "ekf", "ukf", "ukf_scaled"];
+/// `[yaw_rate, ay, omega_front, omega_rear, vx]` of a left turn at 18 m/s.
+const SENSORS_B: [f64; 5] = [0.1, 1.8, 60.0, 60.0, 18.0];
+
+/// The real variables of one causality (18 outputs, 9 inputs), from the generated table.
+fn reals(causality: Causality) -> impl Iterator<Item = &'static fmi_export::VariableInfo> {
+    VARIABLES
+        .iter()
+        .filter(move |v| v.value_type == ValueType::Real && v.causality == causality)
+}
+
+fn real_outputs() -> Vec<u32> {
+    reals(Causality::Output)
+        .map(|v| v.value_reference)
+        .collect()
+}
+
 fn estimator(name: &str) -> i32 {
     ESTIMATORS
         .iter()
@@ -64,6 +84,18 @@ fn estimator(name: &str) -> i32 {
         .expect("known")
         .1
 }
+
+/// Benchmarks `step(t)` with `t` advancing by one communication step per iteration.
+fn bench_steps<T>(bencher: Bencher, mut step: impl FnMut(f64) -> T) {
+    let mut t = 0.0;
+    bencher.bench_local(move || {
+        let result = step(t);
+        t += STEP;
+        divan::black_box(result)
+    });
+}
+
+// ---- Model A ----
 
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn bare_filter_step(bencher: Bencher, name: &str) {
@@ -84,92 +116,49 @@ fn bare_filter_step(bencher: Bencher, name: &str) {
     });
 }
 
-fn with_inputs(variables: &mut Variables) {
-    variables.steering_angle = 0.05;
-    variables.yaw_rate_meas = MEASUREMENT[0];
-    variables.ay_meas = MEASUREMENT[1];
-    variables.omega_front_meas = MEASUREMENT[2];
-    variables.omega_rear_meas = MEASUREMENT[3];
-}
-
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn model_do_step(bencher: Bencher, name: &str) {
-    let mut fmu = Fmu::instantiate(&InstantiationContext {
-        instance_name: String::from("bench"),
-        resource_location: None,
-    });
-    fmu.variables_mut().estimator = estimator(name);
-    with_inputs(fmu.variables_mut());
-    fmu.initialize(0.0).expect("initialise");
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let outcome = fmu.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(outcome)
-    });
+    let mut fmu = model_a_struct(name);
+    bench_steps(bencher, |t| fmu.do_step(t, STEP));
 }
 
-/// The 18 real outputs.
-const OUTPUTS: [u32; 18] = [
-    vr::VX_EST,
-    vr::VY_EST,
-    vr::YAW_RATE_EST,
-    vr::OMEGA_FRONT_EST,
-    vr::OMEGA_REAR_EST,
-    vr::SIDESLIP_EST,
-    vr::AY_EST,
-    vr::SLIP_ANGLE_FRONT_EST,
-    vr::SLIP_ANGLE_REAR_EST,
-    vr::SLIP_FRONT_EST,
-    vr::SLIP_REAR_EST,
-    vr::VX_STD,
-    vr::VY_STD,
-    vr::YAW_RATE_STD,
-    vr::OMEGA_FRONT_STD,
-    vr::OMEGA_REAR_STD,
-    vr::SIDESLIP_STD,
-    vr::NIS,
-];
-
-/// One master step: fmi2DoStep, then fmi2GetReal of every real output (into a stack array).
-fn do_step_and_get_outputs(slave: &mut Slave, t: f64) -> (Fmi2Status, Fmi2Status, [f64; 18]) {
-    let status = slave.do_step(t, STEP);
-    let mut values = [0.0; 18];
-    // SAFETY: OUTPUTS and values both hold 18 elements.
-    let read = unsafe {
-        (slave.api.get_real)(
-            slave.component,
-            OUTPUTS.as_ptr(),
-            OUTPUTS.len(),
-            values.as_mut_ptr(),
-        )
-    };
-    (status, read, values)
+/// What `fmi2_do_step_get_outputs` does, without the FMI layer.
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn model_do_step_outputs(bencher: Bencher, name: &str) {
+    let mut fmu = model_a_struct(name);
+    bench_steps(bencher, |t| do_step_and_copy_outputs(&mut fmu, t));
 }
 
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn fmi2_do_step(bencher: Bencher, name: &str) {
     let mut slave = slave_a(name);
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let status = slave.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(status)
-    });
+    bench_steps(bencher, |t| slave.do_step(t, STEP));
 }
 
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn fmi2_do_step_get_outputs(bencher: Bencher, name: &str) {
     let mut slave = slave_a(name);
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let result = do_step_and_get_outputs(&mut slave, t);
-        time.set(t + STEP);
-        divan::black_box(result)
+    let mut outputs = Outputs::new();
+    bench_steps(bencher, |t| {
+        do_step_and_get_outputs(&mut slave, &mut outputs, t)
     });
+}
+
+/// The model struct (no FMI layer) set up like [`slave_a`].
+fn model_a_struct(name: &str) -> Fmu {
+    let mut fmu = Fmu::instantiate(&InstantiationContext {
+        instance_name: String::from("bench"),
+        resource_location: None,
+    });
+    let v = fmu.variables_mut();
+    v.estimator = estimator(name);
+    v.steering_angle = 0.05;
+    v.yaw_rate_meas = MEASUREMENT[0];
+    v.ay_meas = MEASUREMENT[1];
+    v.omega_front_meas = MEASUREMENT[2];
+    v.omega_rear_meas = MEASUREMENT[3];
+    fmu.initialize(0.0).expect("initialise");
+    fmu
 }
 
 fn slave_a(name: &str) -> Slave {
@@ -194,10 +183,7 @@ fn slave_a(name: &str) -> Slave {
     slave
 }
 
-/// Model B (3-state seed-001 form): the Kalman estimators it supports.
-const NAMES_B: [&str; 4] = ["lkf", "ekf", "ukf", "ukf_scaled"];
-/// `[yaw_rate, ay, omega_front, omega_rear, vx]` of a left turn at 18 m/s.
-const SENSORS_B: [f64; 5] = [0.1, 1.8, 60.0, 60.0, 18.0];
+// ---- Model B ----
 
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
@@ -220,27 +206,50 @@ fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
 }
 
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
+fn model_b_model_do_step(bencher: Bencher, name: &str) {
+    let mut fmu = model_b_struct(name);
+    bench_steps(bencher, |t| fmu.do_step(t, STEP));
+}
+
+/// What `model_b_fmi2_do_step_get_outputs` does, without the FMI layer.
+#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
+fn model_b_model_do_step_outputs(bencher: Bencher, name: &str) {
+    let mut fmu = model_b_struct(name);
+    bench_steps(bencher, |t| do_step_and_copy_outputs(&mut fmu, t));
+}
+
+#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_fmi2_do_step(bencher: Bencher, name: &str) {
     let mut slave = slave_b(name);
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let status = slave.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(status)
-    });
+    bench_steps(bencher, |t| slave.do_step(t, STEP));
 }
 
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_fmi2_do_step_get_outputs(bencher: Bencher, name: &str) {
     let mut slave = slave_b(name);
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let result = do_step_and_get_outputs(&mut slave, t);
-        time.set(t + STEP);
-        divan::black_box(result)
+    let mut outputs = Outputs::new();
+    bench_steps(bencher, |t| {
+        do_step_and_get_outputs(&mut slave, &mut outputs, t)
     });
+}
+
+/// The model struct (no FMI layer) set up like [`slave_b`].
+fn model_b_struct(name: &str) -> Fmu {
+    let mut fmu = Fmu::instantiate(&InstantiationContext {
+        instance_name: String::from("bench"),
+        resource_location: None,
+    });
+    let v = fmu.variables_mut();
+    v.model = estimator_model::TWO_TRACK_3_STATE;
+    v.estimator = estimator(name);
+    v.steering_angle = 0.05;
+    v.yaw_rate_meas = SENSORS_B[0];
+    v.ay_meas = SENSORS_B[1];
+    v.omega_front_meas = SENSORS_B[2];
+    v.omega_rear_meas = SENSORS_B[3];
+    v.vx_meas = SENSORS_B[4];
+    fmu.initialize(0.0).expect("initialise");
+    fmu
 }
 
 fn slave_b(name: &str) -> Slave {
@@ -267,27 +276,104 @@ fn slave_b(name: &str) -> Slave {
     slave
 }
 
-#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
-fn model_b_model_do_step(bencher: Bencher, name: &str) {
-    let mut fmu = Fmu::instantiate(&InstantiationContext {
-        instance_name: String::from("bench"),
-        resource_location: None,
-    });
-    let v = fmu.variables_mut();
-    v.model = estimator_model::TWO_TRACK_3_STATE;
-    v.estimator = estimator(name);
-    v.steering_angle = 0.05;
-    v.yaw_rate_meas = SENSORS_B[0];
-    v.ay_meas = SENSORS_B[1];
-    v.omega_front_meas = SENSORS_B[2];
-    v.omega_rear_meas = SENSORS_B[3];
-    v.vx_meas = SENSORS_B[4];
-    fmu.initialize(0.0).expect("initialise");
-    let time = Cell::new(0.0);
+// ---- One master step, and the batched get / set alone ----
+
+/// One master step: fmi2DoStep, then fmi2GetReal of every real output.
+fn do_step_and_get_outputs(
+    slave: &mut Slave,
+    outputs: &mut Outputs,
+    t: f64,
+) -> (Fmi2Status, Fmi2Status) {
+    let status = slave.do_step(t, STEP);
+    (status, get_outputs(slave, outputs))
+}
+
+/// The real output references and room for their values.
+struct Outputs {
+    references: Vec<u32>,
+    values: Vec<f64>,
+}
+
+impl Outputs {
+    fn new() -> Self {
+        let references = real_outputs();
+        let values = vec![0.0; references.len()];
+        Self { references, values }
+    }
+}
+
+/// One batched fmi2GetReal of every real output.
+fn get_outputs(slave: &Slave, outputs: &mut Outputs) -> Fmi2Status {
+    let Outputs { references, values } = outputs;
+    // SAFETY: references and values have the same length.
+    unsafe {
+        (slave.api.get_real)(
+            slave.component,
+            divan::black_box(references.as_ptr()),
+            references.len(),
+            values.as_mut_ptr(),
+        )
+    }
+}
+
+/// The same on the model struct: do_step, the lazy output computation a read triggers, and the
+/// 18 real outputs copied out of the fields.
+fn do_step_and_copy_outputs(fmu: &mut Fmu, t: f64) -> (fmi_export::StepOutcome, [f64; 18]) {
+    let outcome = fmu.do_step(t, STEP);
+    fmu.refresh_outputs();
+    let v = fmu.variables();
+    let values = [
+        v.vx_est,
+        v.vy_est,
+        v.yaw_rate_est,
+        v.omega_front_est,
+        v.omega_rear_est,
+        v.sideslip_est,
+        v.ay_est,
+        v.slip_angle_front_est,
+        v.slip_angle_rear_est,
+        v.slip_front_est,
+        v.slip_rear_est,
+        v.vx_std,
+        v.vy_std,
+        v.yaw_rate_std,
+        v.omega_front_std,
+        v.omega_rear_std,
+        v.sideslip_std,
+        v.nis,
+    ];
+    (outcome, values)
+}
+
+/// fmi2GetReal of the 18 real outputs alone, between doSteps (the lazy outputs are already
+/// computed after the first read): the FMI layer's cost of one batched read.
+#[divan::bench(sample_count = 300, sample_size = 200)]
+fn fmi2_get_outputs(bencher: Bencher) {
+    let slave = slave_b("lkf");
+    let mut outputs = Outputs::new();
+    bencher.bench_local(|| get_outputs(&slave, &mut outputs));
+}
+
+/// fmi2SetReal of the nine real inputs (driver inputs and sensors) alone, each with a value
+/// within its range: the FMI layer's cost of one batched write (reference and range checks of
+/// every value, then the stores).
+#[divan::bench(sample_count = 300, sample_size = 200)]
+fn fmi2_set_inputs(bencher: Bencher) {
+    let slave = slave_b("lkf");
+    let inputs: Vec<u32> = reals(Causality::Input).map(|v| v.value_reference).collect();
+    let values: Vec<f64> = reals(Causality::Input)
+        .map(|v| 0.0f64.clamp(v.min, v.max))
+        .collect();
     bencher.bench_local(|| {
-        let t = time.get();
-        let outcome = fmu.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(outcome)
+        // SAFETY: inputs and values have the same length.
+        let status = unsafe {
+            (slave.api.set_real)(
+                slave.component,
+                divan::black_box(inputs.as_ptr()),
+                inputs.len(),
+                divan::black_box(values.as_ptr()),
+            )
+        };
+        divan::black_box(status)
     });
 }
