@@ -12,6 +12,7 @@ use super::{
     conclude_update, finish_prediction, linearised_update, validated_noise, InitialEstimate,
     SettingsError,
 };
+use crate::linalg::congruence;
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
 
 /// The EKF of seed 000 on any [`StateSpaceModel`].
@@ -64,7 +65,7 @@ where
         let previous_covariance = self.covariance;
         // F = ∂f/∂x at x̂⁺ (000: 4.105), P⁻ = F P⁺ Fᵀ + Q (000: 4.107), x̂⁻ = f(x̂⁺, u) (000: 4.108).
         let jacobian = self.model.transition_jacobian(&self.state, input);
-        self.covariance = jacobian * self.covariance * jacobian.transpose() + self.process_noise;
+        self.covariance = congruence(&jacobian, &self.covariance) + self.process_noise;
         self.state = self.model.transition(&self.state, input);
         finish_prediction(
             &mut self.state,

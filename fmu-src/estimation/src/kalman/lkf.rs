@@ -9,6 +9,7 @@ use super::{
     conclude_update, finish_prediction, linearised_update, validated_noise, InitialEstimate,
     LinearisedModel, SettingsError,
 };
+use crate::linalg::congruence;
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
 
 /// The LKF of seed 000 on any [`StateSpaceModel`], linearised once about a fixed operating point.
@@ -75,9 +76,8 @@ where
         let previous_covariance = self.covariance;
         // x̂⁻ = F x̂⁺ + G u (000: 4.73), P⁻ = F P⁺ Fᵀ + Q (000: 4.71).
         self.state = self.linear.predict(&self.state, input);
-        let transition = &self.linear.transition;
         self.covariance =
-            transition * self.covariance * transition.transpose() + self.process_noise;
+            congruence(&self.linear.transition, &self.covariance) + self.process_noise;
         finish_prediction(
             &mut self.state,
             &mut self.covariance,

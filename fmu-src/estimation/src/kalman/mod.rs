@@ -26,7 +26,10 @@ pub use ukf::{SigmaPoints, UnscentedKalmanFilter};
 
 use nalgebra::{Complex, SMatrix, SVector};
 
-use crate::linalg::{all_finite, check_covariance, repair_positive_definite, symmetrize};
+use crate::linalg::{
+    all_finite, check_covariance, congruence, product, product_transpose, repair_positive_definite,
+    symmetric_product, symmetrize, CholeskyFactor,
+};
 use crate::luenberger::{LuenbergerObserver, ObserverDesign};
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
 
@@ -63,7 +66,10 @@ impl<const N: usize> InitialEstimate<N> {
     }
 }
 
-/// Checks the model's `Q` and `R` once, when a filter is built.
+/// Checks the model's `Q` and `R` once, when a filter is built, and makes them exactly
+/// symmetric (they pass the check when symmetric to 1e-9): the filters build their covariances
+/// exactly symmetric, and adding an exactly symmetric `Q` or `R` keeps them so without a
+/// symmetrising pass per step.
 fn validated_noise<Model, const N: usize, const M: usize, const U: usize>(
     model: &Model,
 ) -> Result<(SMatrix<f64, N, N>, SMatrix<f64, M, M>), SettingsError>
@@ -75,6 +81,9 @@ where
     check_covariance("the process noise covariance Q", &process_noise).map_err(SettingsError)?;
     check_covariance("the measurement noise covariance R", &measurement_noise)
         .map_err(SettingsError)?;
+    let (mut process_noise, mut measurement_noise) = (process_noise, measurement_noise);
+    symmetrize(&mut process_noise);
+    symmetrize(&mut measurement_noise);
     Ok((process_noise, measurement_noise))
 }
 
@@ -92,17 +101,35 @@ fn usable_rows<const M: usize>(
     used
 }
 
-/// The gain, innovation and consistency of one masked measurement update.
+/// The gain, innovation and consistency of one masked measurement update, kept in the factored
+/// form `S = L Lᵀ`, `W = Pxy L⁻ᵀ`, `e = L⁻¹ ν`: then `K = W L⁻¹`, `K ν = W e`,
+/// `K S Kᵀ = W Wᵀ` and `NIS = eᵀ e`, so no inverse of `S` is ever formed and a filter that does
+/// not need `K` itself (the UKF) does not compute it.
 pub(crate) struct GainStep<const N: usize, const M: usize> {
-    pub(crate) gain: SMatrix<f64, N, M>,
-    pub(crate) innovation_covariance: SMatrix<f64, M, M>,
+    factor: CholeskyFactor<M>,
+    /// `W = Pxy L⁻ᵀ`.
+    pub(crate) whitened_cross: SMatrix<f64, N, M>,
+    /// `e = L⁻¹ ν`.
+    pub(crate) whitened_innovation: SVector<f64, M>,
     pub(crate) report: UpdateReport<M>,
+}
+
+impl<const N: usize, const M: usize> GainStep<N, M> {
+    /// `K = Pxy S⁻¹ = W L⁻¹` (000: 4.72, 4.111, 4.142); zero columns for the skipped rows.
+    pub(crate) fn gain(&self) -> SMatrix<f64, N, M> {
+        self.factor.solve_right(&self.whitened_cross)
+    }
+
+    /// The state correction `K ν = W e` (000: 4.74, 4.112, 4.143).
+    pub(crate) fn correction(&self) -> SVector<f64, N> {
+        product(&self.whitened_cross, &self.whitened_innovation)
+    }
 }
 
 /// `K = Pxy S⁻¹` over the used rows (000: 4.72, 4.111, 4.142), the innovation `ν = y - ŷ` and
 /// `NIS = νᵀ S⁻¹ ν`. `cross` is `Pxy` (`P⁻Hᵀ` for the LKF/EKF), `innovation_covariance` is `S`
-/// including `R`. Returns `Ok(None)` when no row is usable and `Err(UpdateSkipped)` when `S` is
-/// not positive definite.
+/// including `R` (symmetric; its lower triangle is read). Returns `Ok(None)` when no row is
+/// usable and `Err(UpdateSkipped)` when `S` is not positive definite or `Pxy` not finite.
 pub(crate) fn masked_gain<const N: usize, const M: usize>(
     mut cross: SMatrix<f64, N, M>,
     mut innovation_covariance: SMatrix<f64, M, M>,
@@ -115,34 +142,38 @@ pub(crate) fn masked_gain<const N: usize, const M: usize>(
     if rows_used == 0 {
         return Ok(None);
     }
-    let mut innovation = SVector::<f64, M>::zeros();
-    for row in 0..M {
-        if used[row] {
-            innovation[row] = measurement[row] - predicted[row];
-        } else {
-            // Decouple the skipped row: unit variance, no correlation, no cross-covariance.
-            innovation_covariance.row_mut(row).fill(0.0);
-            innovation_covariance.column_mut(row).fill(0.0);
-            innovation_covariance[(row, row)] = 1.0;
-            cross.column_mut(row).fill(0.0);
+    let innovation = if rows_used == M {
+        measurement - predicted
+    } else {
+        let mut innovation = SVector::<f64, M>::zeros();
+        for row in 0..M {
+            if used[row] {
+                innovation[row] = measurement[row] - predicted[row];
+            } else {
+                // Decouple the skipped row: unit variance, no correlation, no cross-covariance.
+                innovation_covariance.row_mut(row).fill(0.0);
+                innovation_covariance.column_mut(row).fill(0.0);
+                innovation_covariance[(row, row)] = 1.0;
+                cross.column_mut(row).fill(0.0);
+            }
         }
-    }
-    symmetrize(&mut innovation_covariance);
-    if !all_finite(&innovation_covariance) || !all_finite(&cross) {
+        innovation
+    };
+    if !all_finite(&cross) {
         return Err(FilterIssue::UpdateSkipped);
     }
-    let Some(cholesky) = innovation_covariance.cholesky() else {
+    // The factorisation also refuses a non-finite S.
+    let Some(factor) = CholeskyFactor::new(&innovation_covariance) else {
         return Err(FilterIssue::UpdateSkipped);
     };
-    // K = Pxy S⁻¹  <=>  Kᵀ = S⁻¹ Pxyᵀ (S symmetric).
-    let gain = cholesky.solve(&cross.transpose()).transpose();
-    let nis = innovation.dot(&cholesky.solve(&innovation));
+    let whitened_innovation = factor.solve_lower(&innovation);
     Ok(Some(GainStep {
-        gain,
-        innovation_covariance,
+        factor,
+        whitened_cross: factor.solve_right_transpose(&cross),
+        whitened_innovation,
         report: UpdateReport {
             innovation,
-            nis,
+            nis: whitened_innovation.norm_squared(),
             rows_used,
             used,
         },
@@ -152,13 +183,18 @@ pub(crate) fn masked_gain<const N: usize, const M: usize>(
 /// Keeps a posterior covariance symmetric positive definite. A Joseph-form or `P - K S Kᵀ`
 /// result is positive semi-definite in exact arithmetic; rounding can break that, which this
 /// detects cheaply (negative or zero diagonal) or via the Cholesky attempt of the next step.
+/// The filters build their covariances exactly symmetric ([`congruence`],
+/// [`crate::linalg::add_weighted_gram`], [`crate::linalg::subtract_gram`]), so no symmetrising pass is needed here.
 /// Returns whether a repair was needed, or `None` if the covariance is not finite.
 fn keep_positive_definite<const N: usize>(covariance: &mut SMatrix<f64, N, N>) -> Option<bool> {
-    symmetrize(covariance);
     if !all_finite(covariance) {
         return None;
     }
-    if covariance.diagonal().iter().all(|&v| v > 0.0) {
+    if covariance
+        .diagonal()
+        .iter()
+        .fold(true, |positive, &v| positive & (v > 0.0))
+    {
         return Some(false);
     }
     *covariance = repair_positive_definite(covariance)?;
@@ -329,15 +365,19 @@ pub(crate) fn finite_or_restore<const N: usize>(
 }
 
 /// The Joseph-form covariance update `P⁺ = (I - K H) P⁻ (I - K H)ᵀ + K R Kᵀ` (004; 000: 4.61),
-/// valid for any gain, so it also serves the fixed-gain Luenberger observer.
+/// valid for any gain, so it also serves the fixed-gain Luenberger observer. Both terms are
+/// congruences, computed exactly symmetric.
 pub(crate) fn joseph_update<const N: usize, const M: usize>(
     covariance: &SMatrix<f64, N, N>,
     gain: &SMatrix<f64, N, M>,
     output_matrix: &SMatrix<f64, M, N>,
     measurement_noise: &SMatrix<f64, M, M>,
 ) -> SMatrix<f64, N, N> {
-    let i_minus_kh = SMatrix::<f64, N, N>::identity() - gain * output_matrix;
-    i_minus_kh * covariance * i_minus_kh.transpose() + gain * measurement_noise * gain.transpose()
+    let mut i_minus_kh = -product(gain, output_matrix);
+    for i in 0..N {
+        i_minus_kh[(i, i)] += 1.0;
+    }
+    congruence(&i_minus_kh, covariance) + congruence(gain, measurement_noise)
 }
 
 /// A posterior step common to the LKF and EKF: gain from `P⁻ Hᵀ` and `S = H P⁻ Hᵀ + R`, state
@@ -353,8 +393,8 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
     measurement: &SVector<f64, M>,
     mask: &MeasurementMask<M>,
 ) -> Result<(UpdateReport<M>, bool), FilterIssue> {
-    let cross = *covariance * output_matrix.transpose();
-    let innovation_covariance = output_matrix * cross + measurement_noise;
+    let cross = product_transpose(covariance, output_matrix);
+    let innovation_covariance = symmetric_product(output_matrix, &cross) + measurement_noise;
     let Some(step) = masked_gain(
         cross,
         innovation_covariance,
@@ -367,12 +407,13 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
     };
     let previous_state = *state;
     let previous_covariance = *covariance;
-    *state += step.gain * step.report.innovation;
+    let gain = step.gain();
+    *state += product(&gain, &step.report.innovation);
     // Skipped rows have zero gain columns; zero their H rows too so that a non-finite entry in
     // a skipped row cannot leak into K H as 0 · NaN.
     // With every row used (the common case) H is taken as it is, without a masked copy.
     *covariance = if step.report.rows_used == M {
-        joseph_update(covariance, &step.gain, output_matrix, measurement_noise)
+        joseph_update(covariance, &gain, output_matrix, measurement_noise)
     } else {
         let mut used_output_matrix = *output_matrix;
         for row in 0..M {
@@ -380,12 +421,7 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
                 used_output_matrix.row_mut(row).fill(0.0);
             }
         }
-        joseph_update(
-            covariance,
-            &step.gain,
-            &used_output_matrix,
-            measurement_noise,
-        )
+        joseph_update(covariance, &gain, &used_output_matrix, measurement_noise)
     };
     // `keep_positive_definite` already checks the covariance for finiteness; only the state is
     // left to check.
@@ -429,11 +465,13 @@ pub(crate) fn finish_prediction<const N: usize>(
     previous_covariance: SMatrix<f64, N, N>,
     process_noise: &SMatrix<f64, N, N>,
 ) -> Result<(), FilterIssue> {
-    if !finite_or_restore(state, covariance, previous_state, previous_covariance) {
-        *covariance += process_noise;
-        return Err(FilterIssue::StateReset);
-    }
-    match keep_positive_definite(covariance) {
+    // `keep_positive_definite` checks the covariance for finiteness.
+    let repaired = if all_finite(state) {
+        keep_positive_definite(covariance)
+    } else {
+        None
+    };
+    match repaired {
         Some(false) => Ok(()),
         Some(true) => Err(FilterIssue::CovarianceRepaired),
         None => {

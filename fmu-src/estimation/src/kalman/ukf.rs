@@ -13,7 +13,9 @@
 //!
 //! As in the seed (000: 4.135-4.137), the update draws fresh sigma points from the prior
 //! `(x̂⁻, P⁻)` rather than reusing the propagated ones, and the covariance update is
-//! `P⁺ = P⁻ - K S Kᵀ` (000: 4.144); filterpy 2.0.0 does both the same way.
+//! `P⁺ = P⁻ - K S Kᵀ` (000: 4.144); filterpy 2.0.0 does both the same way. `K S Kᵀ` is
+//! evaluated as `W Wᵀ` with `W = Pxy L⁻ᵀ`, `S = L Lᵀ` (equal in exact arithmetic, see
+//! [`super::GainStep`]): no inverse, no product with `S`, exactly symmetric.
 //!
 //! The sigma points live in `N × N` matrices (one column per point, `+` and `-` sets apart), so
 //! the filter needs no `2N + 1`-sized array and never allocates.
@@ -24,7 +26,10 @@ use super::{
     conclude_update, finish_prediction, keep_positive_definite, masked_gain, validated_noise,
     InitialEstimate, SettingsError,
 };
-use crate::linalg::cholesky_with_repair;
+use crate::linalg::{
+    add_weighted_gram, add_weighted_outer, all_finite, cholesky_with_repair, product_transpose,
+    subtract_gram,
+};
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
 
 /// Which sigma-point set the UKF uses.
@@ -47,8 +52,8 @@ impl SigmaPoints {
 /// Spread and weights of a sigma-point set for dimension `n`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct SigmaWeights {
-    /// `c` in `x̂ ± (√(c P))ᵢ`.
-    spread: f64,
+    /// `√c` for `x̂ ± (√(c P))ᵢ`.
+    spread_root: f64,
     /// Mean weight of the centre point.
     mean_centre: f64,
     /// Covariance weight of the centre point.
@@ -64,7 +69,7 @@ impl SigmaWeights {
         let n = dimension as f64;
         match points {
             SigmaPoints::Symmetric => Ok(Self {
-                spread: n,
+                spread_root: n.sqrt(),
                 mean_centre: 0.0,
                 covariance_centre: 0.0,
                 outer: 1.0 / (2.0 * n),
@@ -89,7 +94,7 @@ impl SigmaWeights {
                     )));
                 }
                 Ok(Self {
-                    spread,
+                    spread_root: spread.sqrt(),
                     mean_centre: lambda / spread,
                     covariance_centre: lambda / spread + 1.0 - alpha * alpha + beta,
                     outer: 1.0 / (2.0 * spread),
@@ -111,29 +116,6 @@ pub struct UnscentedKalmanFilter<Model, const N: usize, const M: usize, const U:
     state: SVector<f64, N>,
     covariance: SMatrix<f64, N, N>,
     last_report: UpdateReport<M>,
-}
-
-/// Sigma points about a mean: the centre and the `+`/`-` deviations `±(√(c P))ᵢ` as columns.
-struct SigmaSet<const N: usize> {
-    deviations: SMatrix<f64, N, N>,
-    repaired: bool,
-    repaired_covariance: SMatrix<f64, N, N>,
-}
-
-fn sigma_deviations<const N: usize>(
-    covariance: &SMatrix<f64, N, N>,
-    spread: f64,
-) -> Option<SigmaSet<N>> {
-    // chol(c P) = √c · chol(P): factorising P itself keeps the (rare) repaired matrix a
-    // covariance without a division per entry on every step.
-    let factor = cholesky_with_repair(covariance)?;
-    let mut deviations = factor.cholesky.unpack();
-    deviations *= spread.sqrt();
-    Some(SigmaSet {
-        deviations,
-        repaired: factor.repaired,
-        repaired_covariance: factor.matrix,
-    })
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> UnscentedKalmanFilter<Model, N, M, U>
@@ -176,13 +158,21 @@ where
         &self.last_report
     }
 
-    /// Sigma points of the current `(x̂, P)`; repairs `P` first if it is not positive definite.
-    fn draw(&mut self) -> Option<SigmaSet<N>> {
-        let set = sigma_deviations(&self.covariance, self.weights.spread)?;
-        if set.repaired {
-            self.covariance = set.repaired_covariance;
-        }
-        Some(set)
+    /// The sigma-point deviations `(√(c P))ᵢ` of the current `P` as columns, and whether `P`
+    /// had to be repaired first (it is replaced by the repaired matrix then).
+    ///
+    /// `chol(c P) = √c · chol(P)`: factorising `P` itself keeps the (rare) repaired matrix a
+    /// covariance without a division per entry on every step.
+    fn draw(&mut self) -> Option<(SMatrix<f64, N, N>, bool)> {
+        let factor = cholesky_with_repair(&self.covariance)?;
+        let repaired = match factor.repaired {
+            Some(repaired) => {
+                self.covariance = repaired;
+                true
+            }
+            None => false,
+        };
+        Some((factor.factor.lower() * self.weights.spread_root, repaired))
     }
 }
 
@@ -194,7 +184,7 @@ where
     fn predict(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
         let previous_state = self.state;
         let previous_covariance = self.covariance;
-        let Some(set) = self.draw() else {
+        let Some((deviations, repaired)) = self.draw() else {
             self.covariance = previous_covariance + self.process_noise;
             return Err(FilterIssue::StateReset);
         };
@@ -203,7 +193,7 @@ where
         let mut plus = SMatrix::<f64, N, N>::zeros();
         let mut minus = SMatrix::<f64, N, N>::zeros();
         for i in 0..N {
-            let deviation = set.deviations.column(i);
+            let deviation = deviations.column(i);
             plus.set_column(i, &self.model.transition(&(self.state + deviation), input));
             minus.set_column(i, &self.model.transition(&(self.state - deviation), input));
         }
@@ -213,19 +203,17 @@ where
             SVector::zeros()
         };
         // Weighted mean (000: 4.133) and covariance plus Q (000: 4.134).
-        // As matrix products over the deviation matrices (one column per point): cheaper than
-        // 2n rank-one updates with temporaries.
+        // As products over the deviation matrices (one column per point): cheaper than 2n
+        // rank-one updates with temporaries.
         let mean = w.mean_centre * centre + w.outer * (plus.column_sum() + minus.column_sum());
         for i in 0..N {
             plus.set_column(i, &(plus.column(i) - mean));
             minus.set_column(i, &(minus.column(i) - mean));
         }
         let mut covariance = self.process_noise;
-        covariance.gemm(w.outer, &plus, &plus.transpose(), 1.0);
-        covariance.gemm(w.outer, &minus, &minus.transpose(), 1.0);
+        add_weighted_gram(&mut covariance, w.outer, &plus, &minus);
         if w.uses_centre {
-            let d = centre - mean;
-            covariance.ger(w.covariance_centre, &d, &d, 1.0);
+            add_weighted_outer(&mut covariance, w.covariance_centre, &(centre - mean));
         }
         self.state = mean;
         self.covariance = covariance;
@@ -237,7 +225,7 @@ where
             &self.process_noise,
         );
         match outcome {
-            Ok(()) if set.repaired => Err(FilterIssue::CovarianceRepaired),
+            Ok(()) if repaired => Err(FilterIssue::CovarianceRepaired),
             other => other,
         }
     }
@@ -251,7 +239,7 @@ where
         let previous_state = self.state;
         let previous_covariance = self.covariance;
         // Fresh sigma points from the prior (000: 4.135-4.137).
-        let Some(set) = self.draw() else {
+        let Some((deviations, repaired)) = self.draw() else {
             self.last_report = UpdateReport::skipped();
             return Err(FilterIssue::StateReset);
         };
@@ -260,7 +248,7 @@ where
         let mut plus = SMatrix::<f64, M, N>::zeros();
         let mut minus = SMatrix::<f64, M, N>::zeros();
         for i in 0..N {
-            let deviation = set.deviations.column(i);
+            let deviation = deviations.column(i);
             plus.set_column(i, &self.model.measurement(&(self.state + deviation), input));
             minus.set_column(i, &self.model.measurement(&(self.state - deviation), input));
         }
@@ -278,18 +266,20 @@ where
         // point's state deviation is zero, so it only enters S. The state deviations of the
         // `+`/`-` points are `±L`, so Pxy = w L (Y₊ - Y₋)ᵀ.
         let mut innovation_covariance = self.measurement_noise;
-        innovation_covariance.gemm(w.outer, &plus, &plus.transpose(), 1.0);
-        innovation_covariance.gemm(w.outer, &minus, &minus.transpose(), 1.0);
+        add_weighted_gram(&mut innovation_covariance, w.outer, &plus, &minus);
         if w.uses_centre {
-            let d = centre - predicted;
-            innovation_covariance.ger(w.covariance_centre, &d, &d, 1.0);
+            add_weighted_outer(
+                &mut innovation_covariance,
+                w.covariance_centre,
+                &(centre - predicted),
+            );
         }
-        let cross = w.outer * set.deviations * (plus - minus).transpose();
+        let cross = product_transpose(&deviations, &(plus - minus)) * w.outer;
         let step = match masked_gain(cross, innovation_covariance, measurement, &predicted, mask) {
             Ok(Some(step)) => step,
             Ok(None) => {
                 self.last_report = UpdateReport::skipped();
-                return if set.repaired {
+                return if repaired {
                     Err(FilterIssue::CovarianceRepaired)
                 } else {
                     Ok(self.last_report)
@@ -300,12 +290,13 @@ where
                 return Err(issue);
             }
         };
-        // K = Pxy S⁻¹ (000: 4.142), x̂⁺ = x̂⁻ + K (y - ŷ) (000: 4.143), P⁺ = P⁻ - K S Kᵀ (000: 4.144).
-        self.state += step.gain * step.report.innovation;
-        self.covariance -= step.gain * step.innovation_covariance * step.gain.transpose();
+        // K = Pxy S⁻¹ (000: 4.142), x̂⁺ = x̂⁻ + K (y - ŷ) (000: 4.143), P⁺ = P⁻ - K S Kᵀ (000: 4.144),
+        // as x̂⁻ + W e and P⁻ - W Wᵀ.
+        self.state += step.correction();
+        subtract_gram(&mut self.covariance, &step.whitened_cross);
         let outcome = match keep_positive_definite(&mut self.covariance) {
-            Some(repaired) if self.state.iter().all(|v| v.is_finite()) => {
-                Ok((step.report, repaired || set.repaired))
+            Some(repaired_now) if all_finite(&self.state) => {
+                Ok((step.report, repaired_now || repaired))
             }
             _ => {
                 self.state = previous_state;
