@@ -192,6 +192,40 @@ impl Fmi2Api {
     }
 }
 
+/// A closure that calls `step(t)` with `t` = 0, `step_size`, 2 `step_size`, … on successive
+/// calls: a benchmark body that advances simulated time by one communication step per iteration.
+pub fn stepping<T>(step_size: f64, mut step: impl FnMut(f64) -> T) -> impl FnMut() -> T {
+    let mut t = 0.0;
+    move || {
+        let result = step(t);
+        t += step_size;
+        result
+    }
+}
+
+/// The rows of a generated variable table with one base type and causality (e.g. the real
+/// outputs a master reads every step), in table order.
+pub fn variables_of(
+    table: &'static [crate::VariableInfo],
+    value_type: crate::ValueType,
+    causality: crate::Causality,
+) -> impl Iterator<Item = &'static crate::VariableInfo> {
+    table
+        .iter()
+        .filter(move |v| v.value_type == value_type && v.causality == causality)
+}
+
+/// The value references of [`variables_of`].
+pub fn references_of(
+    table: &'static [crate::VariableInfo],
+    value_type: crate::ValueType,
+    causality: crate::Causality,
+) -> Vec<u32> {
+    variables_of(table, value_type, causality)
+        .map(|v| v.value_reference)
+        .collect()
+}
+
 /// The shared library `lib<modelIdentifier>.so` built next to the running test or benchmark
 /// executable (`target/<profile>/deps/<exe>` → `target/<profile>/lib<id>.so`).
 pub fn built_library_path(model_identifier: &str) -> Result<std::path::PathBuf, String> {
@@ -417,6 +451,13 @@ impl Slave {
         };
         assert_eq!(status, Fmi2Status::Ok, "fmi2GetReal: {:?}", self.log.last());
         values
+    }
+
+    /// Several reals into `values` (no allocation, for benchmarks); the status as returned.
+    pub fn get_reals_into(&mut self, vrs: &[u32], values: &mut [f64]) -> Fmi2Status {
+        assert_eq!(vrs.len(), values.len());
+        // SAFETY: both slices hold vrs.len() elements.
+        unsafe { (self.api.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) }
     }
 
     pub fn get_integer(&mut self, vr: u32) -> (Fmi2Status, i32) {

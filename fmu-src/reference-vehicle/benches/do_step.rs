@@ -8,18 +8,19 @@
 //!
 //! `fmi2_do_step` − `model_do_step` is what the FMI layer (state machine, argument and time
 //! checks, catch_unwind) adds; `model_do_step` − `bare_vehicle_step` is the FMU's own work
-//! around the equations (process noise, sensor chain, outputs).
-
-use std::cell::Cell;
+//! around the equations (process noise, sensor chain, outputs). The `*_model_b` entries are the
+//! same for model B (two-track, Magic Formula, 7 states). `fmi2_get_outputs` and
+//! `fmi2_set_inputs` are one batched fmi2GetReal of every real output and fmi2SetReal of the
+//! three driver inputs: a master's per-step traffic with this FMU.
 
 use divan::Bencher;
-use fmi_export::testing::Slave;
-use fmi_export::{CoSimulationModel, InstantiationContext};
+use fmi_export::testing::{references_of, stepping, Slave};
+use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use vehicle_models::{
     DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
     ReferenceVehicleParams, SingleTrackHsri,
 };
-use ReferenceVehicle::model_description::{vr, GUID};
+use ReferenceVehicle::model_description::{vehicle_model, vr, GUID, VARIABLES};
 use ReferenceVehicle::ReferenceVehicle as Fmu;
 
 fn main() {
@@ -27,6 +28,30 @@ fn main() {
 }
 
 const STEP: f64 = 0.001;
+
+/// The model struct (no FMI layer), initialised with a small steering angle.
+fn model_struct(model: i32) -> Fmu {
+    let mut fmu = Fmu::instantiate(&InstantiationContext {
+        instance_name: String::from("bench"),
+        resource_location: None,
+    });
+    fmu.variables_mut().model = model;
+    fmu.variables_mut().steering_angle = 0.05;
+    fmu.initialize(0.0).expect("initialise");
+    fmu
+}
+
+/// The same through the C ABI.
+fn slave(model: i32) -> Slave {
+    let mut slave = Slave::instantiate(fmi_export::fmi2_api_of!(ReferenceVehicle), "bench", GUID)
+        .expect("instantiate");
+    slave.set_integer(vr::MODEL, model);
+    slave.set_real(vr::STEERING_ANGLE, 0.05);
+    slave.initialize(0.0);
+    slave
+}
+
+// ---- Model A ----
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn bare_vehicle_step(bencher: Bencher) {
@@ -45,55 +70,19 @@ fn bare_vehicle_step(bencher: Bencher) {
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn model_do_step(bencher: Bencher) {
-    let mut fmu = Fmu::instantiate(&InstantiationContext {
-        instance_name: String::from("bench"),
-        resource_location: None,
-    });
-    fmu.variables_mut().steering_angle = 0.05;
-    fmu.initialize(0.0).expect("initialise");
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let outcome = fmu.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(outcome)
-    });
+    let mut fmu = model_struct(vehicle_model::SINGLE_TRACK_HSRI);
+    bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
 }
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_do_step(bencher: Bencher) {
-    let mut slave = Slave::instantiate(fmi_export::fmi2_api_of!(ReferenceVehicle), "bench", GUID)
-        .expect("instantiate");
-    slave.set_real(vr::STEERING_ANGLE, 0.05);
-    slave.initialize(0.0);
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let status = slave.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(status)
-    });
+    let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
+    bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
-/// The same doStep with model B (two-track, Magic Formula, 7 states).
-#[divan::bench(sample_count = 1000, sample_size = 200)]
-fn fmi2_do_step_model_b(bencher: Bencher) {
-    let mut slave = Slave::instantiate(fmi_export::fmi2_api_of!(ReferenceVehicle), "bench", GUID)
-        .expect("instantiate");
-    slave.set_integer(vr::MODEL, 2);
-    slave.set_real(vr::STEERING_ANGLE, 0.05);
-    slave.initialize(0.0);
-    let time = Cell::new(0.0);
-    bencher.bench_local(|| {
-        let t = time.get();
-        let status = slave.do_step(t, STEP);
-        time.set(t + STEP);
-        divan::black_box(status)
-    });
-}
+// ---- Model B ----
 
-/// The bare model-B step (vehicle-models' switchable reference vehicle), to compare with
-/// `fmi2_do_step_model_b`.
+/// The bare model-B step (vehicle-models' switchable reference vehicle).
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn bare_vehicle_step_model_b(bencher: Bencher) {
     let params = ReferenceVehicleParams {
@@ -103,4 +92,45 @@ fn bare_vehicle_step_model_b(bencher: Bencher) {
     let mut vehicle = VehicleModel::new(&params, 18.0);
     let input = DriverInputVector::new(0.05, 0.0, 0.0);
     bencher.bench_local(|| divan::black_box(vehicle.step(divan::black_box(&input), STEP)));
+}
+
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn model_do_step_model_b(bencher: Bencher) {
+    let mut fmu = model_struct(vehicle_model::TWO_TRACK_MAGIC_FORMULA);
+    bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
+}
+
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn fmi2_do_step_model_b(bencher: Bencher) {
+    let mut slave = slave(vehicle_model::TWO_TRACK_MAGIC_FORMULA);
+    bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
+}
+
+// ---- The batched get / set of a master step ----
+
+fn reals(causality: Causality) -> Vec<u32> {
+    references_of(VARIABLES, ValueType::Real, causality)
+}
+
+/// fmi2GetReal of every real output (truth and sensors) in one call.
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn fmi2_get_outputs(bencher: Bencher) {
+    let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
+    let outputs = reals(Causality::Output);
+    let mut values = vec![0.0; outputs.len()];
+    bencher.bench_local(|| {
+        let status = slave.get_reals_into(divan::black_box(&outputs), &mut values);
+        divan::black_box((status, &values));
+    });
+}
+
+/// fmi2SetReal of the three driver inputs in one call (0, within their ranges).
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn fmi2_set_inputs(bencher: Bencher) {
+    let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
+    let inputs = reals(Causality::Input);
+    let values = vec![0.0; inputs.len()];
+    bencher.bench_local(|| {
+        divan::black_box(slave.set_reals(divan::black_box(&inputs), divan::black_box(&values)))
+    });
 }

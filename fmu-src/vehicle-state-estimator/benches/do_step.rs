@@ -25,7 +25,7 @@
 
 use divan::Bencher;
 use fmi_export::ffi::Fmi2Status;
-use fmi_export::testing::Slave;
+use fmi_export::testing::{references_of, stepping, variables_of, Slave};
 use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use nalgebra::SVector;
 use VehicleStateEstimator::model_description::estimator_model;
@@ -66,15 +66,11 @@ const SENSORS_B: [f64; 5] = [0.1, 1.8, 60.0, 60.0, 18.0];
 
 /// The real variables of one causality (18 outputs, 9 inputs), from the generated table.
 fn reals(causality: Causality) -> impl Iterator<Item = &'static fmi_export::VariableInfo> {
-    VARIABLES
-        .iter()
-        .filter(move |v| v.value_type == ValueType::Real && v.causality == causality)
+    variables_of(VARIABLES, ValueType::Real, causality)
 }
 
 fn real_outputs() -> Vec<u32> {
-    reals(Causality::Output)
-        .map(|v| v.value_reference)
-        .collect()
+    references_of(VARIABLES, ValueType::Real, Causality::Output)
 }
 
 fn estimator(name: &str) -> i32 {
@@ -83,16 +79,6 @@ fn estimator(name: &str) -> i32 {
         .find(|(n, _)| *n == name)
         .expect("known")
         .1
-}
-
-/// Benchmarks `step(t)` with `t` advancing by one communication step per iteration.
-fn bench_steps<T>(bencher: Bencher, mut step: impl FnMut(f64) -> T) {
-    let mut t = 0.0;
-    bencher.bench_local(move || {
-        let result = step(t);
-        t += STEP;
-        divan::black_box(result)
-    });
 }
 
 // ---- Model A ----
@@ -119,29 +105,29 @@ fn bare_filter_step(bencher: Bencher, name: &str) {
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn model_do_step(bencher: Bencher, name: &str) {
     let mut fmu = model_a_struct(name);
-    bench_steps(bencher, |t| fmu.do_step(t, STEP));
+    bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
 }
 
 /// What `fmi2_do_step_get_outputs` does, without the FMI layer.
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn model_do_step_outputs(bencher: Bencher, name: &str) {
     let mut fmu = model_a_struct(name);
-    bench_steps(bencher, |t| do_step_and_copy_outputs(&mut fmu, t));
+    bencher.bench_local(stepping(STEP, |t| do_step_and_copy_outputs(&mut fmu, t)));
 }
 
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn fmi2_do_step(bencher: Bencher, name: &str) {
     let mut slave = slave_a(name);
-    bench_steps(bencher, |t| slave.do_step(t, STEP));
+    bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
 fn fmi2_do_step_get_outputs(bencher: Bencher, name: &str) {
     let mut slave = slave_a(name);
     let mut outputs = Outputs::new();
-    bench_steps(bencher, |t| {
+    bencher.bench_local(stepping(STEP, |t| {
         do_step_and_get_outputs(&mut slave, &mut outputs, t)
-    });
+    }));
 }
 
 /// The model struct (no FMI layer) set up like [`slave_a`].
@@ -208,29 +194,29 @@ fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_model_do_step(bencher: Bencher, name: &str) {
     let mut fmu = model_b_struct(name);
-    bench_steps(bencher, |t| fmu.do_step(t, STEP));
+    bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
 }
 
 /// What `model_b_fmi2_do_step_get_outputs` does, without the FMI layer.
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_model_do_step_outputs(bencher: Bencher, name: &str) {
     let mut fmu = model_b_struct(name);
-    bench_steps(bencher, |t| do_step_and_copy_outputs(&mut fmu, t));
+    bencher.bench_local(stepping(STEP, |t| do_step_and_copy_outputs(&mut fmu, t)));
 }
 
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_fmi2_do_step(bencher: Bencher, name: &str) {
     let mut slave = slave_b(name);
-    bench_steps(bencher, |t| slave.do_step(t, STEP));
+    bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
 fn model_b_fmi2_do_step_get_outputs(bencher: Bencher, name: &str) {
     let mut slave = slave_b(name);
     let mut outputs = Outputs::new();
-    bench_steps(bencher, |t| {
+    bencher.bench_local(stepping(STEP, |t| {
         do_step_and_get_outputs(&mut slave, &mut outputs, t)
-    });
+    }));
 }
 
 /// The model struct (no FMI layer) set up like [`slave_b`].
@@ -303,17 +289,8 @@ impl Outputs {
 }
 
 /// One batched fmi2GetReal of every real output.
-fn get_outputs(slave: &Slave, outputs: &mut Outputs) -> Fmi2Status {
-    let Outputs { references, values } = outputs;
-    // SAFETY: references and values have the same length.
-    unsafe {
-        (slave.api.get_real)(
-            slave.component,
-            divan::black_box(references.as_ptr()),
-            references.len(),
-            values.as_mut_ptr(),
-        )
-    }
+fn get_outputs(slave: &mut Slave, outputs: &mut Outputs) -> Fmi2Status {
+    slave.get_reals_into(divan::black_box(&outputs.references), &mut outputs.values)
 }
 
 /// The same on the model struct: do_step, the lazy output computation a read triggers, and the
@@ -349,9 +326,9 @@ fn do_step_and_copy_outputs(fmu: &mut Fmu, t: f64) -> (fmi_export::StepOutcome, 
 /// computed after the first read): the FMI layer's cost of one batched read.
 #[divan::bench(sample_count = 300, sample_size = 200)]
 fn fmi2_get_outputs(bencher: Bencher) {
-    let slave = slave_b("lkf");
+    let mut slave = slave_b("lkf");
     let mut outputs = Outputs::new();
-    bencher.bench_local(|| get_outputs(&slave, &mut outputs));
+    bencher.bench_local(|| get_outputs(&mut slave, &mut outputs));
 }
 
 /// fmi2SetReal of the nine real inputs (driver inputs and sensors) alone, each with a value
@@ -359,21 +336,12 @@ fn fmi2_get_outputs(bencher: Bencher) {
 /// every value, then the stores).
 #[divan::bench(sample_count = 300, sample_size = 200)]
 fn fmi2_set_inputs(bencher: Bencher) {
-    let slave = slave_b("lkf");
-    let inputs: Vec<u32> = reals(Causality::Input).map(|v| v.value_reference).collect();
+    let mut slave = slave_b("lkf");
+    let inputs = references_of(VARIABLES, ValueType::Real, Causality::Input);
     let values: Vec<f64> = reals(Causality::Input)
         .map(|v| 0.0f64.clamp(v.min, v.max))
         .collect();
     bencher.bench_local(|| {
-        // SAFETY: inputs and values have the same length.
-        let status = unsafe {
-            (slave.api.set_real)(
-                slave.component,
-                divan::black_box(inputs.as_ptr()),
-                inputs.len(),
-                divan::black_box(values.as_ptr()),
-            )
-        };
-        divan::black_box(status)
+        divan::black_box(slave.set_reals(divan::black_box(&inputs), divan::black_box(&values)))
     });
 }
