@@ -48,7 +48,7 @@ pub fn all_finite<const R: usize, const C: usize>(matrix: &SMatrix<f64, R, C>) -
 /// onto the lower triangle: the result is exactly symmetric whatever the rounding in `entry`,
 /// at a little more than half the work of the full matrix.
 #[inline(always)]
-fn update_symmetric<const N: usize>(
+pub(crate) fn update_symmetric<const N: usize>(
     matrix: &mut SMatrix<f64, N, N>,
     entry: impl Fn(usize, usize, f64) -> f64,
 ) {

@@ -10,7 +10,7 @@ use nalgebra::{SMatrix, SVector};
 
 use super::{
     conclude_update, finish_prediction, linearised_update, validated_noise, InitialEstimate,
-    SettingsError,
+    MeasurementNoise, SettingsError,
 };
 use crate::linalg::congruence;
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
@@ -20,7 +20,7 @@ use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateRepo
 pub struct ExtendedKalmanFilter<Model, const N: usize, const M: usize, const U: usize> {
     model: Model,
     process_noise: SMatrix<f64, N, N>,
-    measurement_noise: SMatrix<f64, M, M>,
+    measurement_noise: MeasurementNoise<M>,
     state: SVector<f64, N>,
     covariance: SMatrix<f64, N, N>,
     last_report: UpdateReport<M>,
@@ -37,7 +37,7 @@ where
         Ok(Self {
             model,
             process_noise,
-            measurement_noise,
+            measurement_noise: MeasurementNoise::new(measurement_noise),
             state: initial.state,
             covariance: initial.covariance,
             last_report: UpdateReport::skipped(),

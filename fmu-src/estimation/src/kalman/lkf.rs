@@ -7,7 +7,7 @@ use nalgebra::{SMatrix, SVector};
 
 use super::{
     conclude_update, finish_prediction, linearised_update, validated_noise, InitialEstimate,
-    LinearisedModel, SettingsError,
+    LinearisedModel, MeasurementNoise, SettingsError,
 };
 use crate::linalg::congruence;
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
@@ -18,7 +18,7 @@ pub struct LinearKalmanFilter<Model, const N: usize, const M: usize, const U: us
     model: Model,
     linear: LinearisedModel<N, M, U>,
     process_noise: SMatrix<f64, N, N>,
-    measurement_noise: SMatrix<f64, M, M>,
+    measurement_noise: MeasurementNoise<M>,
     state: SVector<f64, N>,
     covariance: SMatrix<f64, N, N>,
     last_report: UpdateReport<M>,
@@ -43,7 +43,7 @@ where
             model,
             linear,
             process_noise,
-            measurement_noise,
+            measurement_noise: MeasurementNoise::new(measurement_noise),
             state: initial.state,
             covariance: initial.covariance,
             last_report: UpdateReport::skipped(),

@@ -27,8 +27,8 @@ pub use ukf::{SigmaPoints, UnscentedKalmanFilter};
 use nalgebra::{Complex, SMatrix, SVector};
 
 use crate::linalg::{
-    all_finite, check_covariance, congruence, product, product_transpose, repair_positive_definite,
-    symmetric_product, symmetrize, CholeskyFactor,
+    all_finite, check_covariance, product, product_transpose, repair_positive_definite,
+    symmetric_product, symmetrize, update_symmetric, CholeskyFactor,
 };
 use crate::luenberger::{LuenbergerObserver, ObserverDesign};
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
@@ -130,6 +130,7 @@ impl<const N: usize, const M: usize> GainStep<N, M> {
 /// `NIS = νᵀ S⁻¹ ν`. `cross` is `Pxy` (`P⁻Hᵀ` for the LKF/EKF), `innovation_covariance` is `S`
 /// including `R` (symmetric; its lower triangle is read). Returns `Ok(None)` when no row is
 /// usable and `Err(UpdateSkipped)` when `S` is not positive definite or `Pxy` not finite.
+#[inline]
 pub(crate) fn masked_gain<const N: usize, const M: usize>(
     mut cross: SMatrix<f64, N, M>,
     mut innovation_covariance: SMatrix<f64, M, M>,
@@ -186,6 +187,7 @@ pub(crate) fn masked_gain<const N: usize, const M: usize>(
 /// The filters build their covariances exactly symmetric ([`congruence`],
 /// [`crate::linalg::add_weighted_gram`], [`crate::linalg::subtract_gram`]), so no symmetrising pass is needed here.
 /// Returns whether a repair was needed, or `None` if the covariance is not finite.
+#[inline]
 fn keep_positive_definite<const N: usize>(covariance: &mut SMatrix<f64, N, N>) -> Option<bool> {
     if !all_finite(covariance) {
         return None;
@@ -365,10 +367,24 @@ pub(crate) fn finite_or_restore<const N: usize>(
 }
 
 /// The Joseph-form covariance update `P⁺ = (I - K H) P⁻ (I - K H)ᵀ + K R Kᵀ` (004; 000: 4.61),
-/// valid for any gain, so it also serves the fixed-gain Luenberger observer. Both terms are
-/// congruences, computed exactly symmetric.
+/// valid for any gain, so it also serves the fixed-gain Luenberger observer.
 pub(crate) fn joseph_update<const N: usize, const M: usize>(
     covariance: &SMatrix<f64, N, N>,
+    gain: &SMatrix<f64, N, M>,
+    output_matrix: &SMatrix<f64, M, N>,
+    measurement_noise: &SMatrix<f64, M, M>,
+) -> SMatrix<f64, N, N> {
+    let cross = product_transpose(covariance, output_matrix);
+    joseph_update_with_cross(covariance, &cross, gain, output_matrix, measurement_noise)
+}
+
+/// [`joseph_update`] with `P⁻ Hᵀ` already at hand: `P⁻ (I - K H)ᵀ = P⁻ - (P⁻ Hᵀ) Kᵀ`, then
+/// `(I - K H)` times that and `(K R) Kᵀ` as exactly symmetric products (zero entries of `H` and
+/// `R` skipped).
+#[inline]
+fn joseph_update_with_cross<const N: usize, const M: usize>(
+    covariance: &SMatrix<f64, N, N>,
+    cross: &SMatrix<f64, N, M>,
     gain: &SMatrix<f64, N, M>,
     output_matrix: &SMatrix<f64, M, N>,
     measurement_noise: &SMatrix<f64, M, M>,
@@ -377,14 +393,148 @@ pub(crate) fn joseph_update<const N: usize, const M: usize>(
     for i in 0..N {
         i_minus_kh[(i, i)] += 1.0;
     }
-    congruence(&i_minus_kh, covariance) + congruence(gain, measurement_noise)
+    let right = covariance - product_transpose(cross, gain);
+    symmetric_product(&i_minus_kh, &right)
+        + symmetric_product(&product(gain, measurement_noise), &gain.transpose())
 }
 
-/// A posterior step common to the LKF and EKF: gain from `P⁻ Hᵀ` and `S = H P⁻ Hᵀ + R`, state
-/// correction, Joseph-form covariance. Returns the report and whether the covariance needed a
-/// repair; leaves state and covariance untouched when no row is usable.
-#[allow(clippy::too_many_arguments)]
+/// `R` as the LKF and EKF use it: the matrix, and its diagonal when `R` is diagonal
+/// (uncorrelated sensors, as in every model of this crate), which lets the update run row by row
+/// ([`sequential_update`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct MeasurementNoise<const M: usize> {
+    covariance: SMatrix<f64, M, M>,
+    variances: Option<SVector<f64, M>>,
+}
+
+impl<const M: usize> MeasurementNoise<M> {
+    pub(crate) fn new(covariance: SMatrix<f64, M, M>) -> Self {
+        let diagonal = (0..M).all(|i| (0..M).all(|j| i == j || covariance[(i, j)] == 0.0));
+        Self {
+            covariance,
+            variances: diagonal.then(|| covariance.diagonal()),
+        }
+    }
+}
+
+/// A posterior step common to the LKF and EKF: gain, state correction and Joseph-form
+/// covariance (004) from the prediction `ŷ` and the measurement matrix `H` at the prior. Returns
+/// the report and whether the covariance needed a repair; leaves state and covariance untouched
+/// when no row is usable.
+#[inline]
 pub(crate) fn linearised_update<const N: usize, const M: usize>(
+    state: &mut SVector<f64, N>,
+    covariance: &mut SMatrix<f64, N, N>,
+    predicted_measurement: &SVector<f64, M>,
+    output_matrix: &SMatrix<f64, M, N>,
+    noise: &MeasurementNoise<M>,
+    measurement: &SVector<f64, M>,
+    mask: &MeasurementMask<M>,
+) -> Result<(UpdateReport<M>, bool), FilterIssue> {
+    let used = usable_rows(measurement, predicted_measurement, mask);
+    let rows_used = used.iter().filter(|&&u| u).count();
+    if rows_used == 0 {
+        return Ok((UpdateReport::skipped(), false));
+    }
+    let previous_state = *state;
+    let previous_covariance = *covariance;
+    let outcome = match noise.variances {
+        Some(variances) => sequential_update(
+            state,
+            covariance,
+            predicted_measurement,
+            output_matrix,
+            &variances,
+            measurement,
+            &used,
+        ),
+        None => batch_update(
+            state,
+            covariance,
+            predicted_measurement,
+            output_matrix,
+            &noise.covariance,
+            measurement,
+            mask,
+        ),
+    };
+    let report = match outcome {
+        Ok(report) => report,
+        Err(issue) => {
+            *state = previous_state;
+            *covariance = previous_covariance;
+            return Err(issue);
+        }
+    };
+    // `keep_positive_definite` checks the covariance for finiteness; only the state is left.
+    let repaired = keep_positive_definite(covariance);
+    if repaired.is_none() || !all_finite(state) {
+        *state = previous_state;
+        *covariance = previous_covariance;
+        return Err(FilterIssue::StateReset);
+    }
+    Ok((report, repaired == Some(true)))
+}
+
+/// The update for a diagonal `R`, one measurement row after the other (sequential processing):
+/// with uncorrelated measurement noise, the batch update `K = P⁻Hᵀ(H P⁻ Hᵀ + R)⁻¹` (000: 4.72,
+/// 4.111) is the same as the scalar updates in turn, each on the estimate the rows before left,
+/// with the linearisation kept at the prior (so the EKF is not re-linearised in between). Each
+/// row's innovation variance `s = hᵀ P h + r` is a pivot of the batch `S`, its gain `k = P h / s`
+/// needs no matrix inverse, and its Joseph form (004)
+/// `P⁺ = (I - k hᵀ) P (I - k hᵀ)ᵀ + r k kᵀ` is a rank-one correction. `NIS = Σ ν̃ᵢ² / sᵢ` over
+/// the rows' innovations against the running estimate equals `νᵀ S⁻¹ ν` (the chain rule of
+/// the Gaussian likelihood). On an error the caller restores the prior.
+#[inline]
+fn sequential_update<const N: usize, const M: usize>(
+    state: &mut SVector<f64, N>,
+    covariance: &mut SMatrix<f64, N, N>,
+    predicted_measurement: &SVector<f64, M>,
+    output_matrix: &SMatrix<f64, M, N>,
+    variances: &SVector<f64, M>,
+    measurement: &SVector<f64, M>,
+    used: &MeasurementMask<M>,
+) -> Result<UpdateReport<M>, FilterIssue> {
+    let prior_state = *state;
+    let mut innovation = SVector::<f64, M>::zeros();
+    let mut nis = 0.0;
+    for row in 0..M {
+        if !used[row] {
+            continue;
+        }
+        let h: SVector<f64, N> = output_matrix.row(row).transpose();
+        innovation[row] = measurement[row] - predicted_measurement[row];
+        // ŷᵢ + hᵀ (x - x⁻) predicts this row from the estimate the earlier rows left.
+        let running_innovation = innovation[row] - h.dot(&(*state - prior_state));
+        let cross = product(covariance, &h);
+        let variance = h.dot(&cross) + variances[row];
+        if !(variance > 0.0 && variance < f64::INFINITY) || !all_finite(&cross) {
+            return Err(FilterIssue::UpdateSkipped);
+        }
+        let gain = cross / variance;
+        *state += gain * running_innovation;
+        nis += running_innovation * running_innovation / variance;
+        // (I - k hᵀ) P = P - k (P h)ᵀ, then times (I - k hᵀ)ᵀ: minus ((I - k hᵀ) P h) kᵀ.
+        let left = *covariance - gain * cross.transpose();
+        let left_h = product(&left, &h);
+        let noise = variances[row];
+        update_symmetric(covariance, |i, j, _| {
+            left[(i, j)] - left_h[i] * gain[j] + noise * gain[i] * gain[j]
+        });
+    }
+    let rows_used = used.iter().filter(|&&u| u).count();
+    Ok(UpdateReport {
+        innovation,
+        nis,
+        rows_used,
+        used: *used,
+    })
+}
+
+/// The update with a full `R`: gain from `P⁻ Hᵀ` and `S = H P⁻ Hᵀ + R` ([`masked_gain`]), state
+/// correction, Joseph-form covariance. On an error the caller restores the prior.
+#[inline]
+fn batch_update<const N: usize, const M: usize>(
     state: &mut SVector<f64, N>,
     covariance: &mut SMatrix<f64, N, N>,
     predicted_measurement: &SVector<f64, M>,
@@ -392,7 +542,7 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
     measurement_noise: &SMatrix<f64, M, M>,
     measurement: &SVector<f64, M>,
     mask: &MeasurementMask<M>,
-) -> Result<(UpdateReport<M>, bool), FilterIssue> {
+) -> Result<UpdateReport<M>, FilterIssue> {
     let cross = product_transpose(covariance, output_matrix);
     let innovation_covariance = symmetric_product(output_matrix, &cross) + measurement_noise;
     let Some(step) = masked_gain(
@@ -403,39 +553,38 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
         mask,
     )?
     else {
-        return Ok((UpdateReport::skipped(), false));
+        return Ok(UpdateReport::skipped());
     };
-    let previous_state = *state;
-    let previous_covariance = *covariance;
     let gain = step.gain();
     *state += product(&gain, &step.report.innovation);
-    // Skipped rows have zero gain columns; zero their H rows too so that a non-finite entry in
-    // a skipped row cannot leak into K H as 0 · NaN.
+    // Skipped rows have zero gain columns; zero their H rows and P⁻Hᵀ columns too so that a
+    // non-finite entry in a skipped row cannot leak into the covariance as 0 · NaN.
     // With every row used (the common case) H is taken as it is, without a masked copy.
     *covariance = if step.report.rows_used == M {
-        joseph_update(covariance, &gain, output_matrix, measurement_noise)
+        joseph_update_with_cross(covariance, &cross, &gain, output_matrix, measurement_noise)
     } else {
         let mut used_output_matrix = *output_matrix;
+        let mut used_cross = cross;
         for row in 0..M {
             if !step.report.used[row] {
                 used_output_matrix.row_mut(row).fill(0.0);
+                used_cross.column_mut(row).fill(0.0);
             }
         }
-        joseph_update(covariance, &gain, &used_output_matrix, measurement_noise)
+        joseph_update_with_cross(
+            covariance,
+            &used_cross,
+            &gain,
+            &used_output_matrix,
+            measurement_noise,
+        )
     };
-    // `keep_positive_definite` already checks the covariance for finiteness; only the state is
-    // left to check.
-    let repaired = keep_positive_definite(covariance);
-    if repaired.is_none() || !all_finite(state) {
-        *state = previous_state;
-        *covariance = previous_covariance;
-        return Err(FilterIssue::StateReset);
-    }
-    Ok((step.report, repaired == Some(true)))
+    Ok(step.report)
 }
 
 /// Records the outcome of an update as the filter's last report and turns a repaired covariance
 /// into the [`FilterIssue`] the caller sees (the estimate itself was still corrected).
+#[inline]
 pub(crate) fn conclude_update<const M: usize>(
     last_report: &mut UpdateReport<M>,
     outcome: Result<(UpdateReport<M>, bool), FilterIssue>,
@@ -458,6 +607,7 @@ pub(crate) fn conclude_update<const M: usize>(
 
 /// A prior step common to the filters: checks the new state and covariance, restores the old
 /// ones (inflated by `Q`, since time has passed) if the prediction was not finite.
+#[inline]
 pub(crate) fn finish_prediction<const N: usize>(
     state: &mut SVector<f64, N>,
     covariance: &mut SMatrix<f64, N, N>,
@@ -478,6 +628,110 @@ pub(crate) fn finish_prediction<const N: usize>(
             *state = previous_state;
             *covariance = previous_covariance + process_noise;
             Err(FilterIssue::StateReset)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3-state covariance, a measurement matrix with a unit row, a dense row and a sparse one,
+    /// and a diagonal `R`.
+    fn case() -> (
+        SVector<f64, 3>,
+        SMatrix<f64, 3, 3>,
+        SMatrix<f64, 3, 3>,
+        SMatrix<f64, 3, 3>,
+    ) {
+        let state = SVector::<f64, 3>::new(0.4, -1.2, 2.0);
+        let root = SMatrix::<f64, 3, 3>::new(1.0, 0.0, 0.0, 0.3, 0.8, 0.0, -0.2, 0.5, 0.6);
+        let covariance = root * root.transpose();
+        let output_matrix = SMatrix::<f64, 3, 3>::new(0.0, 1.0, 0.0, 0.7, -0.4, 1.3, 0.0, 0.0, 2.0);
+        let noise = SMatrix::<f64, 3, 3>::from_diagonal(&SVector::<f64, 3>::new(0.05, 0.2, 0.01));
+        (state, covariance, output_matrix, noise)
+    }
+
+    fn relative(a: &[f64], b: &[f64]) -> f64 {
+        let scale = b.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        a.iter()
+            .zip(b)
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+            / scale
+    }
+
+    #[test]
+    fn row_by_row_update_equals_the_batch_update() {
+        let (state, covariance, output_matrix, noise) = case();
+        let sequential = MeasurementNoise::new(noise);
+        assert!(sequential.variances.is_some());
+        let batch = MeasurementNoise {
+            covariance: noise,
+            variances: None,
+        };
+        let predicted = output_matrix * state;
+        let measurement = predicted + SVector::<f64, 3>::new(0.3, -0.5, 0.25);
+        let mut nan_row = measurement;
+        nan_row[1] = f64::NAN;
+        for (y, mask) in [
+            (measurement, [true; 3]),
+            (measurement, [true, false, true]),
+            (measurement, [false, true, false]),
+            (nan_row, [true; 3]),
+        ] {
+            let run = |noise: &MeasurementNoise<3>| {
+                let (mut x, mut p) = (state, covariance);
+                let (report, repaired) =
+                    linearised_update(&mut x, &mut p, &predicted, &output_matrix, noise, &y, &mask)
+                        .unwrap();
+                assert!(!repaired);
+                (x, p, report)
+            };
+            let (x_seq, p_seq, report_seq) = run(&sequential);
+            let (x_batch, p_batch, report_batch) = run(&batch);
+            assert_eq!(report_seq.used, report_batch.used);
+            assert_eq!(report_seq.innovation, report_batch.innovation);
+            assert!((report_seq.nis - report_batch.nis).abs() < 1e-13 * report_batch.nis);
+            assert!(
+                relative(x_seq.as_slice(), x_batch.as_slice()) < 1e-14,
+                "{mask:?}"
+            );
+            assert!(
+                relative(p_seq.as_slice(), p_batch.as_slice()) < 1e-14,
+                "{mask:?}"
+            );
+            assert_eq!(p_seq, p_seq.transpose());
+            // Not vacuous: the update moved the estimate.
+            assert!((x_seq - state).amax() > 1e-3);
+        }
+    }
+
+    #[test]
+    fn a_non_finite_measurement_matrix_row_skips_the_whole_update() {
+        let (state, covariance, mut output_matrix, noise) = case();
+        let predicted = output_matrix * state;
+        let measurement = predicted + SVector::<f64, 3>::new(0.3, -0.5, 0.25);
+        // Row 2 comes after rows 0 and 1 have been processed: the prior must come back.
+        output_matrix[(2, 1)] = f64::NAN;
+        for noise in [
+            MeasurementNoise::new(noise),
+            MeasurementNoise {
+                covariance: noise,
+                variances: None,
+            },
+        ] {
+            let (mut x, mut p) = (state, covariance);
+            let outcome = linearised_update(
+                &mut x,
+                &mut p,
+                &predicted,
+                &output_matrix,
+                &noise,
+                &measurement,
+                &[true; 3],
+            );
+            assert_eq!(outcome, Err(FilterIssue::UpdateSkipped));
+            assert_eq!((x, p), (state, covariance));
         }
     }
 }
