@@ -508,7 +508,7 @@ fn sequential_update<const N: usize, const M: usize>(
         let running_innovation = innovation[row] - h.dot(&(*state - prior_state));
         let cross = product(covariance, &h);
         let variance = h.dot(&cross) + variances[row];
-        if !(variance > 0.0 && variance < f64::INFINITY) || !all_finite(&cross) {
+        if !(variance > 0.0 && variance < f64::INFINITY && all_finite(&cross)) {
             return Err(FilterIssue::UpdateSkipped);
         }
         let gain = cross / variance;
