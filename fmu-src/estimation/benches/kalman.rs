@@ -8,6 +8,11 @@
 //! Targets (issue 3, on the 2-core CI machine): LKF <= 0.5 us, EKF <= 1.5 us, UKF 2n <= 2.5 us,
 //! UKF scaled <= 3 us; ours must beat numeris' UKF (`numeris_ukf_scaled`, same scaled sigma
 //! points alpha = 0.5, beta = 2, kappa = 0, same model functions, its own Cholesky and update).
+//!
+//! After divan's table, a summary times the four filters and numeris' UKF once more with their
+//! samples interleaved (one sample of each in turn), so that a load on the machine hits all of
+//! them alike, and prints median and fastest per step against the targets, and the ratio of our
+//! scaled UKF to numeris' (the median of the per-round ratios, and of medians and fastest).
 
 use std::hint::black_box;
 
@@ -18,6 +23,13 @@ use nalgebra::SVector;
 
 fn main() {
     divan::main();
+    // `cargo bench` passes `--bench`; `cargo test --benches` and `--list` do not want the summary.
+    let args: Vec<String> = std::env::args().collect();
+    let benchmarking =
+        args.iter().any(|a| a == "--bench") && !args.iter().any(|a| a == "--test" || a == "--list");
+    if benchmarking {
+        summary();
+    }
 }
 
 const SAMPLE_TIME: f64 = 1e-3;
@@ -104,31 +116,127 @@ fn numeris_matrix<const R: usize, const C: usize>(
     out
 }
 
-#[divan::bench]
-fn numeris_ukf_scaled_step(bencher: divan::Bencher) {
-    // Same starting point as ours: the settled state and covariance of our scaled UKF.
+/// numeris' UKF on model A, started from the settled state and covariance of our scaled UKF.
+fn settled_numeris() -> numeris::estimate::Ukf<f64, 5, 4> {
     let ours = settled("ukf_scaled");
-    let (_, u, y) = operating_case();
-    let model = SingleTrackEstimationModel::seed_000(SAMPLE_TIME).unwrap();
-    let q = numeris_matrix(&model.process_noise());
-    let r = numeris_matrix(&model.measurement_noise());
     let x0 = to_numeris(ours.state());
     let p0 = numeris_matrix(ours.covariance());
+    numeris::estimate::Ukf::<f64, 5, 4>::with_params(x0, p0, 0.5, 2.0, 0.0)
+}
+
+/// One numeris UKF step (predict + update) through our model's functions.
+fn numeris_step(
+    ukf: &mut numeris::estimate::Ukf<f64, 5, 4>,
+    model: &SingleTrackEstimationModel,
+    u: &SVector<f64, 3>,
+    z: &numeris::Vector<f64, 4>,
+) -> Result<f64, numeris::estimate::EstimateError> {
+    let q = numeris_matrix(&model.process_noise());
+    let r = numeris_matrix(&model.measurement_noise());
+    let _ = ukf.predict(
+        |x| to_numeris(&model.transition(&from_numeris(x), u)),
+        Some(&q),
+    );
+    ukf.update(
+        z,
+        |x| to_numeris(&model.measurement(&from_numeris(x), u)),
+        &r,
+    )
+}
+
+#[divan::bench]
+fn numeris_ukf_scaled_step(bencher: divan::Bencher) {
+    let mut ukf = settled_numeris();
+    let (_, u, y) = operating_case();
+    let model = SingleTrackEstimationModel::seed_000(SAMPLE_TIME).unwrap();
     let z = to_numeris(&y);
-    let mut ukf = numeris::estimate::Ukf::<f64, 5, 4>::with_params(x0, p0, 0.5, 2.0, 0.0);
-    bencher.bench_local(|| {
-        let model = &model;
-        let u = black_box(&u);
-        let _ = ukf.predict(
-            |x| to_numeris(&model.transition(&from_numeris(x), u)),
-            Some(&q),
-        );
-        ukf.update(
-            black_box(&z),
-            |x| to_numeris(&model.measurement(&from_numeris(x), u)),
-            &r,
-        )
-    });
+    bencher.bench_local(|| numeris_step(&mut ukf, &model, black_box(&u), black_box(&z)));
+}
+
+/// The interleaved summary (see the module documentation).
+fn summary() {
+    const ROUNDS: usize = 301;
+    const STEPS_PER_SAMPLE: usize = 64;
+    let (_, u, y) = operating_case();
+    let model = SingleTrackEstimationModel::seed_000(SAMPLE_TIME).unwrap();
+    let z = to_numeris(&y);
+    let mut ours: Vec<(
+        &str,
+        f64,
+        KalmanEstimator<SingleTrackEstimationModel, 5, 4, 3>,
+    )> = vec![
+        ("LKF", 0.5, settled("lkf")),
+        ("EKF", 1.5, settled("ekf")),
+        ("UKF 2n", 2.5, settled("ukf")),
+        ("UKF scaled", 3.0, settled("ukf_scaled")),
+    ];
+    let mut numeris_ukf = settled_numeris();
+    // Per-step times in µs, one entry per round: ours in order, numeris last.
+    let mut times = vec![Vec::with_capacity(ROUNDS); ours.len() + 1];
+    let per_step =
+        |start: std::time::Instant| start.elapsed().as_secs_f64() * 1e6 / STEPS_PER_SAMPLE as f64;
+    for _ in 0..ROUNDS {
+        for (index, (_, _, filter)) in ours.iter_mut().enumerate() {
+            let start = std::time::Instant::now();
+            for _ in 0..STEPS_PER_SAMPLE {
+                let _ = filter.predict(black_box(&u));
+                let _ = black_box(filter.update(black_box(&y), black_box(&u), &[true; 4]));
+            }
+            times[index].push(per_step(start));
+        }
+        let start = std::time::Instant::now();
+        for _ in 0..STEPS_PER_SAMPLE {
+            let _ = black_box(numeris_step(
+                &mut numeris_ukf,
+                &model,
+                black_box(&u),
+                black_box(&z),
+            ));
+        }
+        times[ours.len()].push(per_step(start));
+    }
+    let scaled = ours.len() - 1;
+    let numeris = ours.len();
+    let mut paired: Vec<f64> = times[scaled]
+        .iter()
+        .zip(&times[numeris])
+        .map(|(a, b)| a / b)
+        .collect();
+    let median = |values: &mut Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    let stats: Vec<(f64, f64)> = times.iter_mut().map(|t| (median(t), t[0])).collect();
+    println!();
+    println!(
+        "Summary: one step (predict + update) on model A, {ROUNDS} interleaved samples of \
+         {STEPS_PER_SAMPLE} steps each"
+    );
+    println!(
+        "{:<22} {:>12} {:>12} {:>10}",
+        "filter", "median µs", "fastest µs", "target µs"
+    );
+    for (index, (name, target, _)) in ours.iter().enumerate() {
+        let (median, fastest) = stats[index];
+        let verdict = if median <= *target {
+            format!("met, median {:.0} % below", 100.0 * (1.0 - median / target))
+        } else {
+            "MISSED".to_string()
+        };
+        println!("{name:<22} {median:>12.3} {fastest:>12.3} {target:>10.1}  {verdict}");
+    }
+    let (numeris_median, numeris_fastest) = stats[numeris];
+    println!(
+        "{:<22} {numeris_median:>12.3} {numeris_fastest:>12.3}",
+        "numeris UKF scaled"
+    );
+    println!(
+        "ours / numeris (UKF scaled): {:.3} (median of per-round ratios), {:.3} (medians), \
+         {:.3} (fastest)",
+        median(&mut paired),
+        stats[scaled].0 / numeris_median,
+        stats[scaled].1 / numeris_fastest
+    );
 }
 
 /// The model calls the filters are built from, to read the filter timings against.

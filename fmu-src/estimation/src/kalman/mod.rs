@@ -511,9 +511,11 @@ fn sequential_update<const N: usize, const M: usize>(
         if !(variance > 0.0 && variance < f64::INFINITY && all_finite(&cross)) {
             return Err(FilterIssue::UpdateSkipped);
         }
-        let gain = cross / variance;
+        // One division; the gain entries as products (a division per entry costs more).
+        let inverse_variance = 1.0 / variance;
+        let gain = cross * inverse_variance;
         *state += gain * running_innovation;
-        nis += running_innovation * running_innovation / variance;
+        nis += running_innovation * running_innovation * inverse_variance;
         // (I - k hᵀ) P = P - k (P h)ᵀ, then times (I - k hᵀ)ᵀ: minus ((I - k hᵀ) P h) kᵀ.
         let left = *covariance - gain * cross.transpose();
         let left_h = product(&left, &h);
