@@ -64,6 +64,14 @@ impl<const N: usize> InitialEstimate<N> {
         }
         check_covariance("the initial covariance", &self.covariance).map_err(SettingsError)
     }
+
+    /// The covariance made exactly symmetric (it passes [`Self::validate`] when symmetric to
+    /// 1e-9); the Kalman filters keep it exactly symmetric from there on.
+    pub(crate) fn symmetric_covariance(&self) -> SMatrix<f64, N, N> {
+        let mut covariance = self.covariance;
+        symmetrize(&mut covariance);
+        covariance
+    }
 }
 
 /// Checks the model's `Q` and `R` once, when a filter is built, and makes them exactly

@@ -138,7 +138,7 @@ where
             process_noise,
             measurement_noise,
             state: initial.state,
-            covariance: initial.covariance,
+            covariance: initial.symmetric_covariance(),
             last_report: UpdateReport::skipped(),
         })
     }
