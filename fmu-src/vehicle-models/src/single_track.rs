@@ -134,6 +134,13 @@ pub struct SingleTrackParams {
     /// Smallest longitudinal wheel-centre speed used as divisor in slip and slip angle, m/s
     /// (project's guard against division by zero near standstill, see module docs).
     pub low_speed_guard: f64,
+    /// Factor on the cornering stiffness `Cα` (000: 5.70) of the front tyres (1 = the seed's
+    /// tyre). Not a seed parameter: it lets model A absorb what its single track with constant
+    /// wheel loads misses of a real axle (load transfer, another tyre), e.g. identified from
+    /// measured data. At exactly 1 the model is bit-identical to the seed's.
+    pub cornering_stiffness_scale_front: f64,
+    /// The same for the rear tyres.
+    pub cornering_stiffness_scale_rear: f64,
 }
 
 impl Default for SingleTrackParams {
@@ -152,6 +159,8 @@ impl Default for SingleTrackParams {
             rear_wheel_load: 3374.0,
             steering_ratio: 14.97,
             low_speed_guard: 1.0,
+            cornering_stiffness_scale_front: 1.0,
+            cornering_stiffness_scale_rear: 1.0,
         }
     }
 }
@@ -269,6 +278,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         wheel_lateral_velocity: S,
         omega: S,
         wheel_load: f64,
+        cornering_stiffness_scale: f64,
     ) -> AxleState<S> {
         let p = &self.vehicle;
         let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
@@ -276,12 +286,15 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let tan_slip_angle = -wheel_lateral_velocity / divisor;
         // (000: 5.65)
         let slip = (omega * p.wheel_radius - wheel_velocity) / divisor;
-        let force = self.tyre.force(&TyreKinematics {
-            slip,
-            tan_slip_angle,
-            wheel_velocity,
-            vertical_load: S::constant(wheel_load),
-        });
+        let force = self.tyre.force_with_cornering_scale(
+            &TyreKinematics {
+                slip,
+                tan_slip_angle,
+                wheel_velocity,
+                vertical_load: S::constant(wheel_load),
+            },
+            cornering_stiffness_scale,
+        );
         AxleState {
             wheel_velocity,
             slip,
@@ -311,6 +324,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
             wheel_lateral_velocity,
             omega,
             self.vehicle.front_wheel_load,
+            self.vehicle.cornering_stiffness_scale_front,
         )
     }
 
@@ -324,6 +338,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
             wheel_lateral_velocity,
             omega,
             self.vehicle.rear_wheel_load,
+            self.vehicle.cornering_stiffness_scale_rear,
         )
     }
 
@@ -705,5 +720,97 @@ impl SingleTrackLinearisation {
         u: &DriverInputVector,
     ) -> SingleTrackMeasurement {
         self.measurement + self.output * (x - self.state) + self.feedthrough * (u - self.input)
+    }
+}
+
+#[cfg(test)]
+mod cornering_stiffness_scale_tests {
+    use super::*;
+
+    fn cornering_state() -> (SingleTrackState, DriverInputVector) {
+        // 18 m/s with some sideslip and yaw, 1.5° steer: both axles in the linear tyre range.
+        (
+            SingleTrackState::new(18.0, 0.3, 0.2, 60.2, 60.0),
+            DriverInputVector::new(0.026, 0.0, 0.0),
+        )
+    }
+
+    fn with_scales(front: f64, rear: f64) -> SingleTrackHsri {
+        SingleTrackModel::new(
+            SingleTrackParams {
+                cornering_stiffness_scale_front: front,
+                cornering_stiffness_scale_rear: rear,
+                ..SingleTrackParams::default()
+            },
+            HsriTyre::default(),
+        )
+    }
+
+    /// Scale 1 is the seed's model: the axle forces are exactly twice the unscaled tyre force.
+    #[test]
+    fn unit_scales_give_the_unscaled_tyre_forces_bit_for_bit() {
+        let model = SingleTrackHsri::default();
+        let (x, u) = cornering_state();
+        let e = model.evaluate::<f64>(&x.data.0[0], &u.data.0[0]);
+        let kinematics = TyreKinematics {
+            slip: e.rear.slip,
+            tan_slip_angle: e.rear.tan_slip_angle,
+            wheel_velocity: e.rear.wheel_velocity,
+            vertical_load: model.vehicle.rear_wheel_load,
+        };
+        let force = model.tyre.force(&kinematics);
+        assert_eq!(
+            e.rear.lateral_force.to_bits(),
+            (force.lateral * WHEELS_PER_AXLE).to_bits()
+        );
+        assert_eq!(
+            e.rear.longitudinal_force.to_bits(),
+            (force.longitudinal * WHEELS_PER_AXLE).to_bits()
+        );
+    }
+
+    /// In the linear range the lateral axle force is `2 s Cα tan α` (000: 5.70 times the scale):
+    /// each scale acts on its own axle only, the longitudinal forces do not change.
+    #[test]
+    fn each_scale_multiplies_its_axles_cornering_stiffness() {
+        let (x, u) = cornering_state();
+        let seed = with_scales(1.0, 1.0).outputs(&x, &u);
+        let front = with_scales(0.8, 1.0).outputs(&x, &u);
+        let rear = with_scales(1.0, 1.25).outputs(&x, &u);
+        let relative = |a: f64, b: f64| (a / b - 1.0).abs();
+        // Adhesion branch: Fy = Cα tan α / (1 + s), linear in Cα up to the slip's rounding.
+        assert!(relative(front.lateral_force_front, 0.8 * seed.lateral_force_front) < 1e-12);
+        assert_eq!(front.lateral_force_rear, seed.lateral_force_rear);
+        assert!(relative(rear.lateral_force_rear, 1.25 * seed.lateral_force_rear) < 1e-12);
+        assert_eq!(rear.lateral_force_front, seed.lateral_force_front);
+        assert_eq!(
+            front.longitudinal_force_front,
+            seed.longitudinal_force_front
+        );
+        // The force law is HSRI's: 2 Cα tan α / (1 + s) with the scaled Cα.
+        let hsri = HsriTyre::default();
+        let expected = WHEELS_PER_AXLE
+            * 0.8
+            * hsri.cornering_stiffness(SingleTrackParams::default().front_wheel_load)
+            * front.slip_angle_front.tan()
+            / (1.0 + front.slip_front);
+        assert!(relative(front.lateral_force_front, expected) < 1e-12);
+    }
+
+    /// A softer front axle makes the car understeer more: less steady-state yaw rate for the
+    /// same steering angle; a softer rear axle, more.
+    #[test]
+    fn softer_front_understeers_softer_rear_oversteers() {
+        let steady_yaw_rate = |model: &SingleTrackHsri| {
+            let mut x = model.straight_rolling_state(18.0);
+            let u = DriverInputVector::new(0.02, 0.0, 0.0);
+            for _ in 0..5000 {
+                x = model.step(&x, &u, 1e-3, Integrator::SemiImplicitEuler);
+            }
+            x[state_index::YAW_RATE]
+        };
+        let seed = steady_yaw_rate(&with_scales(1.0, 1.0));
+        assert!(steady_yaw_rate(&with_scales(0.8, 1.0)) < 0.97 * seed);
+        assert!(steady_yaw_rate(&with_scales(1.0, 0.8)) > 1.03 * seed);
     }
 }

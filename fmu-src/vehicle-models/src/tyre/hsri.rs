@@ -97,7 +97,11 @@ impl HsriTyre {
 
 impl TyreModel for HsriTyre {
     #[inline]
-    fn force<S: Scalar>(&self, k: &TyreKinematics<S>) -> TyreForce<S> {
+    fn force_with_cornering_scale<S: Scalar>(
+        &self,
+        k: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> TyreForce<S> {
         let p = &self.params;
         let load = k.vertical_load;
         if load.value() <= 0.0 {
@@ -117,8 +121,11 @@ impl TyreModel for HsriTyre {
             - friction_decay * sliding_speed
                 / (sliding_speed.square() + p.reference_sliding_speed * p.reference_sliding_speed)
                     .sqrt();
-        // (000: 5.70), (000: 5.71)
-        let cornering = (relative_load * p.cornering_load + p.cornering_base) * load;
+        // (000: 5.70) Cα, times the caller's cornering-stiffness scale (1 = the seed's tyre);
+        // (000: 5.71) Cs
+        let cornering = (relative_load * p.cornering_load + p.cornering_base)
+            * load
+            * cornering_stiffness_scale;
         let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
         let lateral_demand = cornering * tan_alpha;
         let longitudinal_demand = longitudinal * slip;

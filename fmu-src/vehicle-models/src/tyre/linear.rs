@@ -59,7 +59,11 @@ impl LinearTyre {
 
 impl TyreModel for LinearTyre {
     #[inline]
-    fn force<S: Scalar>(&self, k: &TyreKinematics<S>) -> TyreForce<S> {
+    fn force_with_cornering_scale<S: Scalar>(
+        &self,
+        k: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> TyreForce<S> {
         let p = &self.params;
         let load = k.vertical_load;
         if load.value() <= 0.0 {
@@ -67,7 +71,9 @@ impl TyreModel for LinearTyre {
         }
         let relative_load = load / p.reference_load;
         // (000: 5.70), (000: 5.71)
-        let cornering = (relative_load * p.cornering_load + p.cornering_base) * load;
+        let cornering = (relative_load * p.cornering_load + p.cornering_base)
+            * load
+            * cornering_stiffness_scale;
         let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
         // (000: 5.58-5.61)
         TyreForce {

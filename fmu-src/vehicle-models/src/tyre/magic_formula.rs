@@ -126,7 +126,11 @@ fn secant_stiffness<S: Scalar>(
 
 impl TyreModel for MagicFormulaTyre {
     #[inline]
-    fn force<S: Scalar>(&self, k: &TyreKinematics<S>) -> TyreForce<S> {
+    fn force_with_cornering_scale<S: Scalar>(
+        &self,
+        k: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> TyreForce<S> {
         let p = &self.params;
         let load = k.vertical_load;
         if load.value() <= 0.0 {
@@ -136,7 +140,9 @@ impl TyreModel for MagicFormulaTyre {
         // degressive peak force D = f0(Fz) Fz (000: 5.67 applied to 001: eq 3)
         let peak = (-(relative_load * p.friction_load) + p.friction_base) * load;
         // B C D = Cα(Fz), Cs(Fz) (000: 5.70, 5.71)
-        let cornering = (relative_load * p.cornering_load + p.cornering_base) * load;
+        let cornering = (relative_load * p.cornering_load + p.cornering_base)
+            * load
+            * cornering_stiffness_scale;
         let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
         let mut rolling_ratio = k.slip + 1.0;
         if rolling_ratio.value() < p.min_rolling_ratio {

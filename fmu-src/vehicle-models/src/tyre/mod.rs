@@ -61,7 +61,21 @@ impl<S: Scalar> TyreForce<S> {
 /// code runs on dual numbers.
 pub trait TyreModel: Clone + std::fmt::Debug + Send + Sync {
     /// Force of one tyre for the given kinematics.
-    fn force<S: Scalar>(&self, kinematics: &TyreKinematics<S>) -> TyreForce<S>;
+    #[inline(always)]
+    fn force<S: Scalar>(&self, kinematics: &TyreKinematics<S>) -> TyreForce<S> {
+        self.force_with_cornering_scale(kinematics, 1.0)
+    }
+
+    /// [`Self::force`] of a tyre whose cornering stiffness `Cα` (000: 5.70) is multiplied by
+    /// `cornering_stiffness_scale`, wherever `Cα` enters the force law (for HSRI also the
+    /// resultant slip, 000: 5.73). A scale of exactly 1 gives bit-identical forces (`x · 1 = x`
+    /// in IEEE 754 arithmetic, for dual numbers component by component). Model A uses one scale
+    /// per axle, e.g. identified from data of another vehicle (model mismatch).
+    fn force_with_cornering_scale<S: Scalar>(
+        &self,
+        kinematics: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> TyreForce<S>;
 
     /// Cornering stiffness `∂F_y/∂tan α` at zero slip, N/rad, at the given vertical load.
     fn cornering_stiffness(&self, vertical_load: f64) -> f64;
