@@ -141,6 +141,15 @@ pub fn model_a(v: &Variables) -> Result<ModelA, String> {
         wheel_radius: positive("wheel_radius", v.wheel_radius)?,
         front_wheel_load: positive("wheel_load_front", v.wheel_load_front)?,
         rear_wheel_load: positive("wheel_load_rear", v.wheel_load_rear)?,
+        // Beyond the seeds: per-axle factors on Cα (000: 5.70), 1 = the seed's model A.
+        cornering_stiffness_scale_front: positive(
+            "cornering_stiffness_scale_front",
+            v.cornering_stiffness_scale_front,
+        )?,
+        cornering_stiffness_scale_rear: positive(
+            "cornering_stiffness_scale_rear",
+            v.cornering_stiffness_scale_rear,
+        )?,
         ..SingleTrackParams::default()
     };
     let tyre = HsriTyre::new(hsri_params(v)?);
