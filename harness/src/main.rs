@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use harness::cosim::Plan;
 use harness::demo::{self, DemoOptions};
 use harness::fmu::LoadedFmu;
+use harness::identify::{self, JobOverrides};
 use harness::runner::{self, Environment};
 use harness::scenario::{Scenario, VarRef};
 use harness::{manoeuvre, montecarlo};
@@ -77,6 +78,32 @@ enum Command {
         out: PathBuf,
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
+    },
+    /// EM identification of seed 003's model C (p = [Csf, Csr, m/J, lf]) on a data set: prints the
+    /// iteration history and the identified parameters, writes a convergence plot and CSV files
+    Identify {
+        /// A data set (.csv with the columns time, dvx_ref_dt, steering_angle, vx_ref, vy_ref,
+        /// yaw_rate, yaw_angle in SI units) or an identification file (.toml) that simulates one
+        /// or points to a CSV; both formats in harness/scenarios/README.md.
+        file: PathBuf,
+        /// Output folder; the files go to <out>/<name>/.
+        #[arg(long, default_value = "out/identify")]
+        out: PathBuf,
+        /// Noise seed of a simulated data set (the first one with --seeds).
+        #[arg(long)]
+        noise_seed: Option<u64>,
+        /// Identify N simulated data sets (noise seeds from --noise-seed on) in parallel and
+        /// report mean and spread.
+        #[arg(long, value_name = "N")]
+        seeds: Option<usize>,
+        /// True parameters of a recorded data set, for relative errors: Csf,Csr,m/J,lf.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            value_name = "CSF,CSR,M/J,LF",
+            allow_hyphen_values = true
+        )]
+        truth: Option<Vec<f64>>,
     },
     /// Check an .fmu and list its variables
     Inspect {
@@ -204,6 +231,61 @@ fn execute(cli: Cli) -> Result<()> {
             std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
             print!("{md}");
             println!("\nsummary: {}", path.display());
+            Ok(())
+        }
+        Command::Identify {
+            file,
+            out,
+            noise_seed,
+            seeds,
+            truth,
+        } => {
+            let truth = match truth {
+                None => None,
+                Some(values) => Some(<[f64; 4]>::try_from(values.as_slice()).map_err(|_| {
+                    anyhow::anyhow!(
+                        "--truth: {} values given; expected 4 (Csf,Csr,m/J,lf), e.g. --truth 8.36,7.78,0.62,1.014",
+                        values.len()
+                    )
+                })?),
+            };
+            let overrides = JobOverrides {
+                noise_seed,
+                seeds,
+                truth,
+            };
+            let job = identify::load(&file, &overrides)?;
+            let runs = match &job.data {
+                identify::JobData::Simulated => job.config.noise_seeds.len(),
+                identify::JobData::Recorded { .. } => 1,
+            };
+            println!(
+                "{}: model C, {} samples at {} s, {} particles, start p0 = {:?}",
+                job.name,
+                job.config.samples,
+                job.config.sample_time,
+                job.config.filter.particle_count,
+                job.config.start_parameters.as_slice()
+            );
+            let bar = progress_bar(runs as u64);
+            bar.set_message(format!(
+                "identifying ({runs} data set{})",
+                if runs == 1 { "" } else { "s" }
+            ));
+            let outcome = identify::run(&job, &|| bar.inc(1));
+            bar.finish_and_clear();
+            let outcome = outcome?;
+            print!("{}", outcome.history_text());
+            print!("{}", outcome.summary_text());
+            let written = identify::write_outputs(&outcome, &out)?;
+            println!();
+            println!("plot:    {}", written.convergence_png.display());
+            println!("history: {}", written.history_csv.display());
+            println!("updates: {}", written.updates_csv.display());
+            println!("summary: {}", written.summary_txt.display());
+            for data in &written.data_csv {
+                println!("data:    {}", data.display());
+            }
             Ok(())
         }
         Command::Inspect { fmu, out } => {

@@ -54,6 +54,8 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(160, 160, 0),
 ];
 const TRUTH: RGBColor = RGBColor(220, 0, 0);
+/// Series with at most this many points are drawn with point markers.
+const MARKED_POINTS: usize = 60;
 
 fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     let mut range: Option<(f64, f64)> = None;
@@ -95,8 +97,28 @@ pub fn draw_panels(path: &Path, title: &str, panels: &[Panel], columns: usize) -
             .y_label_area_size(72)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| fail(&e))?;
+        // An axis of a few whole numbers (EM iterations) is labelled at the whole numbers only.
+        let whole_numbers = panel
+            .series
+            .iter()
+            .flat_map(|s| s.x.iter())
+            .all(|x| x.fract() == 0.0)
+            && x1 - x0 <= 20.0;
+        let x_labels = if whole_numbers {
+            (x1 - x0) as usize + 1
+        } else {
+            10
+        };
         chart
             .configure_mesh()
+            .x_labels(x_labels)
+            .x_label_formatter(&|x| {
+                if whole_numbers {
+                    format!("{x:.0}")
+                } else {
+                    format!("{x}")
+                }
+            })
             .x_desc(panel.x_label.as_str())
             .y_desc(panel.y_label.as_str())
             .label_style((FAMILY, 12).into_font())
@@ -119,6 +141,20 @@ pub fn draw_panels(path: &Path, title: &str, panels: &[Panel], columns: usize) -
                 .zip(&series.y)
                 .filter(|(a, b)| a.is_finite() && b.is_finite())
                 .map(|(a, b)| (*a, *b));
+            let points: Vec<(f64, f64)> = points.collect();
+            // A short series (an iteration history) gets a marker on every point, so that the
+            // individual iterations stay visible; time series have thousands of points, and a
+            // constant series is a reference level.
+            let constant = points.len() > 1 && points.windows(2).all(|w| w[0].1 == w[1].1);
+            if !series.is_truth && !constant && points.len() <= MARKED_POINTS {
+                chart
+                    .draw_series(
+                        points
+                            .iter()
+                            .map(|p| Circle::new(*p, 3, style.color.filled())),
+                    )
+                    .map_err(|e| fail(&e))?;
+            }
             chart
                 .draw_series(LineSeries::new(points, style))
                 .map_err(|e| fail(&e))?
