@@ -893,6 +893,50 @@ impl<const M: usize, const U: usize> RecordedRun<M, U> {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// A run from plain rows, checked: as many input as measurement rows, every input finite
+    /// (`input_meaning` names the row's entries in the message), measurements finite or NaN
+    /// (missing). Also returns the index of the first complete measurement row, if any (an
+    /// identification typically starts its state there).
+    pub fn from_checked_rows(
+        inputs: &[[f64; U]],
+        measurements: &[[f64; M]],
+        input_meaning: &str,
+    ) -> Result<(Self, Option<usize>), String> {
+        if inputs.len() != measurements.len() {
+            return Err(format!(
+                "inputs has {} rows but measurements has {}; expected one input row per measurement row",
+                inputs.len(),
+                measurements.len()
+            ));
+        }
+        if let Some(k) = inputs
+            .iter()
+            .position(|row| row.iter().any(|v| !v.is_finite()))
+        {
+            return Err(format!(
+                "input row {k} is {:?}; expected finite {input_meaning}",
+                inputs[k]
+            ));
+        }
+        if let Some(k) = measurements
+            .iter()
+            .position(|row| row.iter().any(|v| v.is_infinite()))
+        {
+            return Err(format!(
+                "measurement row {k} is {:?}; expected finite values or NaN for missing",
+                measurements[k]
+            ));
+        }
+        let first_complete = measurements
+            .iter()
+            .position(|row| row.iter().all(|v| v.is_finite()));
+        let run = Self {
+            inputs: inputs.iter().map(|row| SVector::from(*row)).collect(),
+            measurements: measurements.iter().map(|row| SVector::from(*row)).collect(),
+        };
+        Ok((run, first_complete))
+    }
 }
 
 /// The filter's weighted particle sets of a whole run, as the smoother needs them: for each

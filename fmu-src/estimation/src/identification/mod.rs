@@ -24,6 +24,7 @@
 //! numbers (the same filter seed every time) so that the EM map is a deterministic function of
 //! the parameters and the iteration settles instead of jittering with Monte-Carlo noise.
 
+pub mod accelerated;
 pub mod seed003;
 
 use nalgebra::{SMatrix, SVector};
