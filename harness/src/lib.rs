@@ -11,6 +11,7 @@ pub mod fmu;
 pub mod fmu_log;
 pub mod identify;
 pub mod manoeuvre;
+pub mod mismatch;
 pub mod montecarlo;
 pub mod plot;
 pub mod recording;
