@@ -214,8 +214,16 @@ pub fn initial_estimate_a(v: &Variables) -> Result<InitialEstimate<STATE_DIM>, S
     ))
 }
 
-/// Appends a particle filter's running state (see [`ParticleFilterSnapshot`]) to an FMU state.
+/// Layout of the particle-filter block of an FMU state; a state written with another layout is
+/// refused by name instead of being misread.
+const PARTICLE_STATE_LAYOUT: u8 = 1;
+
+/// Appends a particle filter's running state (see [`ParticleFilterSnapshot`]) to an FMU state,
+/// compactly: ancestors as u32 (particle_count is at most 100000, XML), the propagated means
+/// only while the optimal proposal's noise draw is pending (otherwise the filter never reads
+/// them before overwriting them).
 fn write_particles<const N: usize>(writer: &mut StateWriter, snapshot: &ParticleFilterSnapshot<N>) {
+    writer.u8(PARTICLE_STATE_LAYOUT);
     writer.bytes(&snapshot.rng_seed);
     writer.u64(snapshot.rng_stream);
     writer.u64(snapshot.rng_word_pos as u64);
@@ -228,10 +236,12 @@ fn write_particles<const N: usize>(writer: &mut StateWriter, snapshot: &Particle
     writer.f64s(&snapshot.weights);
     writer.u64(snapshot.ancestors.len() as u64);
     for &ancestor in &snapshot.ancestors {
-        writer.u64(ancestor as u64);
+        writer.u32(ancestor as u32);
     }
-    writer.f64s(&flat(&snapshot.predicted_means));
     writer.bool(snapshot.noise_pending);
+    if snapshot.noise_pending {
+        writer.f64s(&flat(&snapshot.predicted_means));
+    }
     writer.f64s(snapshot.estimate.as_slice());
     writer.f64s(snapshot.covariance.as_slice());
     writer.f64(snapshot.effective_sample_size);
@@ -247,6 +257,12 @@ fn restore_particles<Model, const N: usize, const M: usize, const U: usize>(
 where
     Model: estimation::StateSpaceModel<N, M, U>,
 {
+    let layout = reader.u8("particle state layout")?;
+    if layout != PARTICLE_STATE_LAYOUT {
+        return Err(StateError::new(format!(
+            "particle filter state layout {layout}; expected {PARTICLE_STATE_LAYOUT}"
+        )));
+    }
     let count = filter.config().particle_count;
     let seed: [u8; 32] = reader
         .bytes("particle filter random seed")?
@@ -271,10 +287,15 @@ where
         )));
     }
     let ancestors = (0..count)
-        .map(|_| reader.u64("particle ancestors").map(|a| a as usize))
+        .map(|_| reader.u32("particle ancestors").map(|a| a as usize))
         .collect::<Result<Vec<_>, _>>()?;
-    let predicted_means = vectors(reader.f64s("particle predictions", count * N)?);
     let noise_pending = reader.bool("particle noise pending")?;
+    let predicted_means = if noise_pending {
+        vectors(reader.f64s("particle predictions", count * N)?)
+    } else {
+        // Not read before the next propagation overwrites them: keep the filter's own.
+        filter.snapshot().predicted_means
+    };
     let mut estimate = SVector::<f64, N>::zeros();
     reader.f64s_into(estimate.as_mut_slice(), "particle estimate")?;
     let mut covariance = SMatrix::<f64, N, N>::zeros();

@@ -566,3 +566,24 @@ fn cornering_stiffness_scales_act_on_model_a() {
         assert!(s.log.last().is_some(), "{bad}: no log line");
     }
 }
+
+/// The particle filter's FMU state is compact: per particle its 5 states, log weight and weight
+/// (f64) and its ancestor (u32), nothing else while no proposal draw is pending (60 bytes per
+/// particle on model A).
+#[test]
+fn particle_filter_states_take_60_bytes_per_particle() {
+    let serialized_size = |particles: i32| {
+        let mut s = slave();
+        s.set_integer(vr::ESTIMATOR, estimator_kind::PARTICLE_FILTER);
+        s.set_integer(vr::PARTICLE_COUNT, particles);
+        assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+        let mut truth = Truth::new(3);
+        trace(&mut s, &mut truth, 0, 20);
+        let (status, mut state) = s.get_state();
+        assert_eq!(status, Fmi2Status::Ok);
+        let bytes = s.serialize(&state).expect("serialize");
+        s.free_state(&mut state);
+        bytes.len()
+    };
+    assert_eq!(serialized_size(200) - serialized_size(100), 100 * 60);
+}
