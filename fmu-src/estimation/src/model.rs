@@ -32,6 +32,22 @@ pub trait StateSpaceModel<const N: usize, const M: usize, const U: usize> {
         input: &SVector<f64, U>,
     ) -> SMatrix<f64, N, N>;
 
+    /// `f(x, u)` and `∂f/∂x` at the same `(x, u)`, as the EKF's prediction needs them
+    /// (000: 4.105, 4.108). A model whose Jacobian comes from forward-mode automatic
+    /// differentiation already holds `f` in the value part of that pass and overrides this, so
+    /// the EKF evaluates the model once instead of twice; the result must equal the two separate
+    /// calls bit for bit.
+    fn transition_and_jacobian(
+        &self,
+        state: &SVector<f64, N>,
+        input: &SVector<f64, U>,
+    ) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        (
+            self.transition(state, input),
+            self.transition_jacobian(state, input),
+        )
+    }
+
     /// `∂f/∂u` at `(x, u)`, needed by linearised (LKF, Luenberger) models.
     fn transition_input_jacobian(
         &self,
@@ -48,6 +64,19 @@ pub trait StateSpaceModel<const N: usize, const M: usize, const U: usize> {
         state: &SVector<f64, N>,
         input: &SVector<f64, U>,
     ) -> SMatrix<f64, M, N>;
+
+    /// `h(x, u)` and `∂h/∂x` at the same `(x, u)` (the EKF's update, 000: 4.109, 4.112); see
+    /// [`StateSpaceModel::transition_and_jacobian`] for why a model overrides it.
+    fn measurement_and_jacobian(
+        &self,
+        state: &SVector<f64, N>,
+        input: &SVector<f64, U>,
+    ) -> (SVector<f64, M>, SMatrix<f64, M, N>) {
+        (
+            self.measurement(state, input),
+            self.measurement_jacobian(state, input),
+        )
+    }
 
     /// `∂h/∂u` at `(x, u)`.
     fn measurement_input_jacobian(

@@ -250,7 +250,18 @@ impl<S: Scalar, const K: usize> Div<f64> for Dual<S, K> {
     type Output = Self;
     #[inline(always)]
     fn div(self, rhs: f64) -> Self {
-        self * (1.0 / rhs)
+        // The value is divided, not multiplied by the reciprocal, so that it equals the plain
+        // f64 evaluation bit for bit (the EKF takes f(x) from the value part of its Jacobian
+        // pass); the derivatives share one reciprocal.
+        let inverse = 1.0 / rhs;
+        let mut gradient = self.gradient;
+        for g in gradient.iter_mut() {
+            *g = *g * inverse;
+        }
+        Self {
+            value: self.value / rhs,
+            gradient,
+        }
     }
 }
 

@@ -64,9 +64,9 @@ where
         let previous_state = self.state;
         let previous_covariance = self.covariance;
         // F = ∂f/∂x at x̂⁺ (000: 4.105), P⁻ = F P⁺ Fᵀ + Q (000: 4.107), x̂⁻ = f(x̂⁺, u) (000: 4.108).
-        let jacobian = self.model.transition_jacobian(&self.state, input);
+        let (next_state, jacobian) = self.model.transition_and_jacobian(&self.state, input);
         self.covariance = congruence(&jacobian, &self.covariance) + self.process_noise;
-        self.state = self.model.transition(&self.state, input);
+        self.state = next_state;
         finish_prediction(
             &mut self.state,
             &mut self.covariance,
@@ -83,8 +83,7 @@ where
         mask: &MeasurementMask<M>,
     ) -> Result<UpdateReport<M>, FilterIssue> {
         // H = ∂h/∂x at x̂⁻ (000: 4.109), K (000: 4.111), x̂⁺ = x̂⁻ + K [y - h(x̂⁻)] (000: 4.112).
-        let output_matrix = self.model.measurement_jacobian(&self.state, input);
-        let predicted = self.model.measurement(&self.state, input);
+        let (predicted, output_matrix) = self.model.measurement_and_jacobian(&self.state, input);
         let outcome = linearised_update(
             &mut self.state,
             &mut self.covariance,

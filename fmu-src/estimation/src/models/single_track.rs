@@ -333,6 +333,26 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         SMatrix::from_fn(|i, j| next[i].gradient[j].0)
     }
 
+    /// One dual-number pass: its value parts are `f(x, u)` (the same operations on the same
+    /// numbers as [`Self::transition`]), its gradients `∂f/∂x`.
+    fn transition_and_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> (SVector<f64, STATE_DIM>, SMatrix<f64, STATE_DIM, STATE_DIM>) {
+        let x = as_array(state);
+        let u = as_array(input);
+        let xs: [StateDual; STATE_DIM] = core::array::from_fn(|i| Dual::variable(x[i], i));
+        let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
+        let next = self
+            .vehicle
+            .step_generic(&xs, &us, self.sample_time, self.integrator);
+        (
+            SVector::from_fn(|i, _| next[i].value.0),
+            SMatrix::from_fn(|i, j| next[i].gradient[j].0),
+        )
+    }
+
     fn transition_input_jacobian(
         &self,
         state: &SVector<f64, STATE_DIM>,
@@ -370,6 +390,26 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
         let y = self.vehicle.measurement_generic(&xs, &us);
         SMatrix::from_fn(|i, j| y[i].gradient[j].0)
+    }
+
+    /// One dual-number pass for `h(x, u)` and `∂h/∂x`, as in [`Self::transition_and_jacobian`].
+    fn measurement_and_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> (
+        SVector<f64, MEASUREMENT_DIM>,
+        SMatrix<f64, MEASUREMENT_DIM, STATE_DIM>,
+    ) {
+        let x = as_array(state);
+        let u = as_array(input);
+        let xs: [StateDual; STATE_DIM] = core::array::from_fn(|i| Dual::variable(x[i], i));
+        let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
+        let y = self.vehicle.measurement_generic(&xs, &us);
+        (
+            SVector::from_fn(|i, _| y[i].value.0),
+            SMatrix::from_fn(|i, j| y[i].gradient[j].0),
+        )
     }
 
     fn measurement_input_jacobian(
@@ -454,6 +494,12 @@ mod tests {
                     let (plain_hx, plain_hu) = vehicle.measurement_jacobians(x, u);
                     assert_eq!(model.measurement_jacobian(x, u), plain_hx);
                     assert_eq!(model.measurement_input_jacobian(x, u), plain_hu);
+                    // The EKF's one-pass value and Jacobian equal the separate calls.
+                    assert_eq!(model.transition_and_jacobian(x, u), (plain_next, plain_fx));
+                    assert_eq!(
+                        model.measurement_and_jacobian(x, u),
+                        (vehicle.measurement(x, u), plain_hx)
+                    );
                 }
             }
         }
