@@ -203,6 +203,113 @@ pub fn stepping<T>(step_size: f64, mut step: impl FnMut(f64) -> T) -> impl FnMut
     }
 }
 
+/// Median and fastest time of one call, in nanoseconds, of each body in `bodies`, measured
+/// with their samples interleaved: each round takes one sample of every body in turn, each
+/// sample `calls_per_sample` calls. A load on the machine then hits all bodies alike, so their
+/// ratios hold where separate benchmark runs, minutes apart, do not. Also returns, per body, the
+/// median over rounds of its time divided by the first body's time in the same round.
+pub fn interleaved_timings(
+    bodies: &mut [&mut dyn FnMut()],
+    rounds: usize,
+    calls_per_sample: usize,
+) -> Vec<InterleavedTiming> {
+    let mut samples = vec![Vec::with_capacity(rounds); bodies.len()];
+    for _ in 0..rounds {
+        for (body, times) in bodies.iter_mut().zip(samples.iter_mut()) {
+            let start = std::time::Instant::now();
+            for _ in 0..calls_per_sample {
+                body();
+            }
+            times.push(start.elapsed().as_secs_f64() * 1e9 / calls_per_sample as f64);
+        }
+    }
+    let median = |mut values: Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    let first = samples.first().cloned().unwrap_or_default();
+    samples
+        .into_iter()
+        .map(|times| {
+            let ratios = times.iter().zip(&first).map(|(t, f)| t / f).collect();
+            let fastest = times.iter().copied().fold(f64::INFINITY, f64::min);
+            InterleavedTiming {
+                median_ns: median(times),
+                fastest_ns: fastest,
+                median_ratio_to_first: median(ratios),
+            }
+        })
+        .collect()
+}
+
+/// One body's result of [`interleaved_timings`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterleavedTiming {
+    pub median_ns: f64,
+    pub fastest_ns: f64,
+    /// Median over rounds of (this body's time / the first body's time in that round).
+    pub median_ratio_to_first: f64,
+}
+
+/// Rounds of [`DoStepOverhead`]'s interleaved samples.
+const OVERHEAD_ROUNDS: usize = 201;
+
+/// The FMU benches' summary after divan's table: per case, the bare model or filter step, the
+/// model struct's `do_step` and `fmi2DoStep` through the C ABI, timed interleaved
+/// ([`interleaved_timings`]) so that their ratios are not at the mercy of a load that came and
+/// went between divan's separate entries. "FMI layer" is fmi2DoStep over the model struct's
+/// do_step, paired per round (state machine, argument and time checks, catch_unwind; issue 4
+/// allows at most 10 %); "over bare step" (from the medians) adds the FMU's own work around the
+/// equations or the filter.
+pub struct DoStepOverhead;
+
+impl DoStepOverhead {
+    /// Prints the header; `what` names the step ("one doStep, h = 1 ms").
+    pub fn header(what: &str) -> Self {
+        println!();
+        println!("Summary: {what}, {OVERHEAD_ROUNDS} interleaved samples per entry, medians in ns");
+        println!(
+            "{:<28} {:>10} {:>12} {:>12} {:>11} {:>15}",
+            "case", "bare step", "model step", "fmi2DoStep", "FMI layer", "over bare step"
+        );
+        Self
+    }
+
+    /// Times and prints one case; each sample makes `calls` calls of each body.
+    pub fn row(
+        &self,
+        label: &str,
+        calls: usize,
+        model_step: &mut dyn FnMut(),
+        fmi2_do_step: &mut dyn FnMut(),
+        bare_step: &mut dyn FnMut(),
+    ) {
+        let t = interleaved_timings(
+            &mut [model_step, fmi2_do_step, bare_step],
+            OVERHEAD_ROUNDS,
+            calls,
+        );
+        let layer = t[1].median_ratio_to_first - 1.0;
+        let over_bare = t[1].median_ns / t[2].median_ns - 1.0;
+        let verdict = if layer <= 0.10 { "met" } else { "OVER 10 %" };
+        println!(
+            "{label:<28} {:>10.0} {:>12.0} {:>12.0} {:>10.1}% {:>14.1}%  {verdict}",
+            t[2].median_ns,
+            t[0].median_ns,
+            t[1].median_ns,
+            100.0 * layer,
+            100.0 * over_bare
+        );
+    }
+}
+
+/// Whether a bench binary was started by `cargo bench` (which passes `--bench`), not by
+/// `cargo test --benches` or `--list`: only then is a summary after divan's table wanted.
+pub fn benchmarking() -> bool {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter().any(|a| a == "--bench") && !args.iter().any(|a| a == "--test" || a == "--list")
+}
+
 /// The rows of a generated variable table with one base type and causality (e.g. the real
 /// outputs a master reads every step), in table order.
 pub fn variables_of(

@@ -14,7 +14,7 @@
 //! three driver inputs: a master's per-step traffic with this FMU.
 
 use divan::Bencher;
-use fmi_export::testing::{references_of, stepping, Slave};
+use fmi_export::testing::{references_of, stepping, DoStepOverhead, Slave};
 use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use vehicle_models::{
     DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
@@ -25,6 +25,55 @@ use ReferenceVehicle::ReferenceVehicle as Fmu;
 
 fn main() {
     divan::main();
+    if fmi_export::testing::benchmarking() {
+        summary();
+    }
+}
+
+/// See [`fmi_export::testing::DoStepOverhead`].
+fn summary() {
+    let table = DoStepOverhead::header("one ReferenceVehicle doStep (h = 1 ms)");
+    for (label, model) in [
+        ("model A (HSRI)", vehicle_model::SINGLE_TRACK_HSRI),
+        (
+            "model B (Magic Formula)",
+            vehicle_model::TWO_TRACK_MAGIC_FORMULA,
+        ),
+    ] {
+        let (mut fmu, mut slave) = (model_struct(model), slave(model));
+        let mut bare = bare_step(model);
+        table.row(
+            label,
+            256,
+            &mut stepping(STEP, |t| {
+                divan::black_box(fmu.do_step(t, STEP));
+            }),
+            &mut stepping(STEP, |t| {
+                divan::black_box(slave.do_step(t, STEP));
+            }),
+            &mut bare,
+        );
+    }
+}
+
+/// The bare vehicle-model step of `model` (vehicle-models' switchable reference vehicle,
+/// steering 0.05 rad from 18 m/s) as a benchmark body.
+fn bare_step(model: i32) -> impl FnMut() {
+    let params = ReferenceVehicleParams {
+        model: if model == vehicle_model::TWO_TRACK_MAGIC_FORMULA {
+            ReferenceModelKind::TwoTrack
+        } else {
+            ReferenceModelKind::SingleTrack
+        },
+        ..ReferenceVehicleParams::default()
+    };
+    let mut vehicle = VehicleModel::new(&params, 18.0);
+    let input = DriverInputVector::new(0.05, 0.0, 0.0);
+    move || {
+        drop(divan::black_box(
+            vehicle.step(divan::black_box(&input), STEP),
+        ))
+    }
 }
 
 const STEP: f64 = 0.001;
@@ -85,13 +134,7 @@ fn fmi2_do_step(bencher: Bencher) {
 /// The bare model-B step (vehicle-models' switchable reference vehicle).
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn bare_vehicle_step_model_b(bencher: Bencher) {
-    let params = ReferenceVehicleParams {
-        model: ReferenceModelKind::TwoTrack,
-        ..ReferenceVehicleParams::default()
-    };
-    let mut vehicle = VehicleModel::new(&params, 18.0);
-    let input = DriverInputVector::new(0.05, 0.0, 0.0);
-    bencher.bench_local(|| divan::black_box(vehicle.step(divan::black_box(&input), STEP)));
+    bencher.bench_local(bare_step(vehicle_model::TWO_TRACK_MAGIC_FORMULA));
 }
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]

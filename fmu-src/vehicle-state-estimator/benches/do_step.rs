@@ -25,7 +25,7 @@
 
 use divan::Bencher;
 use fmi_export::ffi::Fmi2Status;
-use fmi_export::testing::{references_of, stepping, variables_of, Slave};
+use fmi_export::testing::{references_of, stepping, variables_of, DoStepOverhead, Slave};
 use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use nalgebra::SVector;
 use VehicleStateEstimator::model_description::estimator_model;
@@ -37,6 +37,9 @@ use VehicleStateEstimator::{
 
 fn main() {
     divan::main();
+    if fmi_export::testing::benchmarking() {
+        summary();
+    }
 }
 
 const STEP: f64 = 0.001;
@@ -83,8 +86,8 @@ fn estimator(name: &str) -> i32 {
 
 // ---- Model A ----
 
-#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
-fn bare_filter_step(bencher: Bencher, name: &str) {
+/// One bare filter step of model A (update, then predict), as a benchmark body.
+fn bare_step_a(name: &str) -> impl FnMut() -> (bool, bool) {
     let variables = Variables {
         estimator: estimator(name),
         ..Variables::default()
@@ -94,12 +97,17 @@ fn bare_filter_step(bencher: Bencher, name: &str) {
     let mut filter = filter_a(&variables, model, &initial).expect("filter");
     let input = SVector::<f64, 3>::new(0.05, 0.0, 0.0);
     let measurement = SVector::<f64, 4>::from(MEASUREMENT);
-    bencher.bench_local(|| {
+    move || {
         let estimator = filter.estimator_mut();
         let report = estimator.update(divan::black_box(&measurement), &input, &[true; 4]);
         let predicted = estimator.predict(&input);
         divan::black_box((report.is_ok(), predicted.is_ok()))
-    });
+    }
+}
+
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn bare_filter_step(bencher: Bencher, name: &str) {
+    bencher.bench_local(bare_step_a(name));
 }
 
 #[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
@@ -171,8 +179,8 @@ fn slave_a(name: &str) -> Slave {
 
 // ---- Model B ----
 
-#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
-fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
+/// One bare filter step of model B (update, then predict), as a benchmark body.
+fn bare_step_b(name: &str) -> impl FnMut() -> (bool, bool) {
     let variables = Variables {
         model: estimator_model::TWO_TRACK_3_STATE,
         estimator: estimator(name),
@@ -183,12 +191,17 @@ fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
     let mut filter = filter_b(&variables, model, &initial).expect("filter");
     let input = SVector::<f64, 2>::new(0.05, SENSORS_B[4]);
     let measurement = SVector::<f64, 2>::new(SENSORS_B[1], SENSORS_B[0]);
-    bencher.bench_local(|| {
+    move || {
         let estimator = filter.estimator_mut();
         let report = estimator.update(divan::black_box(&measurement), &input, &[true; 2]);
         let predicted = estimator.predict(&input);
         divan::black_box((report.is_ok(), predicted.is_ok()))
-    });
+    }
+}
+
+#[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
+fn model_b_bare_filter_step(bencher: Bencher, name: &str) {
+    bencher.bench_local(bare_step_b(name));
 }
 
 #[divan::bench(args = NAMES_B, sample_count = 300, sample_size = 20)]
@@ -344,4 +357,46 @@ fn fmi2_set_inputs(bencher: Bencher) {
     bencher.bench_local(|| {
         divan::black_box(slave.set_reals(divan::black_box(&inputs), divan::black_box(&values)))
     });
+}
+
+// ---- Interleaved summary: what the FMI layer adds, per estimator ----
+
+/// See [`fmi_export::testing::DoStepOverhead`].
+fn summary() {
+    let table = DoStepOverhead::header("one VehicleStateEstimator doStep (h = sample time = 1 ms)");
+    for name in NAMES {
+        let calls = if name.starts_with("particle") { 2 } else { 64 };
+        let (mut bare, mut fmu, mut slave) =
+            (bare_step_a(name), model_a_struct(name), slave_a(name));
+        table.row(
+            &format!("model A {name}"),
+            calls,
+            &mut stepping(STEP, |t| {
+                divan::black_box(fmu.do_step(t, STEP));
+            }),
+            &mut stepping(STEP, |t| {
+                divan::black_box(slave.do_step(t, STEP));
+            }),
+            &mut || {
+                bare();
+            },
+        );
+    }
+    for name in NAMES_B {
+        let (mut bare, mut fmu, mut slave) =
+            (bare_step_b(name), model_b_struct(name), slave_b(name));
+        table.row(
+            &format!("model B {name}"),
+            64,
+            &mut stepping(STEP, |t| {
+                divan::black_box(fmu.do_step(t, STEP));
+            }),
+            &mut stepping(STEP, |t| {
+                divan::black_box(slave.do_step(t, STEP));
+            }),
+            &mut || {
+                bare();
+            },
+        );
+    }
 }
