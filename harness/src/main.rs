@@ -105,6 +105,17 @@ enum Command {
         )]
         truth: Option<Vec<f64>>,
     },
+    /// Model mismatch (beyond the seeds): identify model A's front/rear cornering-stiffness scales
+    /// by EM from a model-B ReferenceVehicle run, then score the EKF and UKF FMUs on held-out
+    /// manoeuvres with scales 1 and with the identified scales
+    Mismatch {
+        /// Output folder (CSV of every run).
+        #[arg(long, default_value = "out/mismatch")]
+        out: PathBuf,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
     /// Check an .fmu and list its variables
     Inspect {
         fmu: PathBuf,
@@ -149,6 +160,16 @@ fn execute(cli: Cli) -> Result<()> {
             print!("{}", demo::summary_table(&findings, &outputs));
             println!("\nreport: {}", out.join("report.md").display());
             println!("        {}", out.join("report.html").display());
+            Ok(())
+        }
+        Command::Mismatch { out, fmu_dir } => {
+            let custom_dir = fmu_dir.is_some();
+            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+            // As `demo`: the project's own FMUs are packaged when missing or stale.
+            demo::ensure_fmus(&fmu_dir, !custom_dir)?;
+            let report = harness::mismatch::run_shipped(&fmu_dir, &out)?;
+            print!("{}", report.summary());
+            println!("csv: {}", out.display());
             Ok(())
         }
         Command::Run {

@@ -203,6 +203,10 @@ pub fn run_mismatch(study: &MismatchStudy, env: &Environment) -> Result<Mismatch
             });
         }
     }
+    // The FMUs' extraction folders are scratch (their temporary contents are gone already).
+    for folder in ["identification", "seed_scales", "identified_scales"] {
+        let _ = std::fs::remove_dir_all(sub_environment(folder).work_dir());
+    }
     Ok(MismatchReport {
         identification_scenario: output.scenario.name.clone(),
         samples: data.inputs.len(),
