@@ -31,7 +31,7 @@ use crate::scenario::Scenario;
 use crate::scoring::{RunScores, StateScore};
 
 /// The experiments, in report order: (scenario file, seed, section title).
-pub const EXPERIMENTS: [(&str, &str, &str); 11] = [
+pub const EXPERIMENTS: [(&str, &str, &str); 12] = [
     (
         "seed000_ramp_moderate_ay.toml",
         "000",
@@ -76,6 +76,11 @@ pub const EXPERIMENTS: [(&str, &str, &str); 11] = [
         "seed001_double_lane_change.toml",
         "001",
         "Double lane change (ISO 3888-1) at 65 km/h",
+    ),
+    (
+        "seed001_moose_test.toml",
+        "001",
+        "Obstacle avoidance, \"moose test\" (ISO 3888-2) at 65 km/h",
     ),
     ("seed001_wobble.toml", "001", "Wobble 150°/225° at 80 km/h"),
     (
@@ -398,6 +403,7 @@ pub fn findings(outputs: &[(String, RunOutput)]) -> Vec<Finding> {
     for (name, label) in [
         ("seed001_step_steer_40deg", "step steer 40°"),
         ("seed001_double_lane_change", "double lane change"),
+        ("seed001_moose_test", "moose test (ISO 3888-2)"),
         ("seed001_wobble", "wobble"),
     ] {
         if let Some(o) = get(name) {
@@ -1294,7 +1300,7 @@ fn seed003_section(
 
 /// Which findings belong under which scenario section.
 fn outputs_match(experiment: &str, scenario: &str) -> bool {
-    let pairs: [(&str, &str); 9] = [
+    let pairs: [(&str, &str); 10] = [
         ("7.1 moderate ramp", "seed000_ramp_moderate_ay"),
         ("7.2 high-ay ramp", "seed000_ramp_high_ay"),
         ("7.2 LKF with Q = 1e-2 I", "seed000_ramp_high_ay"),
@@ -1306,6 +1312,7 @@ fn outputs_match(experiment: &str, scenario: &str) -> bool {
         ("7.3 2° steering step", "seed000_step_steer_T50ms"),
         ("step steer 40°", "seed001_step_steer_40deg"),
         ("double lane change", "seed001_double_lane_change"),
+        ("moose test (ISO 3888-2)", "seed001_moose_test"),
         ("wobble", "seed001_wobble"),
     ];
     pairs
