@@ -323,14 +323,8 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, INPUT_DIM>,
     ) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
-        let x = as_array(state);
-        let u = as_array(input);
-        let xs: [StateDual; STATE_DIM] = core::array::from_fn(|i| Dual::variable(x[i], i));
-        let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
-        let next = self
-            .vehicle
-            .step_generic(&xs, &us, self.sample_time, self.integrator);
-        SMatrix::from_fn(|i, j| next[i].gradient[j].0)
+        // The same dual-number pass; its value parts cost nothing extra.
+        self.transition_and_jacobian(state, input).1
     }
 
     /// One dual-number pass: its value parts are `f(x, u)` (the same operations on the same
@@ -384,12 +378,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, INPUT_DIM>,
     ) -> SMatrix<f64, MEASUREMENT_DIM, STATE_DIM> {
-        let x = as_array(state);
-        let u = as_array(input);
-        let xs: [StateDual; STATE_DIM] = core::array::from_fn(|i| Dual::variable(x[i], i));
-        let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
-        let y = self.vehicle.measurement_generic(&xs, &us);
-        SMatrix::from_fn(|i, j| y[i].gradient[j].0)
+        self.measurement_and_jacobian(state, input).1
     }
 
     /// One dual-number pass for `h(x, u)` and `∂h/∂x`, as in [`Self::transition_and_jacobian`].
