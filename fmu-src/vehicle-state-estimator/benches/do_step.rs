@@ -366,37 +366,49 @@ fn summary() {
     let table = DoStepOverhead::header("one VehicleStateEstimator doStep (h = sample time = 1 ms)");
     for name in NAMES {
         let calls = if name.starts_with("particle") { 2 } else { 64 };
-        let (mut bare, mut fmu, mut slave) =
-            (bare_step_a(name), model_a_struct(name), slave_a(name));
-        table.row(
-            &format!("model A {name}"),
+        let label = format!("model A {name}");
+        overhead_row(
+            &table,
+            &label,
             calls,
-            &mut stepping(STEP, |t| {
-                divan::black_box(fmu.do_step(t, STEP));
-            }),
-            &mut stepping(STEP, |t| {
-                divan::black_box(slave.do_step(t, STEP));
-            }),
-            &mut || {
-                bare();
-            },
+            model_a_struct(name),
+            slave_a(name),
+            bare_step_a(name),
         );
     }
     for name in NAMES_B {
-        let (mut bare, mut fmu, mut slave) =
-            (bare_step_b(name), model_b_struct(name), slave_b(name));
-        table.row(
-            &format!("model B {name}"),
+        let label = format!("model B {name}");
+        overhead_row(
+            &table,
+            &label,
             64,
-            &mut stepping(STEP, |t| {
-                divan::black_box(fmu.do_step(t, STEP));
-            }),
-            &mut stepping(STEP, |t| {
-                divan::black_box(slave.do_step(t, STEP));
-            }),
-            &mut || {
-                bare();
-            },
+            model_b_struct(name),
+            slave_b(name),
+            bare_step_b(name),
         );
     }
+}
+
+/// One summary row: the model struct's do_step, fmi2DoStep and the bare filter step.
+fn overhead_row(
+    table: &DoStepOverhead,
+    label: &str,
+    calls: usize,
+    mut fmu: Fmu,
+    mut slave: Slave,
+    mut bare: impl FnMut() -> (bool, bool),
+) {
+    table.row(
+        label,
+        calls,
+        &mut stepping(STEP, |t| {
+            divan::black_box(fmu.do_step(t, STEP));
+        }),
+        &mut stepping(STEP, |t| {
+            divan::black_box(slave.do_step(t, STEP));
+        }),
+        &mut || {
+            bare();
+        },
+    );
 }
