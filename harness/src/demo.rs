@@ -669,26 +669,20 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
     let seeds = seed003_noise_seeds().len() as u64;
     bar.set_message(format!("seed 003: EM identification, {seeds} noise seeds"));
     bar.set_position(experiments.len() as u64 * 1000);
-    let seed003 = match run_seed003(&|| bar.inc(1000 / seeds)) {
-        Ok(outcome) => Some(outcome),
-        Err(error) => {
-            let message = format!("{error:#}");
-            bar.suspend(|| eprintln!("error: {message}"));
-            failures.push((SEED003_IDENTIFICATION.to_string(), message));
-            None
-        }
-    };
+    let seed003 = keep(
+        SEED003_IDENTIFICATION,
+        run_seed003(&|| bar.inc(1000 / seeds)),
+        &bar,
+        &mut failures,
+    );
     bar.set_message("model mismatch: cornering-stiffness scales from a model-B run");
     bar.set_position((experiments.len() as u64 + 1) * 1000);
-    let mismatch = match mismatch::run_shipped(&env.fmu_dir, &env.out_dir.join("mismatch")) {
-        Ok(report) => Some(report),
-        Err(error) => {
-            let message = format!("{error:#}");
-            bar.suspend(|| eprintln!("error: {message}"));
-            failures.push((MISMATCH_STUDY.to_string(), message));
-            None
-        }
-    };
+    let mismatch = keep(
+        MISMATCH_STUDY,
+        mismatch::run_shipped(&env.fmu_dir, &env.out_dir.join("mismatch")),
+        &bar,
+        &mut failures,
+    );
     bar.finish_with_message("all experiments done");
     let mut findings = findings(&outputs);
     if let Some(outcome) = &seed003 {
@@ -717,6 +711,25 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         );
     }
     Ok((findings, outputs))
+}
+
+/// A study's result, or `None` with its error printed and added to `failures`: a failing study
+/// must not hide the others, the report lists it.
+fn keep<T>(
+    label: &str,
+    result: Result<T>,
+    bar: &ProgressBar,
+    failures: &mut Vec<(String, String)>,
+) -> Option<T> {
+    match result {
+        Ok(value) => Some(value),
+        Err(error) => {
+            let message = format!("{error:#}");
+            bar.suspend(|| eprintln!("error: {message}"));
+            failures.push((label.to_string(), message));
+            None
+        }
+    }
 }
 
 /// The findings as CSV (seed, experiment, agrees, seed_says, we_measure) for scripts and tests.
@@ -1027,7 +1040,7 @@ pub fn mismatch_finding(report: &MismatchReport) -> Finding {
         seed_says: "(not in the seeds) identified scales should lower the EKF's and UKF's sideslip error on manoeuvres not used to identify them".into(),
         we_measure: format!(
             "identified k_F = {front:.4}, k_R = {rear:.4} ({}); sideslip RMSE scale 1 → identified: {}",
-            if report.identification.converged { "converged" } else { "not converged" },
+            report.convergence(),
             rows.join("; ")
         ),
         agrees: helps,
@@ -1058,11 +1071,7 @@ fn mismatch_section(doc: &mut Document, report: &MismatchReport) {
         report.identification_peak_lateral_acceleration,
         p[0],
         p[1],
-        if report.identification.converged {
-            "converged"
-        } else {
-            "NOT converged"
-        },
+        report.convergence(),
         report.e_steps,
         report.identification_seconds,
     ));
@@ -1096,7 +1105,8 @@ fn mismatch_section(doc: &mut Document, report: &MismatchReport) {
         ],
         rows,
     );
-    doc.code(report.summary());
+    doc.paragraph("The scales after every SQUAREM cycle of the EM (cycle 0 is the start):");
+    doc.code(report.history());
 }
 
 /// The report's seed-003 section: tables 3.1 and 3.2 beside the seed's numbers, the verdict per

@@ -300,18 +300,11 @@ impl MismatchReport {
             self.identification_peak_lateral_acceleration,
             p[0],
             p[1],
-            if self.identification.converged {
-                "converged"
-            } else {
-                "NOT converged"
-            },
+            self.convergence(),
             self.e_steps,
             self.identification_seconds,
         );
-        out += "  cycle   k_F      k_R\n";
-        for (cycle, theta) in self.identification.iterations.iter().enumerate() {
-            out += &format!("  {cycle:>5}   {:.4}   {:.4}\n", theta[0], theta[1]);
-        }
+        out += &self.history();
         out += &format!(
             "  {:<34} {:<4} {:>8} {:>15} {:>16} {:>7} {:>9} {:>9}\n",
             "held-out manoeuvre",
@@ -338,6 +331,24 @@ impl MismatchReport {
             );
         }
         out += &format!("  whole study {:.1} s\n", self.total_seconds);
+        out
+    }
+
+    /// "converged" or "NOT converged".
+    pub fn convergence(&self) -> &'static str {
+        if self.identification.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        }
+    }
+
+    /// The scales after every SQUAREM cycle (cycle 0 = the start), one line each.
+    pub fn history(&self) -> String {
+        let mut out = String::from("  cycle   k_F      k_R\n");
+        for (cycle, theta) in self.identification.iterations.iter().enumerate() {
+            out += &format!("  {cycle:>5}   {:.4}   {:.4}\n", theta[0], theta[1]);
+        }
         out
     }
 
