@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVector, INPUT_DIM};
 use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
-use crate::scalar::{seed_state_and_input, split_jacobians, Dual, Scalar};
+use crate::scalar::{seed_state_and_input, split_jacobians, Scalar};
 use crate::truth::VehicleTruth;
 use crate::tyre::{HsriTyre, TyreKinematics, TyreModel};
 
@@ -175,6 +175,9 @@ struct AxleState<S: Scalar> {
     /// Axle force (both wheels), wheel frame.
     longitudinal_force: S,
     lateral_force: S,
+    /// `∂F_x/∂ω` of the axle force, for the semi-implicit wheel-speed step (000: 6.1, 6.2);
+    /// zero unless asked for.
+    longitudinal_force_spin_derivative: S,
 }
 
 /// Axle forces (both wheels, wheel frame) and the steering angle they are rotated by.
@@ -279,6 +282,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         omega: S,
         wheel_load: f64,
         cornering_stiffness_scale: f64,
+        with_spin_derivative: bool,
     ) -> AxleState<S> {
         let p = &self.vehicle;
         let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
@@ -286,26 +290,38 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let tan_slip_angle = -wheel_lateral_velocity / divisor;
         // (000: 5.65)
         let slip = (omega * p.wheel_radius - wheel_velocity) / divisor;
-        let force = self.tyre.force_with_cornering_scale(
-            &TyreKinematics {
-                slip,
-                tan_slip_angle,
-                wheel_velocity,
-                vertical_load: S::constant(wheel_load),
-            },
-            cornering_stiffness_scale,
-        );
+        let kinematics = TyreKinematics {
+            slip,
+            tan_slip_angle,
+            wheel_velocity,
+            vertical_load: S::constant(wheel_load),
+        };
+        let (force, spin_derivative) = if with_spin_derivative {
+            let (force, slip_derivative) = self
+                .tyre
+                .force_and_slip_derivative(&kinematics, cornering_stiffness_scale);
+            // ∂Fx/∂ω = ∂Fx/∂s · ∂s/∂ω with ∂s/∂ω = r / divisor (000: 5.65), both wheels
+            let spin_derivative = slip_derivative * (p.wheel_radius * WHEELS_PER_AXLE) / divisor;
+            (force, spin_derivative)
+        } else {
+            let force = self
+                .tyre
+                .force_with_cornering_scale(&kinematics, cornering_stiffness_scale);
+            (force, S::constant(0.0))
+        };
         AxleState {
             wheel_velocity,
             slip,
             tan_slip_angle,
             longitudinal_force: force.longitudinal * WHEELS_PER_AXLE,
             lateral_force: force.lateral * WHEELS_PER_AXLE,
+            longitudinal_force_spin_derivative: spin_derivative,
         }
     }
 
     /// Front axle (000: 5.16, 5.17).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn front_axle<S: Scalar>(
         &self,
         vx: S,
@@ -314,6 +330,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         omega: S,
         cos_steer: S,
         sin_steer: S,
+        with_spin_derivative: bool,
     ) -> AxleState<S> {
         let lateral_at_axle = vy + yaw_rate * self.vehicle.cog_to_front_axle;
         // (000: 5.16)
@@ -325,12 +342,20 @@ impl<T: TyreModel> SingleTrackModel<T> {
             omega,
             self.vehicle.front_wheel_load,
             self.vehicle.cornering_stiffness_scale_front,
+            with_spin_derivative,
         )
     }
 
     /// Rear axle (000: 5.21, 5.22).
     #[inline(always)]
-    fn rear_axle<S: Scalar>(&self, vx: S, vy: S, yaw_rate: S, omega: S) -> AxleState<S> {
+    fn rear_axle<S: Scalar>(
+        &self,
+        vx: S,
+        vy: S,
+        yaw_rate: S,
+        omega: S,
+        with_spin_derivative: bool,
+    ) -> AxleState<S> {
         // (000: 5.21)
         let wheel_lateral_velocity = vy - yaw_rate * self.vehicle.cog_to_rear_axle;
         self.axle(
@@ -339,11 +364,17 @@ impl<T: TyreModel> SingleTrackModel<T> {
             omega,
             self.vehicle.rear_wheel_load,
             self.vehicle.cornering_stiffness_scale_rear,
+            with_spin_derivative,
         )
     }
 
     #[inline(always)]
-    fn evaluate<S: Scalar>(&self, x: &[S; STATE_DIM], u: &[S; INPUT_DIM]) -> Evaluation<S> {
+    fn evaluate<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        with_spin_derivative: bool,
+    ) -> Evaluation<S> {
         use state_index::*;
         let steer = u[input_index::STEERING_ANGLE];
         let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
@@ -355,8 +386,15 @@ impl<T: TyreModel> SingleTrackModel<T> {
                 x[OMEGA_FRONT],
                 cos_steer,
                 sin_steer,
+                with_spin_derivative,
             ),
-            rear: self.rear_axle(x[VX], x[VY], x[YAW_RATE], x[OMEGA_REAR]),
+            rear: self.rear_axle(
+                x[VX],
+                x[VY],
+                x[YAW_RATE],
+                x[OMEGA_REAR],
+                with_spin_derivative,
+            ),
             cos_steer,
             sin_steer,
         }
@@ -420,7 +458,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
     ) -> [S; STATE_DIM] {
-        let e = self.evaluate(x, u);
+        let e = self.evaluate(x, u, false);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         [
             vx_dot,
@@ -432,8 +470,9 @@ impl<T: TyreModel> SingleTrackModel<T> {
     }
 
     /// The seed-000 discrete step (000: 6.1-6.5): explicit Euler for `vx, vy, r`, semi-implicit
-    /// Euler for `ωF, ωR` with the exact `∂ω̇/∂ω` (from a one-direction dual number seeded in the
-    /// wheel speed; each axle's force depends on its own wheel speed only).
+    /// Euler for `ωF, ωR` with the exact `∂ω̇/∂ω` (from the tyre's `∂Fx/∂s`,
+    /// [`TyreModel::force_and_slip_derivative`]; each axle's force depends on its own wheel speed
+    /// only).
     #[inline(always)]
     fn step_seed_scheme<S: Scalar>(
         &self,
@@ -442,43 +481,17 @@ impl<T: TyreModel> SingleTrackModel<T> {
         dt: f64,
     ) -> [S; STATE_DIM] {
         use state_index::*;
-        type W<S> = Dual<S, 1>;
-        let lift = W::<S>::from_value;
-        let steer = u[input_index::STEERING_ANGLE];
-        let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
-        let front = self.front_axle(
-            lift(x[VX]),
-            lift(x[VY]),
-            lift(x[YAW_RATE]),
-            W::<S>::variable(x[OMEGA_FRONT], 0),
-            lift(cos_steer),
-            lift(sin_steer),
-        );
-        let rear = self.rear_axle(
-            lift(x[VX]),
-            lift(x[VY]),
-            lift(x[YAW_RATE]),
-            W::<S>::variable(x[OMEGA_REAR], 0),
-        );
-        let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(
-            x,
-            &AxleForces {
-                front_longitudinal: front.longitudinal_force.value,
-                front_lateral: front.lateral_force.value,
-                rear_longitudinal: rear.longitudinal_force.value,
-                rear_lateral: rear.lateral_force.value,
-                cos_steer,
-                sin_steer,
-            },
-        );
+        let e = self.evaluate(x, u, true);
+        let (front, rear) = (e.front, e.rear);
+        let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         let p = &self.vehicle;
-        let front_spin = self.front_spin_acceleration(u, front.longitudinal_force.value);
-        let rear_spin = self.rear_spin_acceleration(u, rear.longitudinal_force.value);
+        let front_spin = self.front_spin_acceleration(u, front.longitudinal_force);
+        let rear_spin = self.rear_spin_acceleration(u, rear.longitudinal_force);
         // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46)
         let front_spin_derivative =
-            -(front.longitudinal_force.gradient[0] * p.wheel_radius) / p.front_wheel_inertia;
+            -(front.longitudinal_force_spin_derivative * p.wheel_radius) / p.front_wheel_inertia;
         let rear_spin_derivative =
-            -(rear.longitudinal_force.gradient[0] * p.wheel_radius) / p.rear_wheel_inertia;
+            -(rear.longitudinal_force_spin_derivative * p.wheel_radius) / p.rear_wheel_inertia;
         // (000: 6.3), (000: 6.4), (000: 6.5)
         let body = explicit_euler(
             &[x[VX], x[VY], x[YAW_RATE]],
@@ -521,7 +534,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         u: &[S; INPUT_DIM],
     ) -> [S; MEASUREMENT_DIM] {
         use state_index::*;
-        let e = self.evaluate(x, u);
+        let e = self.evaluate(x, u, false);
         // (000: 5.40) with (000: 5.42): ay = v̇y + vx r = (FyR + FyF cos δ + FxF sin δ) / m
         let lateral_acceleration = (e.rear.lateral_force
             + e.front.lateral_force * e.cos_steer
@@ -599,7 +612,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         use state_index::*;
         let xs: &[f64; STATE_DIM] = &x.data.0[0];
         let us: &[f64; INPUT_DIM] = &u.data.0[0];
-        let e = self.evaluate(xs, us);
+        let e = self.evaluate(xs, us, false);
         let [vx_dot, vy_dot, _] = self.body_derivatives(xs, &e.axle_forces());
         let (vx, vy, yaw_rate) = (xs[VX], xs[VY], xs[YAW_RATE]);
         SingleTrackOutputs {
@@ -641,7 +654,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// Longitudinal velocity of the front wheel centre (000: 5.16); exposed for tests.
     pub fn front_wheel_velocity(&self, x: &SingleTrackState, u: &DriverInputVector) -> f64 {
-        let e = self.evaluate::<f64>(&x.data.0[0], &u.data.0[0]);
+        let e = self.evaluate::<f64>(&x.data.0[0], &u.data.0[0], false);
         e.front.wheel_velocity
     }
 
@@ -751,7 +764,7 @@ mod cornering_stiffness_scale_tests {
     fn unit_scales_give_the_unscaled_tyre_forces_bit_for_bit() {
         let model = SingleTrackHsri::default();
         let (x, u) = cornering_state();
-        let e = model.evaluate::<f64>(&x.data.0[0], &u.data.0[0]);
+        let e = model.evaluate::<f64>(&x.data.0[0], &u.data.0[0], false);
         let kinematics = TyreKinematics {
             slip: e.rear.slip,
             tan_slip_angle: e.rear.tan_slip_angle,

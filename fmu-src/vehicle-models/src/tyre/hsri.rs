@@ -93,34 +93,24 @@ impl HsriTyre {
     pub fn new(params: HsriParams) -> Self {
         Self { params }
     }
-}
 
-impl TyreModel for HsriTyre {
-    #[inline]
-    fn force_with_cornering_scale<S: Scalar>(
+    /// The force, and `∂Fx/∂s` if `with_slip_derivative` (else zero).
+    #[inline(always)]
+    fn evaluate<S: Scalar>(
         &self,
         k: &TyreKinematics<S>,
         cornering_stiffness_scale: f64,
-    ) -> TyreForce<S> {
+        with_slip_derivative: bool,
+    ) -> (TyreForce<S>, S) {
+        let zero = S::constant(0.0);
         let p = &self.params;
         let load = k.vertical_load;
         if load.value() <= 0.0 {
-            return TyreForce::zero();
+            return (TyreForce::zero(), zero);
         }
         let relative_load = load / p.reference_load;
-        // (000: 5.67)
-        let friction_potential = -(relative_load * p.friction_load) + p.friction_base;
-        // (000: 5.68)
-        let friction_decay = relative_load * p.friction_decay_load + p.friction_decay_base;
         let slip = k.slip;
         let tan_alpha = k.tan_slip_angle;
-        // (000: 5.66) sliding speed
-        let sliding_speed = k.wheel_velocity.abs() * (slip.square() + tan_alpha.square()).sqrt();
-        // (000: 5.69) friction coefficient
-        let friction = friction_potential
-            - friction_decay * sliding_speed
-                / (sliding_speed.square() + p.reference_sliding_speed * p.reference_sliding_speed)
-                    .sqrt();
         // (000: 5.70) Cα, times the caller's cornering-stiffness scale (1 = the seed's tyre);
         // (000: 5.71) Cs
         let cornering = (relative_load * p.cornering_load + p.cornering_base)
@@ -132,17 +122,161 @@ impl TyreModel for HsriTyre {
         // (000: 5.73) sR = numerator / denominator
         let numerator = (longitudinal_demand.square() + lateral_demand.square()).sqrt();
         let one_plus_slip = slip + 1.0;
+        let adhesion = |one_plus_slip: S| {
+            // adhesion only (000: table after 5.73, sR ≤ 0.5)
+            let force = TyreForce {
+                longitudinal: longitudinal_demand / one_plus_slip,
+                lateral: lateral_demand / one_plus_slip,
+            };
+            // ∂/∂s of Cs·s/(1 + s) is Cs/(1 + s)²
+            let slip_derivative = if with_slip_derivative {
+                longitudinal / one_plus_slip / one_plus_slip
+            } else {
+                zero
+            };
+            (force, slip_derivative)
+        };
+        // (000: 5.67) friction potential f0, (000: 5.68) decay factor kR
+        let friction_potential = -(relative_load * p.friction_load) + p.friction_base;
+        let friction_decay = relative_load * p.friction_decay_load + p.friction_decay_base;
+        // The adhesion force does not depend on µ, only the case distinction does, and µ lies in
+        // [f0 − max(kR, 0), f0 − min(kR, 0)] (000: 5.69). Most calls are settled by that lowest µ,
+        // which skips the sliding speed's two square roots and a division (a third of a UKF
+        // step's tyre time). The relative margin covers the few roundings by which the µ
+        // computed below may undershoot the bound, so the case taken is always the one the full
+        // test takes (tested against it).
+        let lowest_friction = friction_potential.value() - friction_decay.value().max(0.0);
+        if one_plus_slip.value() > 0.0
+            && p.sliding_threshold >= 0.0
+            && numerator.value()
+                <= p.sliding_threshold
+                    * (lowest_friction * one_plus_slip.value() * load.value())
+                    * (1.0 - ADHESION_BOUND_MARGIN)
+        {
+            return adhesion(one_plus_slip);
+        }
+        // (000: 5.66) sliding speed
+        let resultant_slip = (slip.square() + tan_alpha.square()).sqrt();
+        let speed = k.wheel_velocity.abs();
+        let sliding_speed = speed * resultant_slip;
+        // (000: 5.69) friction coefficient
+        let reference_squared = p.reference_sliding_speed * p.reference_sliding_speed;
+        let friction_root = (sliding_speed.square() + reference_squared).sqrt();
+        let friction = friction_potential - friction_decay * sliding_speed / friction_root;
         let denominator = friction * one_plus_slip * load;
         if numerator.value() <= p.sliding_threshold * denominator.value() {
-            // adhesion only (000: table after 5.73, sR ≤ 0.5)
+            adhesion(one_plus_slip)
+        } else {
+            // adhesion and sliding (sR > 0.5): the seed's C·x/(1+s) · (sR − 0.25)/sR², rewritten
+            // as C·x · µFz/N · (1 − 0.25/sR) so that a locked wheel (1 + s → 0) stays finite.
+            // Here N > 0 because N ≤ 0.5·denominator fails and N ≥ 0.
+            let gain = friction * load / numerator;
+            let ratio = denominator / numerator;
+            let shape = -(ratio * p.sliding_offset) + 1.0;
+            let factor = gain * shape;
+            let force = TyreForce {
+                longitudinal: longitudinal_demand * factor,
+                lateral: lateral_demand * factor,
+            };
+            if !with_slip_derivative {
+                return (force, zero);
+            }
+            // The chain rule, outermost last: vG = v·sqrt(s² + tan²α) (000: 5.66),
+            // µ = f0 − kR·vG/sqrt(vG² + vµ²) (000: 5.69), N = sqrt((Cs s)² + (Cα tanα)²) and
+            // the denominator µ(1 + s)Fz (000: 5.73), factor = µFz/N · (1 − 0.25·den/N).
+            let sliding_speed_derivative = if resultant_slip.value() > 0.0 {
+                speed * slip / resultant_slip
+            } else {
+                zero
+            };
+            let friction_derivative =
+                -(friction_decay * reference_squared * sliding_speed_derivative
+                    / (friction_root * friction_root * friction_root));
+            let numerator_derivative = longitudinal_demand * longitudinal / numerator;
+            let denominator_derivative = (friction_derivative * one_plus_slip + friction) * load;
+            let gain_derivative =
+                (friction_derivative * load - gain * numerator_derivative) / numerator;
+            let ratio_derivative =
+                (denominator_derivative - ratio * numerator_derivative) / numerator;
+            let factor_derivative =
+                gain_derivative * shape - gain * ratio_derivative * p.sliding_offset;
+            (
+                force,
+                longitudinal * factor + longitudinal_demand * factor_derivative,
+            )
+        }
+    }
+}
+
+/// Relative safety margin of the early adhesion test in [`HsriTyre`]'s force: far above the
+/// few-ulp rounding of the friction coefficient, far below any physical tolerance.
+const ADHESION_BOUND_MARGIN: f64 = 1e-12;
+
+impl TyreModel for HsriTyre {
+    #[inline]
+    fn force_with_cornering_scale<S: Scalar>(
+        &self,
+        k: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> TyreForce<S> {
+        self.evaluate(k, cornering_stiffness_scale, false).0
+    }
+
+    /// The force and `∂Fx/∂s` in closed form: the chain rule through (000: 5.66-5.73), about
+    /// half the work of the dual-number default (tested against it).
+    #[inline]
+    fn force_and_slip_derivative<S: Scalar>(
+        &self,
+        k: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> (TyreForce<S>, S) {
+        self.evaluate(k, cornering_stiffness_scale, true)
+    }
+
+    fn cornering_stiffness(&self, vertical_load: f64) -> f64 {
+        self.params.cornering_stiffness(vertical_load)
+    }
+
+    fn longitudinal_stiffness(&self, vertical_load: f64) -> f64 {
+        self.params.longitudinal_stiffness(vertical_load)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scalar::Dual;
+
+    /// The force with µ always computed first (the formula as the seed writes it), for checking
+    /// that the early adhesion test changes no result.
+    fn force_without_early_adhesion<S: Scalar>(
+        p: &HsriParams,
+        k: &TyreKinematics<S>,
+        scale: f64,
+    ) -> TyreForce<S> {
+        let load = k.vertical_load;
+        let relative_load = load / p.reference_load;
+        let friction_potential = -(relative_load * p.friction_load) + p.friction_base;
+        let friction_decay = relative_load * p.friction_decay_load + p.friction_decay_base;
+        let (slip, tan_alpha) = (k.slip, k.tan_slip_angle);
+        let sliding_speed = k.wheel_velocity.abs() * (slip.square() + tan_alpha.square()).sqrt();
+        let friction = friction_potential
+            - friction_decay * sliding_speed
+                / (sliding_speed.square() + p.reference_sliding_speed * p.reference_sliding_speed)
+                    .sqrt();
+        let cornering = (relative_load * p.cornering_load + p.cornering_base) * load * scale;
+        let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
+        let lateral_demand = cornering * tan_alpha;
+        let longitudinal_demand = longitudinal * slip;
+        let numerator = (longitudinal_demand.square() + lateral_demand.square()).sqrt();
+        let one_plus_slip = slip + 1.0;
+        let denominator = friction * one_plus_slip * load;
+        if numerator.value() <= p.sliding_threshold * denominator.value() {
             TyreForce {
                 longitudinal: longitudinal_demand / one_plus_slip,
                 lateral: lateral_demand / one_plus_slip,
             }
         } else {
-            // adhesion and sliding (sR > 0.5): the seed's C·x/(1+s) · (sR − 0.25)/sR², rewritten
-            // as C·x · µFz/N · (1 − 0.25/sR) so that a locked wheel (1 + s → 0) stays finite.
-            // Here N > 0 because N ≤ 0.5·denominator fails and N ≥ 0.
             let factor =
                 friction * load / numerator * (-(denominator / numerator * p.sliding_offset) + 1.0);
             TyreForce {
@@ -152,11 +286,172 @@ impl TyreModel for HsriTyre {
         }
     }
 
-    fn cornering_stiffness(&self, vertical_load: f64) -> f64 {
-        self.params.cornering_stiffness(vertical_load)
+    /// Slips and slip angles on a fine grid, densest around the adhesion/sliding boundary, at
+    /// several loads and speeds, with negative and odd friction-decay parameters too: the early
+    /// adhesion test must give the very same bits as the full case distinction.
+    #[test]
+    fn early_adhesion_test_changes_no_bit() {
+        let seed = HsriParams::default();
+        let negative_decay = HsriParams {
+            friction_decay_base: -0.2,
+            ..HsriParams::default()
+        };
+        let steep_decay_late_sliding = HsriParams {
+            friction_decay_base: 0.9,
+            reference_sliding_speed: 0.5,
+            sliding_threshold: 0.8,
+            ..HsriParams::default()
+        };
+        let mut shortcut_taken = 0;
+        let mut sliding = 0;
+        for params in [seed, negative_decay, steep_decay_late_sliding] {
+            let tyre = HsriTyre::new(params.clone());
+            for load in [500.0, 3000.0, 3519.5, 6000.0] {
+                for speed in [0.3, 5.0, 18.0, 40.0, -10.0] {
+                    for i in -200..=200 {
+                        let slip = f64::from(i) * 5e-4;
+                        for j in -150..=150 {
+                            let tan_alpha = f64::from(j) * 4e-4;
+                            let k = TyreKinematics {
+                                slip,
+                                tan_slip_angle: tan_alpha,
+                                wheel_velocity: speed,
+                                vertical_load: load,
+                            };
+                            let fast = tyre.force_with_cornering_scale(&k, 1.0);
+                            let full = force_without_early_adhesion(&params, &k, 1.0);
+                            assert_eq!(
+                                (fast.longitudinal.to_bits(), fast.lateral.to_bits()),
+                                (full.longitudinal.to_bits(), full.lateral.to_bits()),
+                                "load {load}, speed {speed}, slip {slip}, tan α {tan_alpha}"
+                            );
+                            let lowest = params.friction_potential(load)
+                                - (params.friction_decay_base
+                                    + params.friction_decay_load * load / params.reference_load)
+                                    .max(0.0);
+                            let demand = (params.longitudinal_stiffness(load) * slip)
+                                .hypot(params.cornering_stiffness(load) * tan_alpha);
+                            if demand
+                                < 0.99 * params.sliding_threshold * lowest * (1.0 + slip) * load
+                            {
+                                shortcut_taken += 1;
+                            } else if demand
+                                > params.sliding_threshold * params.friction_potential(load) * load
+                            {
+                                sliding += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // The grid exercises both cases well.
+        assert!(
+            shortcut_taken > 30_000 && sliding > 30_000,
+            "{shortcut_taken} {sliding}"
+        );
     }
 
-    fn longitudinal_stiffness(&self, vertical_load: f64) -> f64 {
-        self.params.longitudinal_stiffness(vertical_load)
+    /// The same with dual numbers (value and derivative, as the transition's ∂Fx/∂ω uses).
+    #[test]
+    fn early_adhesion_test_keeps_derivatives() {
+        let params = HsriParams::default();
+        let tyre = HsriTyre::new(params.clone());
+        for i in -200..=200 {
+            for j in -100..=100 {
+                let k = TyreKinematics {
+                    slip: Dual::<f64, 1>::variable(f64::from(i) * 5e-4, 0),
+                    tan_slip_angle: Dual::from_value(f64::from(j) * 6e-4),
+                    wheel_velocity: Dual::from_value(18.0),
+                    vertical_load: Dual::from_value(3519.5),
+                };
+                let fast = tyre.force_with_cornering_scale(&k, 1.0);
+                let full = force_without_early_adhesion(&params, &k, 1.0);
+                assert_eq!(
+                    fast.longitudinal.value.to_bits(),
+                    full.longitudinal.value.to_bits()
+                );
+                assert_eq!(
+                    fast.longitudinal.gradient[0].to_bits(),
+                    full.longitudinal.gradient[0].to_bits()
+                );
+                assert_eq!(fast.lateral.value.to_bits(), full.lateral.value.to_bits());
+                assert_eq!(
+                    fast.lateral.gradient[0].to_bits(),
+                    full.lateral.gradient[0].to_bits()
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod slip_derivative_tests {
+    use super::*;
+    use crate::scalar::Dual;
+
+    /// `∂Fx/∂s` by a dual number seeded in the slip: what the trait's default computes.
+    fn dual_slip_derivative(tyre: &HsriTyre, k: &TyreKinematics<f64>) -> (TyreForce<f64>, f64) {
+        let seeded = TyreKinematics {
+            slip: Dual::<f64, 1>::variable(k.slip, 0),
+            tan_slip_angle: Dual::from_value(k.tan_slip_angle),
+            wheel_velocity: Dual::from_value(k.wheel_velocity),
+            vertical_load: Dual::from_value(k.vertical_load),
+        };
+        let force = tyre.force_with_cornering_scale(&seeded, 1.0);
+        (
+            TyreForce {
+                longitudinal: force.longitudinal.value,
+                lateral: force.lateral.value,
+            },
+            force.longitudinal.gradient[0],
+        )
+    }
+
+    /// The closed-form `∂Fx/∂s` equals the dual number's to rounding, in adhesion and sliding,
+    /// driving and braking, at low and high speed, and the force is bit-identical.
+    #[test]
+    fn closed_form_slip_derivative_matches_dual_numbers() {
+        let tyre = HsriTyre::default();
+        let mut sliding = 0;
+        for load in [800.0, 3519.5, 6000.0] {
+            for speed in [0.0, 0.5, 18.0, -12.0] {
+                for i in -120..=120 {
+                    for j in -60..=60 {
+                        let k = TyreKinematics {
+                            slip: f64::from(i) * 2.5e-3,
+                            tan_slip_angle: f64::from(j) * 2.5e-3,
+                            wheel_velocity: speed,
+                            vertical_load: load,
+                        };
+                        let (force, derivative) = tyre.force_and_slip_derivative(&k, 1.0);
+                        let (dual_force, dual_derivative) = dual_slip_derivative(&tyre, &k);
+                        assert_eq!(force, dual_force, "{k:?}");
+                        // Near the force's peak ∂Fx/∂s is a difference of terms of the size of
+                        // the slip stiffness Cs, so rounding is relative to Cs.
+                        let scale = tyre.params.longitudinal_stiffness(load);
+                        assert!(
+                            (derivative - dual_derivative).abs() <= 1e-13 * scale,
+                            "{k:?}: closed form {derivative}, dual {dual_derivative}"
+                        );
+                        let plain = tyre.force_with_cornering_scale(&k, 1.0);
+                        if plain.longitudinal.hypot(plain.lateral)
+                            < 0.99
+                                * f64::hypot(
+                                    tyre.params.longitudinal_stiffness(load) * k.slip,
+                                    tyre.params.cornering_stiffness(load) * k.tan_slip_angle,
+                                )
+                                / (1.0 + k.slip)
+                        {
+                            sliding += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            sliding > 10_000,
+            "the grid reaches the sliding branch ({sliding})"
+        );
     }
 }

@@ -11,7 +11,7 @@
 //!   lateral force;
 //! - the longitudinal force is positive forward.
 
-use crate::scalar::Scalar;
+use crate::scalar::{Dual, Scalar};
 
 mod hsri;
 mod linear;
@@ -76,6 +76,33 @@ pub trait TyreModel: Clone + std::fmt::Debug + Send + Sync {
         kinematics: &TyreKinematics<S>,
         cornering_stiffness_scale: f64,
     ) -> TyreForce<S>;
+
+    /// [`Self::force_with_cornering_scale`] together with `∂F_x/∂s`, the longitudinal force's
+    /// derivative with respect to the slip, which the semi-implicit wheel-speed step needs
+    /// (000: 6.1, 6.2). The default differentiates the force law in one dual direction seeded
+    /// in the slip (the force is the dual's value part, bit-identical to the plain call); a tyre
+    /// may give the derivative in closed form instead, which must agree with the dual one.
+    #[inline(always)]
+    fn force_and_slip_derivative<S: Scalar>(
+        &self,
+        kinematics: &TyreKinematics<S>,
+        cornering_stiffness_scale: f64,
+    ) -> (TyreForce<S>, S) {
+        let seeded = TyreKinematics {
+            slip: Dual::<S, 1>::variable(kinematics.slip, 0),
+            tan_slip_angle: Dual::from_value(kinematics.tan_slip_angle),
+            wheel_velocity: Dual::from_value(kinematics.wheel_velocity),
+            vertical_load: Dual::from_value(kinematics.vertical_load),
+        };
+        let force = self.force_with_cornering_scale(&seeded, cornering_stiffness_scale);
+        (
+            TyreForce {
+                longitudinal: force.longitudinal.value,
+                lateral: force.lateral.value,
+            },
+            force.longitudinal.gradient[0],
+        )
+    }
 
     /// Cornering stiffness `∂F_y/∂tan α` at zero slip, N/rad, at the given vertical load.
     fn cornering_stiffness(&self, vertical_load: f64) -> f64;
