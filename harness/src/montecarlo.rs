@@ -153,7 +153,9 @@ pub fn run(
             let result =
                 result.map_err(|e| e.context(format!("Monte Carlo run {i} (seed {seed})")))?;
             let scores = scoring::score_run(&plan.scenario, &result);
-            Ok((scores, nees_series(plan, &result)))
+            let nees = nees_series(plan, &result);
+            plan.recycle(result);
+            Ok((scores, nees))
         })
         .collect();
     let mut per_run = Vec::with_capacity(runs);
