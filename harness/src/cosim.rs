@@ -200,8 +200,60 @@ impl Columns {
         self.values.chunks_exact(self.rows)
     }
 
-    fn set(&mut self, column: usize, row: usize, value: f64) {
-        self.values[column * self.rows + row] = value;
+    /// Writes consecutive rows, given row after row in `rows_major` (`self.len()` values each),
+    /// so that the last of them is row `last_row`.
+    fn write_rows(&mut self, last_row: usize, rows_major: &[f64]) {
+        if self.columns == 0 {
+            return;
+        }
+        let count = rows_major.len() / self.columns;
+        let first_row = last_row + 1 - count;
+        for (column, block) in self.values.chunks_exact_mut(self.rows).enumerate() {
+            let cells = &mut block[first_row..=last_row];
+            for (cell, row) in cells.iter_mut().zip(rows_major.chunks_exact(self.columns)) {
+                *cell = row[column];
+            }
+        }
+    }
+}
+
+/// A few recorded rows, row after row, before they go into the column-major table together.
+///
+/// Writing each communication point straight into tens of columns touches as many cache lines
+/// 100 kB apart per step, about half a microsecond per step; a block of rows is written as
+/// short contiguous runs per column instead.
+struct StagedRows {
+    columns: usize,
+    values: Vec<f64>,
+    rows: usize,
+}
+
+impl StagedRows {
+    const CAPACITY: usize = 64;
+
+    fn new(columns: usize) -> Self {
+        StagedRows {
+            columns,
+            values: vec![0.0; columns * Self::CAPACITY],
+            rows: 0,
+        }
+    }
+
+    /// The cells of the next row (to be filled).
+    fn next_row(&mut self) -> &mut [f64] {
+        let start = self.rows * self.columns;
+        self.rows += 1;
+        &mut self.values[start..start + self.columns]
+    }
+
+    fn is_full(&self) -> bool {
+        self.rows == Self::CAPACITY
+    }
+
+    /// Moves the staged rows into `table`, the last of them being row `last_row`.
+    fn write_into(&mut self, table: &mut Columns, last_row: usize) {
+        table.write_rows(last_row, &self.values[..self.rows * self.columns]);
+        self.rows = 0;
     }
 }
 
@@ -817,6 +869,7 @@ impl Plan {
             .unwrap_or_default()
             .unwrap_or_default();
         let mut data = Columns::reusing(spare, self.columns.len(), rows);
+        let mut staged = StagedRows::new(self.columns.len());
         let mut times = Vec::with_capacity(rows);
         let mut step_time = vec![Duration::ZERO; instances.len()];
         let report_every = (steps / 200).max(1);
@@ -831,8 +884,9 @@ impl Plan {
                 &err,
             )?;
             times.push(t);
-            for (column, slot) in self.record.iter().enumerate() {
-                let value = match *slot {
+            let row = staged.next_row();
+            for (cell, slot) in row.iter_mut().zip(&self.record) {
+                *cell = match *slot {
                     Slot::Read { instance, slot } => caches[instance][slot],
                     Slot::Channel(channel) => {
                         manoeuvre.as_ref().map_or(0.0, |m| m.value(channel, t))
@@ -841,7 +895,9 @@ impl Plan {
                     Slot::PoseY => manoeuvre.as_ref().map_or(0.0, |m| m.pose().y),
                     Slot::PoseYaw => manoeuvre.as_ref().map_or(0.0, |m| m.pose().yaw),
                 };
-                data.set(column, n as usize, value);
+            }
+            if staged.is_full() || n == steps {
+                staged.write_into(&mut data, n as usize);
             }
             if n == steps {
                 break;
@@ -1115,4 +1171,34 @@ fn topological_order<T>(
         }
     }
     order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows staged in blocks land in the right cells, for a row count that is not a multiple
+    /// of the block, also in a recycled block holding other values.
+    #[test]
+    fn staged_rows_fill_every_cell_of_the_table() {
+        let (columns, rows) = (3, 2 * StagedRows::CAPACITY + 22);
+        for old in [Vec::new(), vec![f64::NAN; columns * rows + 5]] {
+            let mut table = Columns::reusing(old, columns, rows);
+            let mut staged = StagedRows::new(columns);
+            for n in 0..rows {
+                for (c, cell) in staged.next_row().iter_mut().enumerate() {
+                    *cell = (n * 10 + c) as f64;
+                }
+                if staged.is_full() || n == rows - 1 {
+                    staged.write_into(&mut table, n);
+                }
+            }
+            assert_eq!(table.len(), columns);
+            assert_eq!(table.rows(), rows);
+            for (c, column) in table.iter().enumerate() {
+                let expected: Vec<f64> = (0..rows).map(|n| (n * 10 + c) as f64).collect();
+                assert_eq!(column, expected.as_slice(), "column {c}");
+            }
+        }
+    }
 }
