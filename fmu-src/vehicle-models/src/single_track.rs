@@ -286,10 +286,13 @@ impl<T: TyreModel> SingleTrackModel<T> {
     ) -> AxleState<S> {
         let p = &self.vehicle;
         let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
+        // Divisions and square roots share one unit of the core and bound a filter's model
+        // evaluations: each quotient by the same number is a product with its reciprocal.
+        let inverse_divisor = S::constant(1.0) / divisor;
         // (000: 5.17), (000: 5.22)
-        let tan_slip_angle = -wheel_lateral_velocity / divisor;
+        let tan_slip_angle = -wheel_lateral_velocity * inverse_divisor;
         // (000: 5.65)
-        let slip = (omega * p.wheel_radius - wheel_velocity) / divisor;
+        let slip = (omega * p.wheel_radius - wheel_velocity) * inverse_divisor;
         let kinematics = TyreKinematics {
             slip,
             tan_slip_angle,
@@ -301,7 +304,8 @@ impl<T: TyreModel> SingleTrackModel<T> {
                 .tyre
                 .force_and_slip_derivative(&kinematics, cornering_stiffness_scale);
             // ∂Fx/∂ω = ∂Fx/∂s · ∂s/∂ω with ∂s/∂ω = r / divisor (000: 5.65), both wheels
-            let spin_derivative = slip_derivative * (p.wheel_radius * WHEELS_PER_AXLE) / divisor;
+            let spin_derivative =
+                slip_derivative * (p.wheel_radius * WHEELS_PER_AXLE) * inverse_divisor;
             (force, spin_derivative)
         } else {
             let force = self
@@ -414,19 +418,22 @@ impl<T: TyreModel> SingleTrackModel<T> {
             sin_steer,
         } = *forces;
         let (vx, vy, yaw_rate) = (x[VX], x[VY], x[YAW_RATE]);
+        // Products with f64 reciprocals: one division each, also for dual numbers (which would
+        // divide every component).
+        let inverse_mass = 1.0 / p.mass;
         // (000: 5.43)
         let vx_dot = (rear_longitudinal - front_lateral * sin_steer
             + front_longitudinal * cos_steer)
-            / p.mass
+            * inverse_mass
             + vy * yaw_rate;
         // (000: 5.42)
         let vy_dot = (rear_lateral + front_lateral * cos_steer + front_longitudinal * sin_steer)
-            / p.mass
+            * inverse_mass
             - vx * yaw_rate;
         // (000: 5.44)
         let yaw_acceleration = (-(rear_lateral * p.cog_to_rear_axle)
             + (front_lateral * cos_steer + front_longitudinal * sin_steer) * p.cog_to_front_axle)
-            / p.yaw_inertia;
+            * (1.0 / p.yaw_inertia);
         [vx_dot, vy_dot, yaw_acceleration]
     }
 
@@ -438,7 +445,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         // (000: 5.45)
         (u[input_index::DRIVE_TORQUE] + brake * p.brake_split_front
             - longitudinal_force * p.wheel_radius)
-            / p.front_wheel_inertia
+            * (1.0 / p.front_wheel_inertia)
     }
 
     /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`.
@@ -448,7 +455,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
         // (000: 5.46)
         (brake * (1.0 - p.brake_split_front) - longitudinal_force * p.wheel_radius)
-            / p.rear_wheel_inertia
+            * (1.0 / p.rear_wheel_inertia)
     }
 
     /// Continuous-time right-hand side `ẋ = f(x, u)` (000: 5.42-5.46), generic over the scalar.
@@ -488,10 +495,10 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let front_spin = self.front_spin_acceleration(u, front.longitudinal_force);
         let rear_spin = self.rear_spin_acceleration(u, rear.longitudinal_force);
         // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46)
-        let front_spin_derivative =
-            -(front.longitudinal_force_spin_derivative * p.wheel_radius) / p.front_wheel_inertia;
-        let rear_spin_derivative =
-            -(rear.longitudinal_force_spin_derivative * p.wheel_radius) / p.rear_wheel_inertia;
+        let front_spin_derivative = -(front.longitudinal_force_spin_derivative * p.wheel_radius)
+            * (1.0 / p.front_wheel_inertia);
+        let rear_spin_derivative = -(rear.longitudinal_force_spin_derivative * p.wheel_radius)
+            * (1.0 / p.rear_wheel_inertia);
         // (000: 6.3), (000: 6.4), (000: 6.5)
         let body = explicit_euler(
             &[x[VX], x[VY], x[YAW_RATE]],
@@ -539,7 +546,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let lateral_acceleration = (e.rear.lateral_force
             + e.front.lateral_force * e.cos_steer
             + e.front.longitudinal_force * e.sin_steer)
-            / self.vehicle.mass;
+            * (1.0 / self.vehicle.mass);
         [
             x[YAW_RATE],
             lateral_acceleration,

@@ -108,7 +108,7 @@ impl HsriTyre {
         if load.value() <= 0.0 {
             return (TyreForce::zero(), zero);
         }
-        let relative_load = load / p.reference_load;
+        let relative_load = load * (1.0 / p.reference_load);
         let slip = k.slip;
         let tan_alpha = k.tan_slip_angle;
         // (000: 5.70) Cα, times the caller's cornering-stiffness scale (1 = the seed's tyre);
@@ -123,14 +123,15 @@ impl HsriTyre {
         let numerator = (longitudinal_demand.square() + lateral_demand.square()).sqrt();
         let one_plus_slip = slip + 1.0;
         let adhesion = |one_plus_slip: S| {
-            // adhesion only (000: table after 5.73, sR ≤ 0.5)
+            // adhesion only (000: table after 5.73, sR ≤ 0.5); one division for the quotients
+            let inverse = S::constant(1.0) / one_plus_slip;
             let force = TyreForce {
-                longitudinal: longitudinal_demand / one_plus_slip,
-                lateral: lateral_demand / one_plus_slip,
+                longitudinal: longitudinal_demand * inverse,
+                lateral: lateral_demand * inverse,
             };
             // ∂/∂s of Cs·s/(1 + s) is Cs/(1 + s)²
             let slip_derivative = if with_slip_derivative {
-                longitudinal / one_plus_slip / one_plus_slip
+                longitudinal * inverse * inverse
             } else {
                 zero
             };
@@ -170,8 +171,9 @@ impl HsriTyre {
             // adhesion and sliding (sR > 0.5): the seed's C·x/(1+s) · (sR − 0.25)/sR², rewritten
             // as C·x · µFz/N · (1 − 0.25/sR) so that a locked wheel (1 + s → 0) stays finite.
             // Here N > 0 because N ≤ 0.5·denominator fails and N ≥ 0.
-            let gain = friction * load / numerator;
-            let ratio = denominator / numerator;
+            let inverse_numerator = S::constant(1.0) / numerator;
+            let gain = friction * load * inverse_numerator;
+            let ratio = denominator * inverse_numerator;
             let shape = -(ratio * p.sliding_offset) + 1.0;
             let factor = gain * shape;
             let force = TyreForce {
@@ -192,12 +194,12 @@ impl HsriTyre {
             let friction_derivative =
                 -(friction_decay * reference_squared * sliding_speed_derivative
                     / (friction_root * friction_root * friction_root));
-            let numerator_derivative = longitudinal_demand * longitudinal / numerator;
+            let numerator_derivative = longitudinal_demand * longitudinal * inverse_numerator;
             let denominator_derivative = (friction_derivative * one_plus_slip + friction) * load;
             let gain_derivative =
-                (friction_derivative * load - gain * numerator_derivative) / numerator;
+                (friction_derivative * load - gain * numerator_derivative) * inverse_numerator;
             let ratio_derivative =
-                (denominator_derivative - ratio * numerator_derivative) / numerator;
+                (denominator_derivative - ratio * numerator_derivative) * inverse_numerator;
             let factor_derivative =
                 gain_derivative * shape - gain * ratio_derivative * p.sliding_offset;
             (
@@ -255,7 +257,7 @@ mod tests {
         scale: f64,
     ) -> TyreForce<S> {
         let load = k.vertical_load;
-        let relative_load = load / p.reference_load;
+        let relative_load = load * (1.0 / p.reference_load);
         let friction_potential = -(relative_load * p.friction_load) + p.friction_base;
         let friction_decay = relative_load * p.friction_decay_load + p.friction_decay_base;
         let (slip, tan_alpha) = (k.slip, k.tan_slip_angle);
@@ -272,13 +274,17 @@ mod tests {
         let one_plus_slip = slip + 1.0;
         let denominator = friction * one_plus_slip * load;
         if numerator.value() <= p.sliding_threshold * denominator.value() {
+            let inverse = S::constant(1.0) / one_plus_slip;
             TyreForce {
-                longitudinal: longitudinal_demand / one_plus_slip,
-                lateral: lateral_demand / one_plus_slip,
+                longitudinal: longitudinal_demand * inverse,
+                lateral: lateral_demand * inverse,
             }
         } else {
-            let factor =
-                friction * load / numerator * (-(denominator / numerator * p.sliding_offset) + 1.0);
+            let inverse_numerator = S::constant(1.0) / numerator;
+            let factor = friction
+                * load
+                * inverse_numerator
+                * (-(denominator * inverse_numerator * p.sliding_offset) + 1.0);
             TyreForce {
                 longitudinal: longitudinal_demand * factor,
                 lateral: lateral_demand * factor,
