@@ -157,8 +157,9 @@ impl RunResult {
 /// The recorded values of a run, `table[column][row]`, column after column in one block.
 ///
 /// One block, so that a campaign can hand it back ([`Plan::recycle`]) for the next run: a run
-/// records tens of columns of 10⁴ rows (about 4 MB at 1 ms for 12 s), and fresh memory of that
-/// size is faulted in page by page, about a tenth of a short run's time on a virtual machine.
+/// records tens of columns of 10⁴ rows (about 4 MB at 1 ms for 12 s), and memory the process
+/// has not used yet is faulted in page by page (a vector per column cost about 1000 page
+/// faults, a tenth of a short run's time on a virtual machine).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Columns {
     columns: usize,
@@ -167,9 +168,9 @@ pub struct Columns {
 }
 
 impl Columns {
-    /// `columns` columns of `rows` values in the memory of `block`, whose old values stay where
-    /// it was long enough: a run overwrites every cell (one that fails returns no table), so
-    /// zeroing the megabytes again would be wasted.
+    /// `columns` columns of `rows` values in the memory of `block`. Old values are left in
+    /// place: a run overwrites every cell (one that fails returns no table), so zeroing the
+    /// megabytes again would be wasted.
     fn reusing(mut block: Vec<f64>, columns: usize, rows: usize) -> Self {
         assert!(rows > 0, "a table of recorded columns has at least one row");
         block.truncate(columns * rows);
@@ -217,6 +218,28 @@ impl Columns {
     }
 }
 
+impl std::ops::Index<usize> for Columns {
+    type Output = [f64];
+
+    fn index(&self, column: usize) -> &[f64] {
+        assert!(
+            column < self.columns,
+            "column {column} of a table of {} columns",
+            self.columns
+        );
+        &self.values[column * self.rows..(column + 1) * self.rows]
+    }
+}
+
+impl<'a> IntoIterator for &'a Columns {
+    type Item = &'a [f64];
+    type IntoIter = std::slice::ChunksExact<'a, f64>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
 /// A few recorded rows, row after row, before they go into the column-major table together.
 ///
 /// Writing each communication point straight into tens of columns touches as many cache lines
@@ -254,28 +277,6 @@ impl StagedRows {
     fn write_into(&mut self, table: &mut Columns, last_row: usize) {
         table.write_rows(last_row, &self.values[..self.rows * self.columns]);
         self.rows = 0;
-    }
-}
-
-impl std::ops::Index<usize> for Columns {
-    type Output = [f64];
-
-    fn index(&self, column: usize) -> &[f64] {
-        assert!(
-            column < self.columns,
-            "column {column} of a table of {} columns",
-            self.columns
-        );
-        &self.values[column * self.rows..(column + 1) * self.rows]
-    }
-}
-
-impl<'a> IntoIterator for &'a Columns {
-    type Item = &'a [f64];
-    type IntoIter = std::slice::ChunksExact<'a, f64>;
-
-    fn into_iter(self) -> Self::IntoIter {
-        self.iter()
     }
 }
 

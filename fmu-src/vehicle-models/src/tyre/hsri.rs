@@ -122,7 +122,7 @@ impl HsriTyre {
         // (000: 5.73) sR = numerator / denominator
         let numerator = (longitudinal_demand.square() + lateral_demand.square()).sqrt();
         let one_plus_slip = slip + 1.0;
-        let adhesion = |one_plus_slip: S| {
+        let adhesion = || {
             // adhesion only (000: table after 5.73, sR ≤ 0.5); one division for the quotients
             let inverse = S::constant(1.0) / one_plus_slip;
             let force = TyreForce {
@@ -141,9 +141,9 @@ impl HsriTyre {
         let friction_potential = -(relative_load * p.friction_load) + p.friction_base;
         let friction_decay = relative_load * p.friction_decay_load + p.friction_decay_base;
         // The adhesion force does not depend on µ, only the case distinction does, and µ lies in
-        // [f0 − max(kR, 0), f0 − min(kR, 0)] (000: 5.69). Most calls are settled by that lowest µ,
-        // which skips the sliding speed's two square roots and a division (a third of a UKF
-        // step's tyre time). The relative margin covers the few roundings by which the µ
+        // [f0 − max(kR, 0), f0 − min(kR, 0)] (000: 5.69). Most adhesion calls are settled by that
+        // lowest µ, which skips the sliding speed's two square roots and a division. The
+        // relative margin covers the few roundings by which the µ
         // computed below may undershoot the bound, so the case taken is always the one the full
         // test takes (tested against it).
         let lowest_friction = friction_potential.value() - friction_decay.value().max(0.0);
@@ -154,7 +154,7 @@ impl HsriTyre {
                     * (lowest_friction * one_plus_slip.value() * load.value())
                     * (1.0 - ADHESION_BOUND_MARGIN)
         {
-            return adhesion(one_plus_slip);
+            return adhesion();
         }
         // (000: 5.66) sliding speed
         let resultant_slip = (slip.square() + tan_alpha.square()).sqrt();
@@ -166,7 +166,7 @@ impl HsriTyre {
         let friction = friction_potential - friction_decay * sliding_speed / friction_root;
         let denominator = friction * one_plus_slip * load;
         if numerator.value() <= p.sliding_threshold * denominator.value() {
-            adhesion(one_plus_slip)
+            adhesion()
         } else {
             // adhesion and sliding (sR > 0.5): the seed's C·x/(1+s) · (sR − 0.25)/sR², rewritten
             // as C·x · µFz/N · (1 − 0.25/sR) so that a locked wheel (1 + s → 0) stays finite.
@@ -394,24 +394,28 @@ mod tests {
 #[cfg(test)]
 mod slip_derivative_tests {
     use super::*;
-    use crate::scalar::Dual;
 
-    /// `∂Fx/∂s` by a dual number seeded in the slip: what the trait's default computes.
-    fn dual_slip_derivative(tyre: &HsriTyre, k: &TyreKinematics<f64>) -> (TyreForce<f64>, f64) {
-        let seeded = TyreKinematics {
-            slip: Dual::<f64, 1>::variable(k.slip, 0),
-            tan_slip_angle: Dual::from_value(k.tan_slip_angle),
-            wheel_velocity: Dual::from_value(k.wheel_velocity),
-            vertical_load: Dual::from_value(k.vertical_load),
-        };
-        let force = tyre.force_with_cornering_scale(&seeded, 1.0);
-        (
-            TyreForce {
-                longitudinal: force.longitudinal.value,
-                lateral: force.lateral.value,
-            },
-            force.longitudinal.gradient[0],
-        )
+    /// The HSRI force law with the trait's default `force_and_slip_derivative` (dual numbers).
+    #[derive(Clone, Debug)]
+    struct DualDerivative(HsriTyre);
+
+    impl TyreModel for DualDerivative {
+        fn force_with_cornering_scale<S: Scalar>(
+            &self,
+            k: &TyreKinematics<S>,
+            cornering_stiffness_scale: f64,
+        ) -> TyreForce<S> {
+            self.0
+                .force_with_cornering_scale(k, cornering_stiffness_scale)
+        }
+
+        fn cornering_stiffness(&self, vertical_load: f64) -> f64 {
+            self.0.cornering_stiffness(vertical_load)
+        }
+
+        fn longitudinal_stiffness(&self, vertical_load: f64) -> f64 {
+            self.0.longitudinal_stiffness(vertical_load)
+        }
     }
 
     /// The closed-form `∂Fx/∂s` equals the dual number's to rounding, in adhesion and sliding,
@@ -419,6 +423,7 @@ mod slip_derivative_tests {
     #[test]
     fn closed_form_slip_derivative_matches_dual_numbers() {
         let tyre = HsriTyre::default();
+        let dual = DualDerivative(tyre.clone());
         let mut sliding = 0;
         for load in [800.0, 3519.5, 6000.0] {
             for speed in [0.0, 0.5, 18.0, -12.0] {
@@ -431,7 +436,7 @@ mod slip_derivative_tests {
                             vertical_load: load,
                         };
                         let (force, derivative) = tyre.force_and_slip_derivative(&k, 1.0);
-                        let (dual_force, dual_derivative) = dual_slip_derivative(&tyre, &k);
+                        let (dual_force, dual_derivative) = dual.force_and_slip_derivative(&k, 1.0);
                         assert_eq!(force, dual_force, "{k:?}");
                         // Near the force's peak ∂Fx/∂s is a difference of terms of the size of
                         // the slip stiffness Cs, so rounding is relative to Cs.
