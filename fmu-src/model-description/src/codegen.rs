@@ -5,7 +5,14 @@
 //! - `MODEL_IDENTIFIER`, `GUID`, `MODEL_NAME`, `DEFAULT_STEP_SIZE: Option<f64>`,
 //!   `LOG_CATEGORIES: &[&str]`;
 //! - `mod vr` with one `pub const NAME: u32` value reference per variable (upper-case name);
-//! - one module per enumeration type (snake-case type name) with a `pub const ITEM: i32` per item;
+//! - one module per enumeration type (snake-case type name) with a `pub const ITEM: i32` per item
+//!   (the raw values fmi2SetInteger takes);
+//! - one typed enum per enumeration type (the type's name; a variant per item in upper camel case,
+//!   `lkf` → `Lkf`, discriminant = value) with `ALL`, `name()`, `description()`, `from_name()`,
+//!   `TryFrom<i32>` (its error names the type and lists the valid values) and `From<_> for i32`;
+//! - `Variables::real_by_name`, a Real variable's value by name;
+//! - `struct RealOutputs` with one field per Real output, `finite()`, `fill_from()` and
+//!   `write_where()`, so that an FMU computes and writes its outputs by name, never by position;
 //! - `VARIABLES: &[fmi_export::VariableInfo]`: name, value reference, base type, causality,
 //!   variability, min/max and the allowed enumeration values of every variable, sorted by
 //!   (base type, value reference) so that the plumbing can binary-search it;
@@ -22,7 +29,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::{BaseType, Causality, ModelDescription, SimpleTypeKind, Variability, VariableValue};
+use crate::{
+    BaseType, Causality, EnumerationItem, ModelDescription, SimpleType, SimpleTypeKind,
+    Variability, VariableValue,
+};
 
 const KEYWORDS: &[&str] = &[
     "as", "break", "const", "continue", "crate", "else", "enum", "extern", "false", "fn", "for",
@@ -156,6 +166,7 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
 
     for simple in &description.type_definitions {
         if let SimpleTypeKind::Enumeration { items } = &simple.kind {
+            typed_enumeration(w, simple, items, source_label)?;
             let _ = writeln!(
                 w,
                 "/// Items of the enumeration type `{}`.\n#[allow(dead_code)]\npub mod {} {{",
@@ -290,6 +301,8 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
         let _ = writeln!(w, "            {}: {value},", field_name(&variable.name));
     }
     let _ = writeln!(w, "        }}\n    }}\n}}\n");
+    real_by_name(w, description);
+    real_outputs(w, description);
 
     let accessor = |w: &mut String, base: BaseType, rust_type: &str, getter: &str, setter: &str| {
         let of_type: Vec<_> = description
@@ -381,6 +394,148 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
     }
     let _ = writeln!(w, "        Ok(())\n    }}\n}}");
     Ok(out)
+}
+
+/// `lkf` → `Lkf`, `ukf_scaled` → `UkfScaled`, `runge_kutta4` → `RungeKutta4`.
+fn upper_camel_case(name: &str) -> String {
+    name.split('_')
+        .filter(|part| !part.is_empty())
+        .map(|part| {
+            let mut chars = part.chars();
+            chars.next().map_or_else(String::new, |first| {
+                first.to_ascii_uppercase().to_string() + chars.as_str()
+            })
+        })
+        .collect()
+}
+
+/// One line of text for a doc comment or a string literal's content.
+fn one_line(text: Option<&str>) -> String {
+    text.unwrap_or("").replace('\n', " ")
+}
+
+/// Writes the typed Rust enum of one enumeration type: a variant per item (upper camel case of
+/// the item name, discriminant = the item's value), `ALL`, `name`, `description`, `from_name`,
+/// `TryFrom<i32>` with an error listing the valid values, and `From<Self> for i32`.
+fn typed_enumeration(
+    w: &mut String,
+    simple: &SimpleType,
+    items: &[EnumerationItem],
+    source_label: &str,
+) -> Result<(), String> {
+    let type_name = &simple.name;
+    if !is_identifier(type_name) || KEYWORDS.contains(&type_name.as_str()) {
+        return Err(format!(
+            "{source_label}: enumeration '{type_name}': the type name is not a Rust identifier"
+        ));
+    }
+    let variants: Vec<String> = items.iter().map(|i| upper_camel_case(&i.name)).collect();
+    let _ = writeln!(
+        w,
+        "/// {} (enumeration type `{type_name}`).\n#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]\npub enum {type_name} {{",
+        one_line(simple.description.as_deref())
+    );
+    for (item, variant) in items.iter().zip(&variants) {
+        let _ = writeln!(
+            w,
+            "    /// {}\n    {variant} = {},",
+            one_line(item.description.as_deref()),
+            item.value
+        );
+    }
+    let _ = writeln!(w, "}}\n");
+    let valid: Vec<String> = items
+        .iter()
+        .map(|i| format!("{} ({})", i.value, i.name))
+        .collect();
+    let arms = |value: &dyn Fn(&EnumerationItem) -> String| -> String {
+        items
+            .iter()
+            .zip(&variants)
+            .map(|(item, variant)| format!("            Self::{variant} => {},\n", value(item)))
+            .collect()
+    };
+    let names = arms(&|item| format!("{:?}", item.name));
+    let descriptions = arms(&|item| format!("{:?}", one_line(item.description.as_deref())));
+    let all: Vec<String> = variants.iter().map(|v| format!("Self::{v}")).collect();
+    let _ = writeln!(
+        w,
+        "#[allow(dead_code)]\nimpl {type_name} {{\n    /// Every item, in the order of the XML.\n    pub const ALL: &'static [Self] = &[{}];\n\n    /// The item's `name` in the XML.\n    pub const fn name(self) -> &'static str {{\n        match self {{\n{names}        }}\n    }}\n\n    /// The item's `description` in the XML.\n    pub const fn description(self) -> &'static str {{\n        match self {{\n{descriptions}        }}\n    }}\n\n    /// The item with this `name`.\n    pub fn from_name(name: &str) -> Option<Self> {{\n        Self::ALL.iter().copied().find(|item| item.name() == name)\n    }}\n}}\n",
+        all.join(", ")
+    );
+    let values: String = items
+        .iter()
+        .zip(&variants)
+        .map(|(item, variant)| format!("            {} => Ok(Self::{variant}),\n", item.value))
+        .collect();
+    let _ = writeln!(
+        w,
+        "impl ::core::convert::TryFrom<i32> for {type_name} {{\n    type Error = String;\n\n    /// The item with this value; the error names the type and lists the valid values.\n    fn try_from(value: i32) -> Result<Self, String> {{\n        match value {{\n{values}            other => Err(format!(\"{{other}} is not an item of {type_name}; expected one of {}\")),\n        }}\n    }}\n}}\n\nimpl From<{type_name}> for i32 {{\n    fn from(item: {type_name}) -> i32 {{\n        item as i32\n    }}\n}}\n",
+        valid.join(", ")
+    );
+    Ok(())
+}
+
+/// Writes `Variables::real_by_name`: a Real variable's value by its name, so that code shared
+/// by several FMUs can read parameters they declare alike (see vehicle-models' `parameters`).
+fn real_by_name(w: &mut String, description: &ModelDescription) {
+    let arms: String = description
+        .variables
+        .iter()
+        .filter(|v| v.base_type() == BaseType::Real)
+        .map(|v| format!("            {:?} => Some(self.{}),\n", v.name, field_name(&v.name)))
+        .collect();
+    let _ = writeln!(
+        w,
+        "#[allow(dead_code)]\nimpl Variables {{\n    /// The value of the Real variable with this name.\n    pub fn real_by_name(&self, name: &str) -> Option<f64> {{\n        match name {{\n{arms}            _ => None,\n        }}\n    }}\n}}\n"
+    );
+}
+
+/// Writes `RealOutputs`: one field per Real output, so that an FMU computes its outputs by name;
+/// `finite` and `write_where` (which writes the outputs whose mask entry is set) keep the
+/// positions in step by construction.
+fn real_outputs(w: &mut String, description: &ModelDescription) {
+    let outputs: Vec<_> = description
+        .variables
+        .iter()
+        .filter(|v| v.base_type() == BaseType::Real && v.causality == Causality::Output)
+        .collect();
+    let count = outputs.len();
+    let fields: String = outputs
+        .iter()
+        .map(|v| {
+            format!(
+                "    /// {}\n    pub {}: f64,\n",
+                one_line(v.description.as_deref()),
+                field_name(&v.name)
+            )
+        })
+        .collect();
+    let finite: Vec<String> = outputs
+        .iter()
+        .map(|v| format!("self.{}.is_finite()", field_name(&v.name)))
+        .collect();
+    let writes: String = outputs
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let name = field_name(&v.name);
+            format!("        if mask[{i}] {{\n            variables.{name} = self.{name};\n        }}\n")
+        })
+        .collect();
+    let fills: String = outputs
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let name = field_name(&v.name);
+            format!("        if !mask[{i}] && older.{name}.is_finite() {{\n            self.{name} = older.{name};\n            mask[{i}] = true;\n        }}\n")
+        })
+        .collect();
+    let _ = writeln!(
+        w,
+        "/// One value per Real output, by name.\n#[allow(dead_code)]\n#[derive(Debug, Clone, Copy, PartialEq, Default)]\npub struct RealOutputs {{\n{fields}}}\n\n#[allow(dead_code)]\nimpl RealOutputs {{\n    /// Number of Real outputs.\n    pub const COUNT: usize = {count};\n\n    /// Which outputs are finite (the mask `write_where` and `fill_from` take).\n    pub fn finite(&self) -> [bool; {count}] {{\n        [{}]\n    }}\n\n    /// Takes, for every output whose mask entry is unset, `older`'s value if that is finite, and sets the entry.\n    pub fn fill_from(&mut self, older: &Self, mask: &mut [bool; {count}]) {{\n{fills}    }}\n\n    /// Writes the outputs whose mask entry is set into their variables.\n    pub fn write_where(&self, mask: &[bool; {count}], variables: &mut Variables) {{\n{writes}    }}\n}}\n",
+        finite.join(", ")
+    );
 }
 
 /// Value references of one base type are dense enough for a direct index table when the table
