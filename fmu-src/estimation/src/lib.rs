@@ -20,9 +20,11 @@ pub mod models;
 pub mod particle;
 
 /// Reweighting (marginal) particle smoother (003: 2.63-2.75, 3.1-3.2).
+#[cfg(feature = "offline")]
 pub mod smoother;
 
 /// EM parameter identification with the particle smoother (003: 2.76-2.78, 3.3-3.12).
+#[cfg(feature = "offline")]
 pub mod identification;
 
 #[cfg(test)]

@@ -1,6 +1,9 @@
 //! Adapters from the vehicle models to [`crate::StateSpaceModel`].
 
+// Model C and model A's stiffness scales exist for the EM identification (offline only).
+#[cfg(feature = "offline")]
 pub mod rear_axle;
 pub mod single_track;
+#[cfg(feature = "offline")]
 pub mod single_track_identification;
 pub mod two_track;

@@ -1,7 +1,7 @@
 //! The manoeuvre library produces the signals the seeds describe.
 
 use approx::assert_relative_eq;
-use harness::manoeuvre::{
+use fmi_master::manoeuvre::{
     library, Channel, Manoeuvre, ManoeuvreRun, VehicleMotion, LIBRARY, STEERING_RATIO,
 };
 
@@ -21,7 +21,7 @@ fn every_library_name_resolves_and_validates() {
     for name in LIBRARY {
         let m = library(name).unwrap_or_else(|| panic!("{name}"));
         m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert!(harness::manoeuvre::describe(name).is_some());
+        assert!(fmi_master::manoeuvre::describe(name).is_some());
     }
     assert!(library("nope").is_none());
 }
@@ -214,7 +214,10 @@ fn moose_test_course_follows_iso_3888_2() {
     let Manoeuvre::DoubleLaneChange(d) = &m else {
         panic!()
     };
-    assert_eq!(d.course, harness::manoeuvre::LaneChangeCourse::Iso3888Part2);
+    assert_eq!(
+        d.course,
+        fmi_master::manoeuvre::LaneChangeCourse::Iso3888Part2
+    );
     let lane_1_end = d.approach + 12.0;
     let lane_3_start = lane_1_end + 13.5;
     let lane_3_end = lane_3_start + 11.0;

@@ -7,13 +7,13 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use harness::cosim::Plan;
+use fmi_master::cosim::Plan;
+use fmi_master::fmu::LoadedFmu;
+use fmi_master::runner::{self, Environment};
+use fmi_master::scenario::{Scenario, VarRef};
+use fmi_master::{manoeuvre, montecarlo};
 use harness::demo::{self, DemoOptions};
-use harness::fmu::LoadedFmu;
 use harness::identify::{self, JobOverrides};
-use harness::runner::{self, Environment};
-use harness::scenario::{Scenario, VarRef};
-use harness::{manoeuvre, montecarlo};
 
 #[derive(Parser, Debug)]
 #[command(

@@ -3,12 +3,12 @@
 //! when the next run records a different seed.
 //!
 //! Needs the packaged FMUs (`cargo run --release -p packaging`) in
-//! `harness::runner::default_fmu_dir()`.
+//! `fmi_master::runner::default_fmu_dir()`.
 
-use harness::cosim::{ParameterValue, Plan, RunOptions, RunResult};
-use harness::demo::scenario_dir;
-use harness::runner::{default_fmu_dir, Environment};
-use harness::scenario::{Scenario, VarRef};
+use fmi_master::cosim::{ParameterValue, Plan, RunOptions, RunResult};
+use fmi_master::runner::scenario_dir;
+use fmi_master::runner::{default_fmu_dir, Environment};
+use fmi_master::scenario::{Scenario, VarRef};
 
 fn plan(stop_time: f64, tag: &str) -> Plan {
     let fmu_dir = default_fmu_dir();

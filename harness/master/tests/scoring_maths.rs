@@ -1,7 +1,7 @@
 //! The scoring maths against independently known values.
 
 use approx::assert_relative_eq;
-use harness::scoring::{
+use fmi_master::scoring::{
     average_band, chi_square_cdf, chi_square_quantile, ln_gamma, max_abs, rmse, score_nis,
     score_state,
 };

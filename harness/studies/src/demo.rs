@@ -6,7 +6,7 @@
 //! [`crate::identify`], which links the `estimation` library; no FMU is involved there), run on
 //! several simulated noise realisations.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::SystemTime;
 
@@ -22,13 +22,13 @@ use estimation::models::rear_axle::PARAMETER_NAMES;
 use estimation::particle::Proposal;
 
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
-use crate::manoeuvre::{self, Channel, ManoeuvreRun};
 use crate::mismatch::{self, MismatchReport};
-use crate::plot::{self, Panel, Series};
-use crate::report::Document;
-use crate::runner::{self, Environment, RunOutput};
-use crate::scenario::Scenario;
-use crate::scoring::{RunScores, StateScore};
+use fmi_master::manoeuvre::{self, Channel, ManoeuvreRun};
+use fmi_master::plot::{self, Panel, Series};
+use fmi_master::report::Document;
+use fmi_master::runner::{self, Environment, RunOutput};
+use fmi_master::scenario::Scenario;
+use fmi_master::scoring::{RunScores, StateScore};
 
 /// The experiments, in report order: (scenario file, seed, section title).
 pub const EXPERIMENTS: [(&str, &str, &str); 12] = [
@@ -99,10 +99,7 @@ pub fn seed003_noise_seeds() -> Vec<u64> {
     Seed003Config::default().noise_seeds
 }
 
-/// Folder of the shipped scenario files.
-pub fn scenario_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenarios")
-}
+pub use fmi_master::runner::scenario_dir;
 
 const FMU_FILES: [&str; 2] = ["ReferenceVehicle.fmu", "VehicleStateEstimator.fmu"];
 
@@ -860,7 +857,7 @@ fn write_report(
 
     doc.heading(2, "Manoeuvre library");
     doc.paragraph(
-        "Each manoeuvre is defined once in `harness/src/manoeuvre.rs`. The seeds leave durations, rise times \
+        "Each manoeuvre is defined once in `harness/master/src/manoeuvre.rs`. The seeds leave durations, rise times \
          and the wobble frequency open; the values chosen are these:",
     );
     let library_png = out.join("manoeuvres.png");

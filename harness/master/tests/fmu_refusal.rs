@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use harness::fmu::{platform_folder, FmuError, LoadedFmu};
+use fmi_master::fmu::{platform_folder, FmuError, LoadedFmu};
 use zip::write::SimpleFileOptions;
 
 const DESCRIPTION: &str = r#"<?xml version="1.0" encoding="UTF-8"?>

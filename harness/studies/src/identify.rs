@@ -30,7 +30,7 @@ use nalgebra::SVector;
 use rayon::prelude::*;
 use serde::Deserialize;
 
-use crate::plot::{self, Panel, Series};
+use fmi_master::plot::{self, Panel, Series};
 
 /// One column of the identification CSV.
 #[derive(Debug, Clone, Copy)]

@@ -4,10 +4,10 @@
 //! change at 65 km/h), all through the FMUs.
 //!
 //! Needs the packaged FMUs (`cargo run --release -p packaging`) in
-//! `harness::runner::default_fmu_dir()`; a missing archive fails the test with that command.
+//! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command.
 
+use fmi_master::runner::default_fmu_dir;
 use harness::mismatch::run_shipped;
-use harness::runner::default_fmu_dir;
 
 #[test]
 fn identified_scales_reduce_the_sideslip_error_on_a_held_out_manoeuvre() {

@@ -37,12 +37,18 @@ pub fn default_fmu_dir() -> PathBuf {
     }
 }
 
-/// The workspace this binary was built from.
+/// The workspace this binary was built from (this crate sits in `<workspace>/harness/master`).
 pub fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .parent()
+        .ancestors()
+        .nth(2)
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Folder of the shipped scenario files, `<workspace>/harness/scenarios`.
+pub fn scenario_dir() -> PathBuf {
+    workspace_root().join("harness").join("scenarios")
 }
 
 /// Parse "inst.variable=value" (value: true/false, integer, or float).

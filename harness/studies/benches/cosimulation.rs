@@ -14,10 +14,10 @@
 
 use std::path::PathBuf;
 
-use harness::cosim::{Plan, RunOptions};
+use fmi_master::cosim::{Plan, RunOptions};
+use fmi_master::runner::{default_fmu_dir, resolve_sine_with_dwell, Environment};
+use fmi_master::scenario::Scenario;
 use harness::demo::{scenario_dir, EXPERIMENTS};
-use harness::runner::{default_fmu_dir, resolve_sine_with_dwell, Environment};
-use harness::scenario::Scenario;
 
 fn main() {
     divan::main();

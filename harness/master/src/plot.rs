@@ -1,4 +1,4 @@
-//! PNG plots with plotters. The DejaVu Sans font (harness/assets, Bitstream Vera licence) is
+//! PNG plots with plotters. The DejaVu Sans font (harness/master/assets, Bitstream Vera licence) is
 //! compiled into the binary and registered with plotters' ab_glyph backend, so plots render the
 //! same on a machine without any system font.
 

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use harness::scenario::{Scenario, ScenarioError};
+use fmi_master::scenario::{Scenario, ScenarioError};
 
 const GOOD: &str = r#"
 name = "t"
@@ -174,7 +174,7 @@ fn unreadable_file_names_the_path() {
 
 #[test]
 fn every_shipped_scenario_parses() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let dir = fmi_master::runner::scenario_dir();
     let mut count = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();

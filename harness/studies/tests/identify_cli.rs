@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use fmi_master::runner::scenario_dir;
 use harness::identify::{self, JobData, JobOverrides};
 
 const HARNESS: &str = env!("CARGO_BIN_EXE_harness");
@@ -206,8 +207,7 @@ max_iterations = 3
 
 #[test]
 fn the_shipped_file_is_seed_003_section_3_2() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios/identification/seed003_identification.toml");
+    let path = scenario_dir().join("identification/seed003_identification.toml");
     let job = identify::load(&path, &JobOverrides::default()).unwrap();
     assert_eq!(job.data, JobData::Simulated);
     assert_eq!(job.truth, Some(TRUTH));
@@ -520,7 +520,7 @@ fn a_file_can_point_at_a_csv_with_its_truth() {
 
 #[test]
 fn a_co_simulation_scenario_is_recognised() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/seed000_ramp_high_ay.toml");
+    let path = scenario_dir().join("seed000_ramp_high_ay.toml");
     let e = format!(
         "{:#}",
         identify::load(&path, &JobOverrides::default()).unwrap_err()

@@ -4,7 +4,7 @@
 //! scales.
 //!
 //! 1. The identification scenario (`mismatch_identification.toml`: model B in the ISO 3888-2
-//!    course) is co-simulated through FMI like any scenario ([`crate::runner::run_scenario`]);
+//!    course) is co-simulated through FMI like any scenario ([`fmi_master::runner::run_scenario`]);
 //!    its recorded driver inputs and sensor outputs, one row per 10 ms communication step, are
 //!    the data set.
 //! 2. `estimation::models::single_track_identification` identifies `[k_F, k_R]` offline by the
@@ -34,10 +34,10 @@ use estimation::models::single_track_identification::{
     identify_scales_from_arrays, CorneringIdentificationConfig, SingleTrackHsri, PARAMETER_NAMES,
 };
 
-use crate::cosim::{ParameterValue, RunResult};
-use crate::runner::{run_scenario, workspace_root, Environment};
-use crate::scenario::{Scenario, VarRef};
-use crate::scoring;
+use fmi_master::cosim::{ParameterValue, RunResult};
+use fmi_master::runner::{run_scenario, scenario_dir, Environment};
+use fmi_master::scenario::{Scenario, VarRef};
+use fmi_master::scoring;
 
 /// What to run: scenario files, instance names, identification settings.
 #[derive(Debug, Clone)]
@@ -60,7 +60,7 @@ impl MismatchStudy {
     /// 40° step steer and the ISO 3888-1 double lane change of seed 001 as held-out manoeuvres,
     /// EKF and UKF.
     pub fn shipped() -> Self {
-        let scenarios = workspace_root().join("harness").join("scenarios");
+        let scenarios = scenario_dir();
         Self {
             identification_scenario: scenarios.join("mismatch_identification.toml"),
             validation_scenarios: vec![

@@ -1,0 +1,9 @@
+//! The project's studies on top of the general FMI master [`fmi_master`]: the demo with the
+//! seed findings and its report, the offline seed-003 identification (`harness identify`) and
+//! the model-mismatch study. Co-simulation goes through FMI alone (the master); only the offline
+//! parts (EM identification, no FMU involved) link the `estimation` library with its `offline`
+//! feature (and through it `vehicle-models`).
+
+pub mod demo;
+pub mod identify;
+pub mod mismatch;
