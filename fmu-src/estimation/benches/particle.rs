@@ -1,18 +1,17 @@
-//! Particle filter, smoother and EM benchmarks.
+//! Particle filter benchmarks.
 //!
-//! `cargo bench -p estimation --bench particle`
+//! `cargo bench -p estimation --features offline --bench particle`
 //!
-//! - one SIR step (predict + update + resampling) on model A with 1000 particles (target ≤ 250 µs);
-//! - one E-step (filter + reweighting smoother with pair moments) on model C, N = 50, T = 500;
-//! - the whole seed-003 identification of one simulated data set (target < 20 s).
+//! - one SIR step (predict + update + resampling) on model A with 1000 particles (target ≤ 250 µs),
+//!   and on model C (offline feature: model C is there for the identification).
+//!
+//! The E-step and the whole seed-003 identification are timed on the seed's set-up in the
+//! studies crate: `cargo bench -p harness --bench identification`.
 
 use divan::Bencher;
-use estimation::identification::expectation_step;
-use estimation::identification::seed003::{identify_seed003, simulate, Seed003Config};
-use estimation::models::rear_axle::{diagonal_covariance, RearAxleModel};
+use estimation::models::rear_axle::RearAxleModel;
 use estimation::models::single_track::{seed_operating_point, SingleTrackEstimationModel};
-use estimation::particle::{ParticleFilter, ParticleFilterConfig, Proposal};
-use estimation::smoother::SmootherWorkspace;
+use estimation::particle::{ParticleFilter, ParticleFilterConfig};
 use estimation::{Estimator, StateSpaceModel};
 use nalgebra::SVector;
 
@@ -84,37 +83,4 @@ impl std::fmt::Display for ResamplingSchemeArg {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{self:?}")
     }
-}
-
-#[divan::bench(args = ["bootstrap", "linearised_optimal"])]
-fn e_step_model_c_n50_t500(bencher: Bencher, proposal: &str) {
-    let proposal = if proposal == "bootstrap" {
-        Proposal::Bootstrap
-    } else {
-        Proposal::LinearisedOptimal
-    };
-    let config = Seed003Config::default();
-    let simulated = simulate(&config, 1).unwrap();
-    let theta = diagonal_covariance(&config.measurement_noise_std);
-    let model = RearAxleModel::seed_vehicle(config.sample_time).unwrap();
-    let mut workspace = SmootherWorkspace::new();
-    bencher.bench_local(|| {
-        expectation_step(
-            &model,
-            &simulated.run,
-            config.filter,
-            proposal,
-            simulated.run.measurements[0],
-            theta,
-            &mut workspace,
-        )
-        .unwrap()
-    });
-}
-
-#[divan::bench(sample_count = 3, sample_size = 1)]
-fn seed003_identification(bencher: Bencher) {
-    let config = Seed003Config::default();
-    let simulated = simulate(&config, 1).unwrap();
-    bencher.bench_local(|| identify_seed003(&config, &simulated).unwrap());
 }

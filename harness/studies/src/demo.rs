@@ -13,7 +13,7 @@ use std::time::SystemTime;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use estimation::identification::seed003::{
+use crate::seed003::{
     Seed003Config, SEED_TABLE_3_1_FILTER, SEED_TABLE_3_1_SMOOTHER, SEED_TABLE_3_2_IDENTIFIED,
     SEED_TABLE_3_2_RELATIVE_PERCENT,
 };
@@ -94,7 +94,7 @@ pub const EXPERIMENTS: [(&str, &str, &str); 12] = [
 pub const SEED003_IDENTIFICATION: &str = "identification/seed003_identification.toml";
 
 /// The noise seeds of the demo's seed-003 identification: the library's default list, the same
-/// as `cargo run --release -p estimation --example seed003_identification`.
+/// as `cargo run --release -p harness --example seed003_identification`.
 pub fn seed003_noise_seeds() -> Vec<u64> {
     Seed003Config::default().noise_seeds
 }
@@ -1141,7 +1141,7 @@ fn seed003_section(
     };
     doc.paragraph(format!(
         "Offline, without FMUs: `cargo run --release -p harness -- identify harness/scenarios/{SEED003_IDENTIFICATION} --seeds {runs}` \
-         computes the same (module `harness::identify`, library `estimation::identification::seed003`). Model C with the seed's \
+         computes the same (module `harness::identify`, module `harness::seed003` on the library `estimation::identification`). Model C with the seed's \
          vehicle (003: 3.14-3.18) generates {} samples at {} s with the seed's measurement noise (0.005 m/s, 0.02 °/s, 0.005 °) \
          for each of the noise seeds {}; the seed's measured lane change is not available, so the input is the library's synthetic \
          drive (`seed003_input`). The particle filter and smoother (N = {} particles) run with the true parameters for table 3.1; \

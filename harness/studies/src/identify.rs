@@ -15,11 +15,11 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{anyhow, bail, Context, Result};
-use estimation::identification::seed003::{
+use crate::seed003::{
     self, mean_and_spread, Seed003Config, SEED_TABLE_3_1_FILTER, SEED_TABLE_3_1_SMOOTHER,
     SEED_TABLE_3_2_IDENTIFIED, SEED_TABLE_3_2_RELATIVE_PERCENT,
 };
+use anyhow::{anyhow, bail, Context, Result};
 use estimation::identification::{EmResult, EmSchedule};
 use estimation::models::rear_axle::{
     seed_identification_start, seed_parameters, RearAxleModel, RearAxleParameterVector,

@@ -7,3 +7,4 @@
 pub mod demo;
 pub mod identify;
 pub mod mismatch;
+pub mod seed003;

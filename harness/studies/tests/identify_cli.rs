@@ -211,10 +211,10 @@ fn the_shipped_file_is_seed_003_section_3_2() {
     let job = identify::load(&path, &JobOverrides::default()).unwrap();
     assert_eq!(job.data, JobData::Simulated);
     assert_eq!(job.truth, Some(TRUTH));
-    let library = estimation::identification::seed003::Seed003Config::default();
+    let library = harness::seed003::Seed003Config::default();
     assert_eq!(
         job.config,
-        estimation::identification::seed003::Seed003Config {
+        harness::seed003::Seed003Config {
             noise_seeds: vec![library.noise_seeds[0]],
             ..library
         }

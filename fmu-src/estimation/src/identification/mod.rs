@@ -25,7 +25,6 @@
 //! the parameters and the iteration settles instead of jittering with Monte-Carlo noise.
 
 pub mod accelerated;
-pub mod seed003;
 
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
@@ -101,7 +100,7 @@ pub struct EmConfig<const N: usize> {
     /// The particle filter of the E-step (particle count, resampling, seed).
     pub filter: ParticleFilterConfig,
     /// Its proposal. The seed uses the bootstrap proposal (003: 2.58); the seed-003 reproduction
-    /// defaults to the linearised optimal one (see [`seed003::Seed003Config::proposal`]).
+    /// (`harness::seed003` in the studies crate) defaults to the linearised optimal one.
     pub proposal: Proposal,
     /// Prior of the initial state.
     pub initial_state: SVector<f64, N>,

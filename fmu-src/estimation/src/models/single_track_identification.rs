@@ -243,7 +243,7 @@ impl Default for CorneringIdentificationConfig {
                 seed: 1,
             },
             // The bootstrap filter degenerates with R this much tighter than Q on ay (see
-            // `identification::seed003` for the same choice).
+            // the seed-003 reproduction, `harness::seed003`, for the same choice).
             proposal: Proposal::LinearisedOptimal,
             tolerance: 3e-3,
             max_cycles: 20,
