@@ -22,7 +22,9 @@ any key of seed 00N              ``seed-00N`` (the source itself)
 A range (``5.66-5.73``, ``A.25-A.32``, ``eqs 6-11``) needs both ends, ``7.4/7.5`` both numbers.
 Words around the number (``text before table 5.2``, ``table after 5.73``, ``ch. 7 intro``,
 ``4.64-4.75 order: ...``) are read past; an item that starts with no number (``18 m/s``,
-``about 3.7``, a quoted phrase) quotes the source and names no target. Standard library only.
+``about 3.7``, a quoted phrase) quotes the source and names no target. The same keys in running
+text (``seed 000, ch. 7.2``, ``Seed 003 §3.2``, ``SPEC section 7``) are checked too. Standard
+library only.
 """
 
 from __future__ import annotations
@@ -58,8 +60,13 @@ KNOWN_MISCITATIONS = {
 
 CITATION_START = re.compile(r"\((00[0-4]):")
 SEED_PREFIX = re.compile(r"\b(00[0-4]):\s*")
-SPEC_KEY = re.compile(r"SPEC §\s*(\d+(?:\.\d+)*)")
+SPEC_KEY = re.compile(r"SPEC (?:§|section )\s*(\d+(?:\.\d+)*)")
 QUOTED = re.compile(r'"[^"]*"|“[^”]*”|„[^“”]*[“”]|`[^`]*`')
+# The same keys in running text: "seed 000, ch. 7.2", "Seed 003 §3.2", "000 table 5.1".
+PROSE_KEY = re.compile(
+    r"\b(?:[Ss]eed\s+)?(00[0-4]),?\s+((?:§|ch\.|eqs?|table|fig\.)\s*"
+    r"(?:A\.)?\d+(?:\.\d+)*(?:\s*[-–/]\s*(?:A\.)?\d+(?:\.\d+)*)?)"
+)
 ANCHOR = re.compile(r"""\bid\s*=\s*["']([^"']+)["']""")
 
 NUMBER = r"(?:A\.)?\d+(?:\.\d+)*"
@@ -166,15 +173,21 @@ class Citation:
     anchor_ids: tuple[tuple[str, ...], ...]
 
 
+def seed_citation(path: Path, line_number: int, raw: str, seed: str, targets: list[Target]):
+    anchors = [(f"seed-{seed}",)] + [tuple(t.anchor_ids()) for t in targets]
+    return Citation(path, line_number, raw, tuple(targets), tuple(anchors))
+
+
 def citations_in_line(path: Path, line_number: int, line: str) -> list[Citation]:
     found = []
     for match in CITATION_START.finditer(line):
         seed = match[1]
         body = citation_text(line, match.start())
         targets = parse_citation(body[len(seed) + 1:], seed)
-        raw = "(" + body + ")"
-        anchors = [(f"seed-{seed}",)] + [tuple(t.anchor_ids()) for t in targets]
-        found.append(Citation(path, line_number, raw, tuple(targets), tuple(anchors)))
+        found.append(seed_citation(path, line_number, "(" + body + ")", seed, targets))
+    for match in PROSE_KEY.finditer(line):
+        targets = parse_items(match[1], match[2])
+        found.append(seed_citation(path, line_number, match[0], match[1], targets))
     for match in SPEC_KEY.finditer(line):
         found.append(Citation(path, line_number, match[0], (), ((f"spec-{match[1]}",),)))
     return found
@@ -287,6 +300,9 @@ def test_known_miscitations_are_still_present():
         ("(000: about 3.7)", []),
         ("(001: ref. 7)", [("001", "ref", "7")]),
         ("(000: fig. 7.1, 7.18)", [("000", "fig", "7.1"), ("000", "fig", "7.18")]),
+        ("as in seed 000, ch. 7.2.1 and", [("000", "sec", "7.2.1")]),
+        ("Seed 003 §3.2 in simulation", [("003", "sec", "3.2")]),
+        ("(seed 000, eqs 5.16-5.22)", [("000", "eq", "5.16"), ("000", "eq", "5.22")]),
         ("(003: §2.2, 2.76-2.78)",
          [("003", "sec", "2.2"), ("003", None, "2.76"), ("003", None, "2.78")]),
     ],
