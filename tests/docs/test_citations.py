@@ -84,13 +84,15 @@ ITEM = re.compile(
     re.VERBOSE | re.IGNORECASE,
 )
 
+# Kind of target per word, singular and without the abbreviation's dot ("eqs." -> "eq").
 KIND_OF_WORD = {
-    "eq": "eq", "eqs": "eq", "eq.": "eq", "eqs.": "eq", "equation": "eq", "equations": "eq",
-    "§": "sec", "ch": "sec", "ch.": "sec", "chapter": "sec", "sec": "sec", "sec.": "sec",
-    "section": "sec", "table": "table", "tables": "table", "fig": "fig", "fig.": "fig",
-    "figs": "fig", "figs.": "fig", "figure": "fig", "figures": "fig", "ref": "ref",
-    "ref.": "ref", "refs": "ref", "refs.": "ref",
+    "eq": "eq", "equation": "eq", "§": "sec", "ch": "sec", "chapter": "sec", "sec": "sec",
+    "section": "sec", "table": "table", "fig": "fig", "figure": "fig", "ref": "ref",
 }
+
+
+def kind_of(word: str | None) -> str | None:
+    return KIND_OF_WORD.get(word.lower().rstrip(".").removesuffix("s")) if word else None
 
 
 # Kinds whose lists continue without repeating the word; a bare dotted number after "§3.1, "
@@ -139,18 +141,20 @@ def parse_items(seed: str, body: str) -> list[Target]:
         match = ITEM.match(item.strip())
         if not match:
             continue  # a quotation or a value ("18 m/s", "about 3.7"): no target
-        kind = KIND_OF_WORD.get((match["kind"] or "").lower())
-        if kind and match["qualifier"]:
-            kind = None  # "table after 5.73": the table that follows equation 5.73
+        word_kind = kind_of(match["kind"])
         numbers = [match["first"]] + ([match["second"]] if match["second"] else [])
-        if kind is not None:
-            inherited_kind = kind
+        if word_kind and match["qualifier"]:
+            kind = None  # "table after 5.73": the table that follows equation 5.73
+        elif word_kind:
+            kind = inherited_kind = word_kind
         elif "." not in match["first"]:
             if match["rest"].strip():
                 continue  # "60 rad/s": a value, not a reference
             kind = inherited_kind or "sec"  # "eqs 2, 11"; "(002: 4)" is section 4
         elif inherited_kind in LISTED_KINDS:
             kind = inherited_kind  # "fig. 7.1, 7.18"
+        else:
+            kind = None
         targets.extend(Target(seed, kind, number) for number in numbers)
     return targets
 
@@ -288,6 +292,7 @@ def test_known_miscitations_are_still_present():
         ("(000: 4.64-4.75 order: predict with `u(k)`, then update)",
          [("000", None, "4.64"), ("000", None, "4.75")]),
         ("(000: table after 5.73, sR ≤ 0.5)", [("000", None, "5.73")]),
+        ("(000: table 5.2, table after 5.73)", [("000", "table", "5.2"), ("000", None, "5.73")]),
         ("(000: text before table 5.2)", [("000", "table", "5.2")]),
         ("(000: 5.40 with 001: eq 1)", [("000", None, "5.40"), ("001", "eq", "1")]),
         ("(000: 4.99 ff., 003: 2.22-2.23)",
