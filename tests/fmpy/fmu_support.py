@@ -8,6 +8,7 @@ never hard-coded, so the tests follow the XML (the single source of truth of the
 
 import os
 import pathlib
+import tomllib
 
 import numpy as np
 from fmpy import read_model_description
@@ -31,13 +32,16 @@ ESTIMATE_OUTPUTS = ["vx_est", "vy_est", "yaw_rate_est", "omega_front_est", "omeg
 # Enumeration values fixed by issue 4 point 2.
 ESTIMATOR_KINDS = {"lkf": 1, "ekf": 2, "ukf": 3, "ukf_scaled": 4, "particle_filter": 5, "luenberger": 6}
 
-# Seed-000 manoeuvres (SPEC section 7; durations as fmu-src/vehicle-models/src/manoeuvre.rs defines
-# them once for the project: 12 s, steering starts at 4 s with 0.07 rad/s).
-MANOEUVRE_DURATION = 12.0
-STEER_START_TIME = 4.0
-STEER_RAMP_RATE = 0.07
-MODERATE_RAMP_ANGLE = 0.035
-HIGH_RAMP_ANGLE = 0.122
+# Seed-000 manoeuvres (SPEC section 7), defined once for the project in the Rust crate
+# harness/manoeuvres (src/seed000.rs) and read here from the table it generates (a Rust test keeps
+# the table current): 12 s, steering starts at 4 s with 0.07 rad/s.
+with open(ROOT / "harness" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
+    SEED000_MANOEUVRES = tomllib.load(_table_file)
+MANOEUVRE_DURATION = SEED000_MANOEUVRES["manoeuvre_duration"]
+STEER_START_TIME = SEED000_MANOEUVRES["steer_start_time"]
+STEER_RAMP_RATE = SEED000_MANOEUVRES["steer_ramp_rate"]
+MODERATE_RAMP_ANGLE = SEED000_MANOEUVRES["moderate_ramp_angle"]
+HIGH_RAMP_ANGLE = SEED000_MANOEUVRES["high_ramp_angle"]
 
 
 def fmu_directory() -> pathlib.Path:
@@ -177,7 +181,7 @@ def seed000_vehicle_parameters(vehicle: Interface):
     parameters = {
         "model": vehicle.enumeration_value("model", "single_track_hsri"),
         "noise": True,
-        "vx0": 18.0,
+        "vx0": SEED000_MANOEUVRES["initial_speed"],
     }
     for name in vehicle.names("parameter"):
         if name.startswith("quantum_") or name in ("sensor_sample_period", "sensor_latency"):
@@ -188,7 +192,7 @@ def seed000_vehicle_parameters(vehicle: Interface):
 def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind: str):
     """The seed-000 filter set-up: model A at 1 ms, Q = diag(w^2) and R = diag(v^2) with the noise
     levels the reference vehicle actually uses, start at the reference's initial state."""
-    vx0 = 18.0
+    vx0 = SEED000_MANOEUVRES["initial_speed"]
     wheel_speed = vx0 / vehicle.start("wheel_radius")
     parameters = {
         "estimator": estimator.enumeration_value("estimator", kind),

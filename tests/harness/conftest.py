@@ -4,10 +4,15 @@ builds it) and the release build of the harness binary."""
 import os
 import pathlib
 import subprocess
+import tomllib
 
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+# The seed-000 manoeuvre numbers, generated from the Rust crate harness/manoeuvres (src/seed000.rs).
+with open(ROOT / "harness" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
+    SEED000_MANOEUVRES = tomllib.load(_table_file)
 
 
 def target_directory() -> pathlib.Path:

@@ -10,14 +10,15 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from conftest import run_harness
+from conftest import SEED000_MANOEUVRES, run_harness
 
 HERE = pathlib.Path(__file__).resolve().parent
 SCENARIO = HERE / "equivalence.toml"
 
 
-def ramp(t, start=4.0, rate=0.07, final=0.122):
-    # Same floating-point operations as harness::manoeuvre (SteerRamp).
+def ramp(t, start=SEED000_MANOEUVRES["steer_start_time"], rate=SEED000_MANOEUVRES["steer_ramp_rate"],
+         final=SEED000_MANOEUVRES["high_ramp_angle"]):
+    # Same floating-point operations as the manoeuvres crate's SteerRamp.
     return 0.0 if t <= start else min(rate * (t - start), final)
 
 
@@ -75,7 +76,7 @@ def fmpy_master(scenario, fmu_dir, unzip_root):
     for instance, parameters in instances:
         values = dict(parameters)
         if instance is vehicle:
-            values["vx0"] = 18.0  # the manoeuvre's initial_speed
+            values["vx0"] = SEED000_MANOEUVRES["initial_speed"]  # the manoeuvre's initial_speed
         instance.set(values)
         instance.fmu.setupExperiment(startTime=0.0, stopTime=stop)
         instance.fmu.enterInitializationMode()

@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p vehicle-models --example seed_manoeuvres`
 
-use vehicle_models::manoeuvre::{SeedManoeuvre, SEED_INITIAL_SPEED, SEED_MANOEUVRE_DURATION};
+use manoeuvres::seed000::{SeedManoeuvre, SEED_INITIAL_SPEED, SEED_MANOEUVRE_DURATION};
 use vehicle_models::{Integrator, SingleTrackHsri, TwoTrackMagicFormula, VehicleTruth};
 
 /// Sample time of the reference runs, s (000: ch. 7, T = 0.001 s).

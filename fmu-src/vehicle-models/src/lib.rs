@@ -24,7 +24,9 @@
 
 pub mod driver_input;
 pub mod integrator;
-pub mod manoeuvre;
+/// The seed-000 manoeuvres, defined once in the `manoeuvres` crate (also the operating point's
+/// initial speeds, [`single_track::seed_operating_point`]).
+pub use manoeuvres::seed000 as manoeuvre;
 pub mod rear_axle;
 pub mod reference;
 pub mod scalar;

@@ -32,8 +32,8 @@ use fmi::traits::FmiInstance;
 
 use crate::fmu::{LoadedFmu, VariableInfo, VariableType};
 use crate::fmu_log;
-use crate::manoeuvre::{Channel, Manoeuvre, ManoeuvreRun, VehicleMotion};
 use crate::scenario::{Scenario, VarRef};
+use manoeuvres::{Channel, Manoeuvre, ManoeuvreRun, VehicleMotion};
 
 /// The scenario with its FMUs loaded (each distinct .fmu file once) and every name resolved.
 pub struct Plan {

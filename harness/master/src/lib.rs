@@ -1,5 +1,5 @@
-//! A general FMI 2.0 Co-Simulation master: scenario files, the manoeuvre signals, the
-//! co-simulation loop ([`cosim::Plan`]), FMU loading and logging, recording to CSV, scoring
+//! A general FMI 2.0 Co-Simulation master: scenario files driving the manoeuvre signals of the
+//! `manoeuvres` crate, the co-simulation loop ([`cosim::Plan`]), FMU loading and logging, recording to CSV, scoring
 //! against a truth, Monte Carlo campaigns, plots and report primitives.
 //!
 //! FMUs are reached only through the `fmi` crate. This crate depends on no estimator, vehicle
@@ -10,7 +10,7 @@
 pub mod cosim;
 pub mod fmu;
 pub mod fmu_log;
-pub mod manoeuvre;
+
 pub mod montecarlo;
 pub mod plot;
 pub mod recording;

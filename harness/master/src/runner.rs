@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, bail, Context, Result};
 
 use crate::cosim::{ParameterValue, Plan, RunOptions, RunResult};
-use crate::manoeuvre::{Manoeuvre, GRAVITY};
 use crate::plot;
 use crate::recording;
 use crate::scenario::{Scenario, VarRef};
 use crate::scoring::{self, RunScores};
+use manoeuvres::{Manoeuvre, GRAVITY};
 
 /// Where FMUs come from and where everything goes.
 #[derive(Debug, Clone)]

@@ -33,7 +33,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use crate::manoeuvre::{self, Channel, Manoeuvre};
+use manoeuvres::{Channel, Manoeuvre};
 
 /// A scenario file could not be used. The message names the file and the field.
 #[derive(Debug, thiserror::Error)]
@@ -92,7 +92,7 @@ pub struct Scenario {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ManoeuvreSection {
-    /// Name of a library manoeuvre (see `manoeuvre::LIBRARY`).
+    /// Name of a library manoeuvre (see `manoeuvres::LIBRARY`).
     #[serde(default)]
     pub library: Option<String>,
     /// A manoeuvre defined in place: `kind = "..."` plus that kind's fields.
@@ -470,12 +470,12 @@ impl Scenario {
             return Ok(None);
         };
         let m = match (&section.library, &section.custom) {
-            (Some(name), None) => manoeuvre::library(name).ok_or_else(|| {
+            (Some(name), None) => manoeuvres::library(name).ok_or_else(|| {
                 self.field_error(
                     "manoeuvre.library",
                     format!(
                         "unknown manoeuvre {name:?}; the library has {}",
-                        manoeuvre::LIBRARY.join(", ")
+                        manoeuvres::LIBRARY.join(", ")
                     ),
                 )
             })?,

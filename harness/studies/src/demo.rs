@@ -23,12 +23,12 @@ use estimation::particle::Proposal;
 
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
 use crate::mismatch::{self, MismatchReport};
-use fmi_master::manoeuvre::{self, Channel, ManoeuvreRun};
 use fmi_master::plot::{self, Panel, Series};
 use fmi_master::report::Document;
 use fmi_master::runner::{self, Environment, RunOutput};
 use fmi_master::scenario::Scenario;
 use fmi_master::scoring::{RunScores, StateScore};
+use manoeuvres::{Channel, ManoeuvreRun};
 
 /// The experiments, in report order: (scenario file, seed, section title).
 pub const EXPERIMENTS: [(&str, &str, &str); 12] = [
@@ -544,11 +544,11 @@ pub fn seed003_findings(outcome: &Outcome) -> Vec<Finding> {
 pub fn draw_library(path: &Path) -> Result<Vec<(String, String)>> {
     let mut panels = Vec::new();
     let mut table = Vec::new();
-    for name in manoeuvre::LIBRARY {
-        let m = manoeuvre::library(name).expect("library names resolve");
+    for name in manoeuvres::LIBRARY {
+        let m = manoeuvres::library(name).expect("library names resolve");
         table.push((
             name.to_string(),
-            manoeuvre::describe(name).unwrap_or_default(),
+            manoeuvres::describe(name).unwrap_or_default(),
         ));
         if name == "straight_coasting" {
             continue;
@@ -857,7 +857,7 @@ fn write_report(
 
     doc.heading(2, "Manoeuvre library");
     doc.paragraph(
-        "Each manoeuvre is defined once in `harness/master/src/manoeuvre.rs`. The seeds leave durations, rise times \
+        "Each manoeuvre is defined once in the `manoeuvres` crate (`harness/manoeuvres/src/lib.rs`). The seeds leave durations, rise times \
          and the wobble frequency open; the values chosen are these:",
     );
     let library_png = out.join("manoeuvres.png");

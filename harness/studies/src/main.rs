@@ -9,9 +9,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use fmi_master::cosim::Plan;
 use fmi_master::fmu::LoadedFmu;
+use fmi_master::montecarlo;
 use fmi_master::runner::{self, Environment};
 use fmi_master::scenario::{Scenario, VarRef};
-use fmi_master::{manoeuvre, montecarlo};
 use harness::demo::{self, DemoOptions};
 use harness::identify::{self, JobOverrides};
 
@@ -338,10 +338,10 @@ fn execute(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Manoeuvres => {
-            for name in manoeuvre::LIBRARY {
+            for name in manoeuvres::LIBRARY {
                 println!(
                     "{name}\n    {}",
-                    manoeuvre::describe(name).unwrap_or_default()
+                    manoeuvres::describe(name).unwrap_or_default()
                 );
             }
             Ok(())

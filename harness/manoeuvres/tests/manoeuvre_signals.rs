@@ -1,7 +1,7 @@
 //! The manoeuvre library produces the signals the seeds describe.
 
 use approx::assert_relative_eq;
-use fmi_master::manoeuvre::{
+use manoeuvres::{
     library, Channel, Manoeuvre, ManoeuvreRun, VehicleMotion, LIBRARY, STEERING_RATIO,
 };
 
@@ -21,7 +21,7 @@ fn every_library_name_resolves_and_validates() {
     for name in LIBRARY {
         let m = library(name).unwrap_or_else(|| panic!("{name}"));
         m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert!(fmi_master::manoeuvre::describe(name).is_some());
+        assert!(manoeuvres::describe(name).is_some());
     }
     assert!(library("nope").is_none());
 }
@@ -214,10 +214,7 @@ fn moose_test_course_follows_iso_3888_2() {
     let Manoeuvre::DoubleLaneChange(d) = &m else {
         panic!()
     };
-    assert_eq!(
-        d.course,
-        fmi_master::manoeuvre::LaneChangeCourse::Iso3888Part2
-    );
+    assert_eq!(d.course, manoeuvres::LaneChangeCourse::Iso3888Part2);
     let lane_1_end = d.approach + 12.0;
     let lane_3_start = lane_1_end + 13.5;
     let lane_3_end = lane_3_start + 11.0;
@@ -260,4 +257,67 @@ fn speed_controller_drives_when_slower_than_the_target() {
     );
     assert!(run.value(Channel::DriveTorque, 0.0) > 0.0);
     assert_eq!(run.value(Channel::BrakeTorque, 0.0), 0.0);
+}
+
+/// The seed-000 manoeuvres as the models' tests drive them: the closed forms of seed 000 ch. 7
+/// (ramp `min(0.07 max(t - 4, 0), limit)`, brake `min(max(t - 9, 0) / 2, 1) 2000`, step 2° at
+/// 4 s), bit for bit, on a 1 ms grid to the end and a rounding step beyond it.
+#[test]
+fn seed000_signals_are_the_closed_forms_bit_for_bit() {
+    use manoeuvres::seed000::SeedManoeuvre;
+    let ramp = |t: f64, limit: f64| ((t - 4.0_f64).max(0.0) * 0.07).min(limit);
+    let brake = |t: f64| ((t - 9.0_f64).max(0.0) / 2.0).min(1.0) * 2000.0;
+    let step = |t: f64| {
+        if t >= 4.0 {
+            2.0 * std::f64::consts::PI / 180.0
+        } else {
+            0.0
+        }
+    };
+    let mut times: Vec<f64> = (0..=12_000).map(|k| k as f64 * 0.001).collect();
+    times.push(12.0 + 1e-12);
+    for t in times {
+        let expected = [
+            (SeedManoeuvre::ModerateRamp, ramp(t, 0.035), 0.0),
+            (SeedManoeuvre::HighRamp, ramp(t, 0.122), 0.0),
+            (SeedManoeuvre::HighRampBraking, ramp(t, 0.122), brake(t)),
+            (SeedManoeuvre::StepSteer, step(t), 0.0),
+        ];
+        for (manoeuvre, steering, braking) in expected {
+            let u = manoeuvre.input_at(t);
+            assert_eq!(
+                u.steering_angle.to_bits(),
+                steering.to_bits(),
+                "{manoeuvre:?} t={t}"
+            );
+            assert_eq!(
+                u.brake_torque.to_bits(),
+                braking.to_bits(),
+                "{manoeuvre:?} t={t}"
+            );
+            assert_eq!(u.drive_torque, 0.0);
+        }
+    }
+}
+
+/// The Python tests read the seed-000 numbers from this generated table; it must be current.
+/// `UPDATE_MANOEUVRE_TABLE=1 cargo test -p manoeuvres` rewrites it.
+#[test]
+fn the_generated_seed000_table_is_current() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("seed000_manoeuvres.toml");
+    let generated = format!(
+        "# Generated from harness/manoeuvres/src/seed000.rs by its test \
+         (UPDATE_MANOEUVRE_TABLE=1 cargo test -p manoeuvres); do not edit.\n{}",
+        toml::to_string(&manoeuvres::seed000::Seed000Table::TABLE).unwrap()
+    );
+    if std::env::var_os("UPDATE_MANOEUVRE_TABLE").is_some() {
+        std::fs::write(&path, &generated).unwrap();
+    }
+    let stored = std::fs::read_to_string(&path).unwrap_or_default();
+    assert_eq!(
+        stored,
+        generated,
+        "{} is stale: run UPDATE_MANOEUVRE_TABLE=1 cargo test -p manoeuvres",
+        path.display()
+    );
 }

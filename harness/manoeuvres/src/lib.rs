@@ -1,8 +1,11 @@
-//! The manoeuvre library: driver inputs (steering, drive and brake torque) and initial speed.
+//! The manoeuvre library: driver inputs (steering, drive and brake torque) and initial speed,
+//! as pure signal definitions (no model, no FMI).
 //!
 //! Every manoeuvre of the seeds is defined exactly once here ([`library`]); scenario files refer
-//! to them by name. The numbers the seeds leave open (where a manoeuvre ends, how fast a "step"
-//! rises, the wobble frequency, ...) are chosen here once and listed by [`describe`] in the report.
+//! to them by name, the models' tests drive the seed-000 ones through [`seed000`], and the Python
+//! tests read [`seed000`]'s numbers from the generated table `seed000_manoeuvres.toml`. The
+//! numbers the seeds leave open (where a manoeuvre ends, how fast a "step" rises, the wobble
+//! frequency, ...) are chosen here once and listed by [`describe`] in the report.
 //!
 //! Conventions (SPEC section 2): `steering_angle` is the front road-wheel angle [rad], positive
 //! to the left; `steering_wheel_angle = steering_angle * i_L` with `i_L = 14.97` (000: table 5.1);
@@ -11,7 +14,15 @@
 
 use serde::Deserialize;
 
-/// Steering ratio i_L (000: table 5.1).
+pub mod seed000;
+
+use seed000::{
+    BRAKE_RAMP_DURATION, BRAKE_START_TIME, BRAKE_TORQUE_FINAL, HIGH_RAMP_ANGLE,
+    MODERATE_RAMP_ANGLE, SEED_INITIAL_SPEED, SEED_MANOEUVRE_DURATION, STEER_RAMP_RATE,
+    STEER_START_TIME, STEP_STEER_ANGLE,
+};
+
+/// Steering ratio i_L (000: table 5.1): the one value of the master and the manoeuvres.
 pub const STEERING_RATIO: f64 = 14.97;
 const DEG: f64 = std::f64::consts::PI / 180.0;
 const KMH: f64 = 1.0 / 3.6;
@@ -225,36 +236,38 @@ pub const LIBRARY: [&str; 11] = [
 pub fn library(name: &str) -> Option<Manoeuvre> {
     // Seed 000, ch. 7: all start at vx = 18 m/s; the seed's figures end at 12 s (the brake is
     // held "until 12 s"), so every ramp runs 12 s.
-    let seed000_speed = 18.0;
+    let seed000_speed = SEED_INITIAL_SPEED;
     let ramp = |final_angle: f64, brake: Option<BrakeRamp>| {
         Manoeuvre::SteerRamp(SteerRamp {
-            start_time: 4.0,
-            rate: 0.07,
+            start_time: STEER_START_TIME,
+            rate: STEER_RAMP_RATE,
             final_angle,
             initial_speed: seed000_speed,
-            duration: 12.0,
+            duration: SEED_MANOEUVRE_DURATION,
             brake,
         })
     };
     Some(match name {
         // 000 ch. 7.1: 0 until 4 s, +0.07 rad/s up to 0.035 rad, hold.
-        "seed000_ramp_moderate_ay" => ramp(0.035, None),
+        "seed000_ramp_moderate_ay" => ramp(MODERATE_RAMP_ANGLE, None),
         // 000 ch. 7.2: same slope up to 0.122 rad.
-        "seed000_ramp_high_ay" => ramp(0.122, None),
+        "seed000_ramp_high_ay" => ramp(HIGH_RAMP_ANGLE, None),
         // 000 ch. 7.2.1: brake 0 until 9 s, ramp to 2000 N·m within 2 s, hold to 12 s.
         "seed000_ramp_high_ay_braking" => ramp(
-            0.122,
+            HIGH_RAMP_ANGLE,
             Some(BrakeRamp {
-                start_time: 9.0,
-                ramp_duration: 2.0,
-                torque: 2000.0,
-                end_time: 12.0,
+                start_time: BRAKE_START_TIME,
+                ramp_duration: BRAKE_RAMP_DURATION,
+                torque: BRAKE_TORQUE_FINAL,
+                end_time: SEED_MANOEUVRE_DURATION,
             }),
         ),
-        // 000 ch. 7.3: "synthetic" step 0 -> 2 deg at about 4 s: an ideal step at 4 s.
+        // 000 ch. 7.3: "synthetic" step 0 -> 2 deg at about 4 s: an ideal step at 4 s. The
+        // co-simulated step runs 8 s (4 s of steady state); seed000::SEED_MANOEUVRE_DURATION
+        // is the model tests' horizon.
         "seed000_step_steer_2deg" => Manoeuvre::StepSteer(StepSteer {
-            time: 4.0,
-            angle: 2.0 * DEG,
+            time: STEER_START_TIME,
+            angle: STEP_STEER_ANGLE,
             rise_time: 0.0,
             initial_speed: seed000_speed,
             duration: 8.0,
