@@ -16,9 +16,10 @@
 
 use std::hint::black_box;
 
-use estimation::kalman::{EstimatorKind, InitialEstimate, KalmanEstimator};
-use estimation::models::single_track::{single_track_kind, SingleTrackEstimationModel};
-use estimation::{Estimator, StateSpaceModel};
+use estimation::kalman::{InitialEstimate, SigmaPoints};
+use estimation::models::single_track::SingleTrackEstimationModel;
+use estimation::registry::{self, BoxedEstimator, EstimatorChoice};
+use estimation::StateSpaceModel;
 use nalgebra::SVector;
 
 fn main() {
@@ -45,13 +46,14 @@ fn operating_case() -> (SVector<f64, 5>, SVector<f64, 3>, SVector<f64, 4>) {
 }
 
 /// The filter `name` after 500 steps at the operating case, so that its covariance is settled.
-fn settled(name: &str) -> KalmanEstimator<SingleTrackEstimationModel, 5, 4, 3> {
+fn settled(name: &str) -> BoxedEstimator<5, 4, 3> {
     let model = SingleTrackEstimationModel::seed_000(SAMPLE_TIME).unwrap();
-    let kind: EstimatorKind<5, 3> = single_track_kind(&model, name, (0.5, 2.0, 0.0)).unwrap();
+    let settings = model.seed_settings();
+    let choice = EstimatorChoice::from_name(name).unwrap();
     let (x, u, y) = operating_case();
     let initial =
         InitialEstimate::diagonal(x, SVector::<f64, 5>::from([1e-2, 1e-4, 1e-4, 1e-2, 1e-2]));
-    let mut filter = KalmanEstimator::build(model, &kind, &initial).unwrap();
+    let mut filter = registry::build(model, choice, &settings, &initial).unwrap();
     for _ in 0..500 {
         let _ = filter.predict(&u);
         let _ = filter.update(&y, &u, &[true; 4]);
@@ -171,11 +173,7 @@ fn summary() {
     let (_, u, y) = operating_case();
     let model = SingleTrackEstimationModel::seed_000(SAMPLE_TIME).unwrap();
     let z = to_numeris(&y);
-    let mut ours: Vec<(
-        &str,
-        f64,
-        KalmanEstimator<SingleTrackEstimationModel, 5, 4, 3>,
-    )> = vec![
+    let mut ours: Vec<(&str, f64, BoxedEstimator<5, 4, 3>)> = vec![
         ("LKF", 0.5, settled("lkf")),
         ("EKF", 1.5, settled("ekf")),
         ("UKF 2n", 2.5, settled("ukf")),
@@ -277,14 +275,19 @@ fn model_a_measurement_jacobian(bencher: divan::Bencher) {
 /// The seed-001 estimator (model B, 3-state form, Magic Formula) in a steady 40° steering-wheel
 /// turn at 65 km/h, T = 10 ms: the scaled UKF the seed proposes and its linear comparison filter.
 fn bench_two_track_step(bencher: divan::Bencher, name: &str) {
-    use estimation::models::two_track::{two_track_kind, TwoTrackEstimationModel, SEED_001_SPEED};
+    use estimation::models::two_track::{TwoTrackEstimationModel, SEED_001_SPEED};
     let model = TwoTrackEstimationModel::seed_001(0.01).unwrap();
-    let kind = two_track_kind(name, (0.5, 2.0, 0.0), SEED_001_SPEED).unwrap();
+    let settings = model.estimator_settings(
+        SEED_001_SPEED,
+        SigmaPoints::scaled(0.5, 2.0, 0.0),
+        Ok(Default::default()),
+    );
+    let choice = EstimatorChoice::from_name(name).unwrap();
     let x = SVector::<f64, 3>::from([-0.004, 0.27, 4.9]);
     let u = SVector::<f64, 2>::from([40f64.to_radians() / 14.97, SEED_001_SPEED]);
     let y = SVector::<f64, 2>::from([4.95, 0.272]);
     let initial = InitialEstimate::diagonal(x, SVector::<f64, 3>::from([1e-4, 1e-4, 1e-2]));
-    let mut filter = KalmanEstimator::build(model, &kind, &initial).unwrap();
+    let mut filter = registry::build(model, choice, &settings, &initial).unwrap();
     for _ in 0..200 {
         let _ = filter.predict(&u);
         let _ = filter.update(&y, &u, &[true; 2]);

@@ -1,5 +1,27 @@
 //! State estimators for vehicle dynamics, all generic over one model interface
 //! ([`StateSpaceModel`]), so that each runs on models A, B (3-state form) and C without copies.
+//!
+//! # Adding an estimator
+//!
+//! Say a square-root UKF. Exactly these places change:
+//!
+//! 1. **One new file** with the algorithm, e.g. `src/kalman/srukf.rs` (and its `mod` line in
+//!    `kalman/mod.rs`): the filter type, its [`Estimator`] implementation and its
+//!    [`registry::RunningEstimator`] implementation (`last_report`; a Kalman-type filter keeps
+//!    the default `save`/`restore` of `(x̂, P)`).
+//! 2. **One registry line** in the `registry!` invocation of [`registry`]: variant, name and how
+//!    it is built from the model, the [`registry::EstimatorSettings`] and the start. The FMU,
+//!    the tests, the benchmarks and the studies build through [`registry::build`], and the FMU
+//!    maps its parameter to [`registry::EstimatorChoice`] by item name, so none of them lists
+//!    the estimators.
+//! 3. **One XML item** in the `EstimatorKind` enumeration of
+//!    `modelDescription/VehicleStateEstimator.xml`, with the registry line's name (a test of the
+//!    FMU crate checks that the two lists agree). The generated Rust enum, the FMU's error
+//!    messages, the fmpy tests (they read the enumeration from the XML) and the documentation
+//!    follow from it.
+//!
+//! A new setting the estimator needs (a parameter of the FMU) is a field of
+//! [`registry::EstimatorSettings`] and a variable of the XML, beyond these three places.
 
 pub mod estimator;
 pub mod model;
@@ -18,6 +40,12 @@ pub mod models;
 
 /// SIR particle filter and resampling schemes (003: §2.2.4, A.4).
 pub mod particle;
+
+/// Every estimator, built by name on any model from one set of settings.
+pub mod registry;
+
+/// Where an estimator stores its running state (the host's byte format).
+pub mod snapshot;
 
 /// Reweighting (marginal) particle smoother (003: 2.63-2.75, 3.1-3.2).
 #[cfg(feature = "offline")]

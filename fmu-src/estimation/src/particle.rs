@@ -20,6 +20,7 @@ use rand_distr::StandardNormal;
 
 use crate::estimator::{Estimator, FilterIssue, MeasurementMask, UpdateReport};
 use crate::model::StateSpaceModel;
+use crate::snapshot::{SnapshotError, SnapshotSink, SnapshotSource};
 
 /// How a weighted particle set is turned into an equally weighted one (003: A.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -1011,4 +1012,128 @@ where
         }
     }
     history
+}
+
+/// Layout of a particle filter's stored state; a state written with another layout is refused
+/// by name instead of being misread.
+pub const SNAPSHOT_LAYOUT: u8 = 1;
+
+/// In the registry: the particle filter stores its whole running state ([`ParticleFilterSnapshot`],
+/// random generator position included), compactly: ancestors as u32 (an FMU allows at most
+/// 100000 particles), the propagated means only while the optimal proposal's noise draw is
+/// pending (otherwise the filter never reads them before overwriting them).
+impl<Model, const N: usize, const M: usize, const U: usize>
+    crate::registry::RunningEstimator<N, M, U> for ParticleFilter<Model, N, M, U>
+where
+    Model: crate::registry::RegistryModel<N, M, U>,
+{
+    fn last_report(&self) -> UpdateReport<M> {
+        UpdateReport::skipped()
+    }
+
+    fn save(&self, sink: &mut dyn SnapshotSink) {
+        let snapshot = self.snapshot();
+        sink.u8(SNAPSHOT_LAYOUT);
+        sink.bytes(&snapshot.rng_seed);
+        sink.u64(snapshot.rng_stream);
+        sink.u64(snapshot.rng_word_pos as u64);
+        sink.u64((snapshot.rng_word_pos >> 64) as u64);
+        let flat = |vectors: &[SVector<f64, N>]| -> Vec<f64> {
+            vectors.iter().flat_map(|v| v.iter().copied()).collect()
+        };
+        sink.f64s(&flat(&snapshot.particles));
+        sink.f64s(&snapshot.log_weights);
+        sink.f64s(&snapshot.weights);
+        sink.u64(snapshot.ancestors.len() as u64);
+        for &ancestor in &snapshot.ancestors {
+            sink.u32(ancestor as u32);
+        }
+        sink.bool(snapshot.noise_pending);
+        if snapshot.noise_pending {
+            sink.f64s(&flat(&snapshot.predicted_means));
+        }
+        sink.f64s(snapshot.estimate.as_slice());
+        sink.f64s(snapshot.covariance.as_slice());
+        sink.f64(snapshot.effective_sample_size);
+        sink.bool(snapshot.resampled_in_last_update);
+    }
+
+    /// Sizes are checked against this filter's particle count before anything is allocated.
+    fn restore(
+        &mut self,
+        source: &mut dyn SnapshotSource,
+    ) -> Result<crate::registry::Restored<N>, SnapshotError> {
+        let snapshot = read_snapshot(self, source)?;
+        self.restore(&snapshot)
+            .map_err(|e| SnapshotError(format!("particle filter state: {e}")))?;
+        Ok(crate::registry::Restored::InPlace)
+    }
+}
+
+/// Reads what `RunningEstimator::save` wrote for `filter`'s particle count.
+fn read_snapshot<Model, const N: usize, const M: usize, const U: usize>(
+    filter: &ParticleFilter<Model, N, M, U>,
+    source: &mut dyn SnapshotSource,
+) -> Result<ParticleFilterSnapshot<N>, SnapshotError>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    let layout = source.u8("particle state layout")?;
+    if layout != SNAPSHOT_LAYOUT {
+        return Err(SnapshotError(format!(
+            "particle filter state layout {layout}; expected {SNAPSHOT_LAYOUT}"
+        )));
+    }
+    let count = filter.config().particle_count;
+    let rng_seed: [u8; 32] = source
+        .bytes("particle filter random seed")?
+        .try_into()
+        .map_err(|_| SnapshotError("'particle filter random seed' must be 32 bytes".into()))?;
+    let rng_stream = source.u64("particle filter random stream")?;
+    let word_low = source.u64("particle filter random position")?;
+    let word_high = source.u64("particle filter random position")?;
+    let vectors = |values: Vec<f64>| -> Vec<SVector<f64, N>> {
+        values
+            .chunks_exact(N)
+            .map(SVector::from_column_slice)
+            .collect()
+    };
+    let particles = vectors(source.f64s("particles", count * N)?);
+    let log_weights = source.f64s("particle log weights", count)?;
+    let weights = source.f64s("particle weights", count)?;
+    let ancestor_count = source.u64("particle ancestors")?;
+    if ancestor_count != count as u64 {
+        return Err(SnapshotError(format!(
+            "'particle ancestors' has {ancestor_count} entries; expected {count} (particle_count)"
+        )));
+    }
+    let ancestors = (0..count)
+        .map(|_| source.u32("particle ancestors").map(|a| a as usize))
+        .collect::<Result<Vec<_>, _>>()?;
+    let noise_pending = source.bool("particle noise pending")?;
+    let predicted_means = if noise_pending {
+        vectors(source.f64s("particle predictions", count * N)?)
+    } else {
+        // Not read before the next propagation overwrites them: keep the filter's own.
+        filter.predicted_means.clone()
+    };
+    let mut estimate = SVector::<f64, N>::zeros();
+    source.f64s_into(estimate.as_mut_slice(), "particle estimate")?;
+    let mut covariance = SMatrix::<f64, N, N>::zeros();
+    source.f64s_into(covariance.as_mut_slice(), "particle covariance")?;
+    Ok(ParticleFilterSnapshot {
+        rng_seed,
+        rng_stream,
+        rng_word_pos: u128::from(word_low) | (u128::from(word_high) << 64),
+        particles,
+        log_weights,
+        weights,
+        ancestors,
+        predicted_means,
+        noise_pending,
+        estimate,
+        covariance,
+        effective_sample_size: source.f64("particle effective sample size")?,
+        resampled_in_last_update: source.bool("particle resampled flag")?,
+    })
 }

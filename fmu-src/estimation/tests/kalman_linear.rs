@@ -3,9 +3,10 @@
 mod kalman_support;
 
 use estimation::kalman::{
-    EstimatorKind, ExtendedKalmanFilter, InitialEstimate, KalmanEstimator, LinearKalmanFilter,
-    SigmaPoints, UnscentedKalmanFilter,
+    ExtendedKalmanFilter, InitialEstimate, LinearKalmanFilter, SettingsError, SigmaPoints,
+    UnscentedKalmanFilter,
 };
+use estimation::registry::{self, BoxedEstimator, EstimatorChoice, EstimatorSettings};
 use estimation::{Estimator, FilterIssue};
 use kalman_support::{simulate, three_state_model, LinearModel};
 use nalgebra::{SMatrix, SVector, Vector1, Vector3};
@@ -78,19 +79,42 @@ fn input(k: usize) -> SVector<f64, 1> {
     Vector1::new((0.05 * k as f64).sin() + if k > 100 { 0.5 } else { 0.0 })
 }
 
-fn all_kinds() -> Vec<(&'static str, EstimatorKind<3, 1>)> {
+/// The registry's settings for the three-state test model: the LKF about the origin, the given
+/// sigma points for the scaled UKF, no observer design and no particle filter.
+fn settings(scaled_sigma_points: SigmaPoints) -> EstimatorSettings<3, 1> {
+    EstimatorSettings {
+        operating_point: Ok((Vector3::zeros(), Vector1::zeros())),
+        scaled_sigma_points,
+        observer_design: Err(SettingsError("not needed".into())),
+        particles: Err(SettingsError("not needed".into())),
+    }
+}
+
+fn all_kinds() -> Vec<(&'static str, EstimatorChoice, EstimatorSettings<3, 1>)> {
+    let symmetric = settings(SigmaPoints::Symmetric);
     vec![
-        ("EKF", EstimatorKind::Extended),
-        ("UKF 2n", EstimatorKind::Unscented(SigmaPoints::Symmetric)),
+        ("EKF", EstimatorChoice::Ekf, symmetric.clone()),
+        ("UKF 2n", EstimatorChoice::Ukf, symmetric),
         (
             "UKF scaled",
-            EstimatorKind::Unscented(SigmaPoints::scaled(0.5, 2.0, 0.0)),
+            EstimatorChoice::UkfScaled,
+            settings(SigmaPoints::scaled(0.5, 2.0, 0.0)),
         ),
         (
             "UKF scaled, kappa = 3 - n",
-            EstimatorKind::Unscented(SigmaPoints::scaled(1.0, 2.0, 0.0)),
+            EstimatorChoice::UkfScaled,
+            settings(SigmaPoints::scaled(1.0, 2.0, 0.0)),
         ),
     ]
+}
+
+/// The registry's estimator `choice` on the three-state model from [`initial3`].
+fn build(
+    model: &LinearModel<3, 2, 1>,
+    choice: EstimatorChoice,
+    settings: &EstimatorSettings<3, 1>,
+) -> BoxedEstimator<3, 2, 1> {
+    registry::build(model.clone(), choice, settings, &initial3()).unwrap()
 }
 
 fn max_relative_difference<const R: usize, const C: usize>(
@@ -113,12 +137,7 @@ fn ekf_and_both_ukfs_equal_the_lkf_on_a_linear_gaussian_model() {
     .unwrap();
     let mut others: Vec<_> = all_kinds()
         .into_iter()
-        .map(|(name, kind)| {
-            (
-                name,
-                KalmanEstimator::build(model.clone(), &kind, &initial3()).unwrap(),
-            )
-        })
+        .map(|(name, choice, settings)| (name, build(&model, choice, &settings)))
         .collect();
     for k in 1..truth.inputs.len() {
         let u_prev = truth.inputs[k - 1];
@@ -187,8 +206,8 @@ fn a_skipped_row_is_the_update_with_the_other_row_alone() {
 #[test]
 fn every_row_missing_leaves_the_estimate_unchanged() {
     let model = three_state_model();
-    for (name, kind) in all_kinds() {
-        let mut filter = KalmanEstimator::build(model.clone(), &kind, &initial3()).unwrap();
+    for (name, choice, settings) in all_kinds() {
+        let mut filter = build(&model, choice, &settings);
         filter.predict(&Vector1::new(0.1)).unwrap();
         let (x, p) = (*filter.state(), *filter.covariance());
         let nan = SVector::<f64, 2>::new(f64::NAN, f64::INFINITY);
@@ -216,13 +235,11 @@ fn a_non_finite_input_never_yields_a_non_finite_estimate() {
     let mut kinds = all_kinds();
     kinds.push((
         "LKF",
-        EstimatorKind::Linear {
-            operating_state: Vector3::zeros(),
-            operating_input: Vector1::zeros(),
-        },
+        EstimatorChoice::Lkf,
+        settings(SigmaPoints::Symmetric),
     ));
-    for (name, kind) in kinds {
-        let mut filter = KalmanEstimator::build(model.clone(), &kind, &initial3()).unwrap();
+    for (name, choice, settings) in kinds {
+        let mut filter = build(&model, choice, &settings);
         let before = *filter.state();
         let issue = filter.predict(&Vector1::new(f64::NAN)).unwrap_err();
         assert_eq!(issue, FilterIssue::StateReset, "{name}");

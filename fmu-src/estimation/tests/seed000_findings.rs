@@ -4,10 +4,10 @@
 mod seed000_support;
 
 use estimation::kalman::{
-    EstimatorKind, ExtendedKalmanFilter, KalmanEstimator, LinearKalmanFilter, SigmaPoints,
-    UnscentedKalmanFilter,
+    ExtendedKalmanFilter, LinearKalmanFilter, SigmaPoints, UnscentedKalmanFilter,
 };
 use estimation::models::single_track::{seed_operating_point, SingleTrackEstimationModel};
+use estimation::registry::{self, EstimatorChoice};
 use seed000_support::{reference_run, rmse, run_filter, seed_initial_estimate};
 use vehicle_models::manoeuvre::{SeedManoeuvre, SEED_MANOEUVRE_DURATION};
 use vehicle_models::single_track::state_index::{VX, VY};
@@ -110,16 +110,19 @@ fn lkf_error_grows_once_braking_starts() {
 
 #[test]
 fn every_estimator_kind_runs_on_model_a_without_issues() {
-    // The run-time switchable enum with each kind, at 10 ms, on the braking manoeuvre.
+    // Every estimator of the registry but the particle filter (tests/particle_filter.rs), at
+    // 10 ms, on the braking manoeuvre.
     let t = 1e-2;
     let reference = reference_run(SeedManoeuvre::HighRampBraking, t, SEED);
     let model = SingleTrackEstimationModel::seed_000(t).unwrap();
-    for name in ["lkf", "ekf", "ukf", "ukf_scaled", "luenberger"] {
-        let kind: EstimatorKind<5, 3> =
-            estimation::models::single_track::single_track_kind(&model, name, (0.5, 2.0, 0.0))
-                .unwrap();
+    let settings = model.seed_settings();
+    for &choice in EstimatorChoice::ALL {
+        if choice == EstimatorChoice::ParticleFilter {
+            continue;
+        }
+        let name = choice.name();
         let mut filter =
-            KalmanEstimator::build(model.clone(), &kind, &seed_initial_estimate()).unwrap();
+            registry::build(model.clone(), choice, &settings, &seed_initial_estimate()).unwrap();
         let estimates = run_filter(&mut filter, &reference);
         assert!(
             estimates.iter().all(|x| x.iter().all(|v| v.is_finite())),

@@ -483,7 +483,13 @@ fn real_by_name(w: &mut String, description: &ModelDescription) {
         .variables
         .iter()
         .filter(|v| v.base_type() == BaseType::Real)
-        .map(|v| format!("            {:?} => Some(self.{}),\n", v.name, field_name(&v.name)))
+        .map(|v| {
+            format!(
+                "            {:?} => Some(self.{}),\n",
+                v.name,
+                field_name(&v.name)
+            )
+        })
         .collect();
     let _ = writeln!(
         w,

@@ -40,12 +40,12 @@ use fmi_export::{
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
+use vehicle_models::parameters::{positive, same_car_two_track, ParameterSource};
 use vehicle_models::reference::MAX_STATE_DIM;
-use vehicle_models::single_track::SingleTrackParams;
-use vehicle_models::tyre::{HsriParams, MagicFormulaParams};
+use vehicle_models::tyre::MagicFormulaParams;
 use vehicle_models::{
     DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
-    ReferenceVehicleParams, TwoTrackParams, VehicleTruth,
+    ReferenceVehicleParams, VehicleTruth,
 };
 
 /// Generated from modelDescription/ReferenceVehicle.xml.
@@ -53,7 +53,9 @@ pub mod model_description {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 
-use model_description::{integrator as integrator_items, vehicle_model, Variables};
+use model_description::{
+    Integrator as IntegratorItem, Variables, VehicleModel as VehicleModelItem,
+};
 
 /// Number of sensor signals: `[yaw_rate, ay, omega_front, omega_rear, ax, vx]`.
 const SENSORS: usize = 6;
@@ -128,72 +130,31 @@ struct Simulation {
     truth: VehicleTruth,
 }
 
-fn check_positive(name: &str, value: f64) -> Result<f64, String> {
-    if value > 0.0 && value.is_finite() {
-        Ok(value)
-    } else {
-        Err(format!(
-            "parameter {name} = {value}; expected a positive number"
-        ))
-    }
+/// An enumeration parameter as its typed enum; the message names the parameter.
+fn item<T: TryFrom<i32, Error = String>>(name: &str, value: i32) -> Result<T, String> {
+    T::try_from(value).map_err(|error| format!("parameter {name} = {error}"))
 }
 
 impl Simulation {
     /// Builds the simulation from the parameters and starts it at `start_time`.
     fn start(v: &Variables, start_time: f64) -> Result<Self, String> {
-        let single_track = SingleTrackParams {
-            mass: check_positive("mass", v.mass)?,
-            cog_to_front_axle: check_positive("cog_to_front_axle", v.cog_to_front_axle)?,
-            cog_to_rear_axle: check_positive("cog_to_rear_axle", v.cog_to_rear_axle)?,
-            yaw_inertia: check_positive("yaw_inertia", v.yaw_inertia)?,
-            front_wheel_inertia: check_positive("wheel_inertia_front", v.wheel_inertia_front)?,
-            rear_wheel_inertia: check_positive("wheel_inertia_rear", v.wheel_inertia_rear)?,
-            brake_split_front: v.brake_distribution_front,
-            wheel_radius: check_positive("wheel_radius", v.wheel_radius)?,
-            front_wheel_load: check_positive("wheel_load_front", v.wheel_load_front)?,
-            rear_wheel_load: check_positive("wheel_load_rear", v.wheel_load_rear)?,
-            ..SingleTrackParams::default()
-        };
-        // Model B is the same car: the shared vehicle parameters go to it as well; track width,
-        // CoG height and roll-moment split keep the vehicle-models defaults (SPEC §4).
-        let two_track = TwoTrackParams {
-            mass: single_track.mass,
-            cog_to_front_axle: single_track.cog_to_front_axle,
-            cog_to_rear_axle: single_track.cog_to_rear_axle,
-            yaw_inertia: single_track.yaw_inertia,
-            front_wheel_inertia: single_track.front_wheel_inertia,
-            rear_wheel_inertia: single_track.rear_wheel_inertia,
-            brake_split_front: single_track.brake_split_front,
-            wheel_radius: single_track.wheel_radius,
-            front_wheel_load: single_track.front_wheel_load,
-            rear_wheel_load: single_track.rear_wheel_load,
-            ..TwoTrackParams::default()
-        };
-        let hsri = HsriParams {
-            reference_load: check_positive("tyre_reference_load", v.tyre_reference_load)?,
-            friction_base: v.tyre_f00,
-            friction_load: v.tyre_f01,
-            friction_decay_base: v.tyre_kr0,
-            friction_decay_load: v.tyre_kr1,
-            cornering_base: v.tyre_ca1,
-            cornering_load: v.tyre_ca2,
-            longitudinal_base: v.tyre_cs1,
-            longitudinal_load: v.tyre_cs2,
-            reference_sliding_speed: check_positive("tyre_v_mu", v.tyre_v_mu)?,
-            ..HsriParams::default()
-        };
+        // The vehicle and tyre parameters, named alike in both FMUs, are read once in
+        // vehicle-models; model B is the same car (track width, CoG height and roll-moment
+        // split keep the vehicle-models defaults, SPEC §4).
+        let source = ParameterSource::new(|name| v.real_by_name(name));
+        let single_track = source.single_track()?;
+        let two_track = same_car_two_track(&single_track);
+        let hsri = source.hsri()?;
         // Seed 001 gives no Magic Formula numbers: the tyre is matched to the HSRI tyre
         // (same stiffnesses and peak friction), as in the vehicle-models crate.
         let magic_formula = MagicFormulaParams::matching_hsri(&hsri);
-        let kind = match v.model {
-            vehicle_model::SINGLE_TRACK_HSRI => ReferenceModelKind::SingleTrack,
-            vehicle_model::TWO_TRACK_MAGIC_FORMULA => ReferenceModelKind::TwoTrack,
-            other => return Err(format!("parameter model = {other}; expected 1 or 2")),
+        let kind = match item::<VehicleModelItem>("model", v.model)? {
+            VehicleModelItem::SingleTrackHsri => ReferenceModelKind::SingleTrack,
+            VehicleModelItem::TwoTrackMagicFormula => ReferenceModelKind::TwoTrack,
         };
-        let integrator = match v.integrator {
-            integrator_items::SEMI_IMPLICIT_EULER => Integrator::SemiImplicitEuler,
-            integrator_items::RUNGE_KUTTA4 => Integrator::RungeKutta4,
-            other => return Err(format!("parameter integrator = {other}; expected 1 or 2")),
+        let integrator = match item::<IntegratorItem>("integrator", v.integrator)? {
+            IntegratorItem::SemiImplicitEuler => Integrator::SemiImplicitEuler,
+            IntegratorItem::RungeKutta4 => Integrator::RungeKutta4,
         };
         let vehicle = VehicleModel::new(
             &ReferenceVehicleParams {
@@ -207,7 +168,7 @@ impl Simulation {
             v.vx0,
         );
         let process_noise_std = process_noise_std(kind, v);
-        let integration_step = check_positive("integration_step", v.integration_step)?;
+        let integration_step = positive("integration_step", v.integration_step)?;
         let latency_steps = (v.sensor_latency / integration_step).round();
         if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&latency_steps) {
             return Err(format!(

@@ -24,16 +24,18 @@
 //! batched fmi2GetReal (18 outputs) and fmi2SetReal (9 inputs) alone.
 
 use divan::Bencher;
+use estimation::registry::{self, BoxedEstimator};
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::{references_of, stepping, variables_of, DoStepOverhead, Slave};
 use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use nalgebra::SVector;
+use VehicleStateEstimator::model_a::ModelA;
+use VehicleStateEstimator::model_b::ModelB;
 use VehicleStateEstimator::model_description::estimator_model;
 use VehicleStateEstimator::model_description::{estimator_kind, vr, Variables, GUID, VARIABLES};
-use VehicleStateEstimator::{
-    filter_a, filter_b, initial_estimate_a, initial_estimate_b, model_a, model_b,
-    VehicleStateEstimator as Fmu,
-};
+use VehicleStateEstimator::parameters::estimator_choice;
+use VehicleStateEstimator::runner::EstimationModel;
+use VehicleStateEstimator::VehicleStateEstimator as Fmu;
 
 fn main() {
     divan::main();
@@ -84,6 +86,20 @@ fn estimator(name: &str) -> i32 {
         .1
 }
 
+/// The filter the FMU would run with these parameters, built as the FMU builds it.
+fn bare_filter<Model, const N: usize, const M: usize, const U: usize>(
+    variables: &Variables,
+) -> BoxedEstimator<N, M, U>
+where
+    Model: EstimationModel<N, M, U>,
+{
+    let model = Model::from_parameters(variables).expect("model");
+    let initial = Model::initial_estimate(variables).expect("initial");
+    let settings = model.registry_settings(variables);
+    let (_, choice) = estimator_choice(variables).expect("estimator");
+    registry::build(model, choice, &settings, &initial).expect("filter")
+}
+
 // ---- Model A ----
 
 /// One bare filter step of model A (update, then predict), as a benchmark body.
@@ -92,15 +108,12 @@ fn bare_step_a(name: &str) -> impl FnMut() -> (bool, bool) {
         estimator: estimator(name),
         ..Variables::default()
     };
-    let model = model_a(&variables).expect("model");
-    let initial = initial_estimate_a(&variables).expect("initial");
-    let mut filter = filter_a(&variables, model, &initial).expect("filter");
+    let mut filter = bare_filter::<ModelA, 5, 4, 3>(&variables);
     let input = SVector::<f64, 3>::new(0.05, 0.0, 0.0);
     let measurement = SVector::<f64, 4>::from(MEASUREMENT);
     move || {
-        let estimator = filter.estimator_mut();
-        let report = estimator.update(divan::black_box(&measurement), &input, &[true; 4]);
-        let predicted = estimator.predict(&input);
+        let report = filter.update(divan::black_box(&measurement), &input, &[true; 4]);
+        let predicted = filter.predict(&input);
         divan::black_box((report.is_ok(), predicted.is_ok()))
     }
 }
@@ -186,15 +199,12 @@ fn bare_step_b(name: &str) -> impl FnMut() -> (bool, bool) {
         estimator: estimator(name),
         ..Variables::default()
     };
-    let model = model_b(&variables).expect("model");
-    let initial = initial_estimate_b(&variables).expect("initial");
-    let mut filter = filter_b(&variables, model, &initial).expect("filter");
+    let mut filter = bare_filter::<ModelB, 3, 2, 2>(&variables);
     let input = SVector::<f64, 2>::new(0.05, SENSORS_B[4]);
     let measurement = SVector::<f64, 2>::new(SENSORS_B[1], SENSORS_B[0]);
     move || {
-        let estimator = filter.estimator_mut();
-        let report = estimator.update(divan::black_box(&measurement), &input, &[true; 2]);
-        let predicted = estimator.predict(&input);
+        let report = filter.update(divan::black_box(&measurement), &input, &[true; 2]);
+        let predicted = filter.predict(&input);
         divan::black_box((report.is_ok(), predicted.is_ok()))
     }
 }

@@ -4,9 +4,8 @@
 //! seed's 2n sigma points or the scaled 2n+1 set ([`UnscentedKalmanFilter`], 000: 4.114-4.144;
 //! 001 [13, 16]).
 //!
-//! [`KalmanEstimator`] wraps these and the Luenberger observer in one enum, so a caller (the FMU)
-//! can pick the estimator from a parameter at run time and drive it through one [`Estimator`]
-//! implementation.
+//! A caller that picks the estimator at run time (the FMU) builds it through
+//! [`crate::registry`].
 //!
 //! Missing measurements: a row whose mask entry is `false` or whose value is not finite is
 //! skipped. The filters do that without allocating by giving the skipped rows a unit innovation
@@ -30,8 +29,7 @@ use crate::linalg::{
     all_finite, check_covariance, product, product_transpose, repair_positive_definite,
     symmetric_product, symmetrize, update_symmetric, CholeskyFactor,
 };
-use crate::luenberger::{LuenbergerObserver, ObserverDesign};
-use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
+use crate::{FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
 
 /// An estimator setting that cannot work, with a message naming the setting and what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -209,143 +207,6 @@ fn keep_positive_definite<const N: usize>(covariance: &mut SMatrix<f64, N, N>) -
     }
     *covariance = repair_positive_definite(covariance)?;
     Some(true)
-}
-
-/// Which estimator [`KalmanEstimator::build`] builds.
-#[derive(Debug, Clone, PartialEq)]
-pub enum EstimatorKind<const N: usize, const U: usize> {
-    /// Linear Kalman filter on the linearisation about `(state, input)` (000: 4.64-4.75).
-    Linear {
-        operating_state: SVector<f64, N>,
-        operating_input: SVector<f64, U>,
-    },
-    /// Extended Kalman filter (000: 4.99-4.113).
-    Extended,
-    /// Unscented Kalman filter with the given sigma-point set.
-    Unscented(SigmaPoints),
-    /// Luenberger observer with a pole-placement gain (002: §4) on the linearisation about
-    /// `(state, input)`.
-    Luenberger {
-        operating_state: SVector<f64, N>,
-        operating_input: SVector<f64, U>,
-        design: ObserverDesign,
-    },
-}
-
-/// Any of the deterministic estimators of this module, chosen at run time.
-#[derive(Debug, Clone)]
-pub enum KalmanEstimator<Model, const N: usize, const M: usize, const U: usize> {
-    Linear(LinearKalmanFilter<Model, N, M, U>),
-    Extended(ExtendedKalmanFilter<Model, N, M, U>),
-    Unscented(UnscentedKalmanFilter<Model, N, M, U>),
-    Luenberger(LuenbergerObserver<Model, N, M, U>),
-}
-
-impl<Model, const N: usize, const M: usize, const U: usize> KalmanEstimator<Model, N, M, U>
-where
-    Model: StateSpaceModel<N, M, U>,
-{
-    /// Builds the estimator `kind` on `model`, starting from `initial`.
-    pub fn build(
-        model: Model,
-        kind: &EstimatorKind<N, U>,
-        initial: &InitialEstimate<N>,
-    ) -> Result<Self, SettingsError> {
-        Ok(match kind {
-            EstimatorKind::Linear {
-                operating_state,
-                operating_input,
-            } => Self::Linear(LinearKalmanFilter::new(
-                model,
-                operating_state,
-                operating_input,
-                initial,
-            )?),
-            EstimatorKind::Extended => Self::Extended(ExtendedKalmanFilter::new(model, initial)?),
-            EstimatorKind::Unscented(points) => {
-                Self::Unscented(UnscentedKalmanFilter::new(model, *points, initial)?)
-            }
-            EstimatorKind::Luenberger {
-                operating_state,
-                operating_input,
-                design,
-            } => Self::Luenberger(LuenbergerObserver::new(
-                model,
-                operating_state,
-                operating_input,
-                design,
-                initial,
-            )?),
-        })
-    }
-
-    /// The report of the last measurement update (also after an update that returned a
-    /// [`FilterIssue`] but still corrected the estimate).
-    pub fn last_report(&self) -> &UpdateReport<M> {
-        match self {
-            Self::Linear(filter) => filter.last_report(),
-            Self::Extended(filter) => filter.last_report(),
-            Self::Unscented(filter) => filter.last_report(),
-            Self::Luenberger(filter) => filter.last_report(),
-        }
-    }
-
-    /// The model the estimator runs on.
-    pub fn model(&self) -> &Model {
-        match self {
-            Self::Linear(filter) => filter.model(),
-            Self::Extended(filter) => filter.model(),
-            Self::Unscented(filter) => filter.model(),
-            Self::Luenberger(filter) => filter.model(),
-        }
-    }
-}
-
-impl<Model, const N: usize, const M: usize, const U: usize> Estimator<N, M, U>
-    for KalmanEstimator<Model, N, M, U>
-where
-    Model: StateSpaceModel<N, M, U>,
-{
-    fn predict(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
-        match self {
-            Self::Linear(filter) => filter.predict(input),
-            Self::Extended(filter) => filter.predict(input),
-            Self::Unscented(filter) => filter.predict(input),
-            Self::Luenberger(filter) => filter.predict(input),
-        }
-    }
-
-    fn update(
-        &mut self,
-        measurement: &SVector<f64, M>,
-        input: &SVector<f64, U>,
-        mask: &MeasurementMask<M>,
-    ) -> Result<UpdateReport<M>, FilterIssue> {
-        match self {
-            Self::Linear(filter) => filter.update(measurement, input, mask),
-            Self::Extended(filter) => filter.update(measurement, input, mask),
-            Self::Unscented(filter) => filter.update(measurement, input, mask),
-            Self::Luenberger(filter) => filter.update(measurement, input, mask),
-        }
-    }
-
-    fn state(&self) -> &SVector<f64, N> {
-        match self {
-            Self::Linear(filter) => filter.state(),
-            Self::Extended(filter) => filter.state(),
-            Self::Unscented(filter) => filter.state(),
-            Self::Luenberger(filter) => filter.state(),
-        }
-    }
-
-    fn covariance(&self) -> &SMatrix<f64, N, N> {
-        match self {
-            Self::Linear(filter) => filter.covariance(),
-            Self::Extended(filter) => filter.covariance(),
-            Self::Unscented(filter) => filter.covariance(),
-            Self::Luenberger(filter) => filter.covariance(),
-        }
-    }
 }
 
 /// Discrete poles `zᵢ = exp(sᵢ T)` from continuous-time poles `sᵢ` and the sample time `T`:

@@ -15,8 +15,10 @@ use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{state_index, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::{Dual, HsriTyre, Integrator, Scalar, SingleTrackModel, TyreModel};
 
-use crate::kalman::{EstimatorKind, SettingsError};
+use crate::kalman::{SettingsError, SigmaPoints};
 use crate::luenberger::{DesignBlock, ObserverDesign};
+use crate::particle::ParticleFilterConfig;
+use crate::registry::{EstimatorSettings, OperatingPoint};
 use crate::StateSpaceModel;
 
 /// Process noise standard deviations of seed 000's experiments, per step,
@@ -134,6 +136,36 @@ impl<T: TyreModel> SingleTrackEstimationModel<T> {
     }
 }
 
+impl<T: TyreModel> SingleTrackEstimationModel<T> {
+    /// The registry's settings for model A: the linear estimators' operating point, the scaled
+    /// UKF's sigma points, the particle filter's configuration and the default observer design
+    /// ([`Self::default_observer_design`]).
+    pub fn estimator_settings(
+        &self,
+        operating_point: OperatingPoint<STATE_DIM, INPUT_DIM>,
+        scaled_sigma_points: SigmaPoints,
+        particles: Result<ParticleFilterConfig, SettingsError>,
+    ) -> EstimatorSettings<STATE_DIM, INPUT_DIM> {
+        EstimatorSettings {
+            operating_point: Ok(operating_point),
+            scaled_sigma_points,
+            observer_design: Ok(self.default_observer_design()),
+            particles,
+        }
+    }
+
+    /// The settings of seed 000's experiments: the seed's operating point
+    /// ([`seed_operating_point`]), the scaled UKF with `alpha, beta, kappa = 0.5, 2, 0`, the
+    /// default particle filter.
+    pub fn seed_settings(&self) -> EstimatorSettings<STATE_DIM, INPUT_DIM> {
+        self.estimator_settings(
+            seed_operating_point(),
+            SigmaPoints::scaled(0.5, 2.0, 0.0),
+            Ok(ParticleFilterConfig::default()),
+        )
+    }
+}
+
 impl SingleTrackEstimationModel<HsriTyre> {
     /// Model A with the seed's vehicle and tyre data, the seed scheme and the noise of seed
     /// 000's experiments (`Q = diag(w²)`, `R = diag(v²)`, SPEC §7).
@@ -146,37 +178,6 @@ impl SingleTrackEstimationModel<HsriTyre> {
             [SEED_MEASUREMENT_NOISE_STD * SEED_MEASUREMENT_NOISE_STD; MEASUREMENT_DIM],
         )
     }
-}
-
-/// The estimator kinds for model A with the seed's operating point, for a caller that selects by
-/// name (the FMU's `estimator` enumeration): `lkf`, `ekf`, `ukf` (2n points), `ukf_scaled`
-/// (with the given `alpha, beta, kappa`), `luenberger` (default design).
-pub fn single_track_kind<T: TyreModel>(
-    model: &SingleTrackEstimationModel<T>,
-    name: &str,
-    scaled: (f64, f64, f64),
-) -> Result<EstimatorKind<STATE_DIM, INPUT_DIM>, SettingsError> {
-    use crate::kalman::SigmaPoints;
-    let (operating_state, operating_input) = seed_operating_point();
-    Ok(match name {
-        "lkf" => EstimatorKind::Linear {
-            operating_state,
-            operating_input,
-        },
-        "ekf" => EstimatorKind::Extended,
-        "ukf" => EstimatorKind::Unscented(SigmaPoints::Symmetric),
-        "ukf_scaled" => EstimatorKind::Unscented(SigmaPoints::scaled(scaled.0, scaled.1, scaled.2)),
-        "luenberger" => EstimatorKind::Luenberger {
-            operating_state,
-            operating_input,
-            design: model.default_observer_design(),
-        },
-        other => {
-            return Err(SettingsError(format!(
-                "unknown estimator '{other}'; expected one of lkf, ekf, ukf, ukf_scaled, luenberger"
-            )));
-        }
-    })
 }
 
 type StateDual = Dual<Remembering, STATE_DIM>;
@@ -514,13 +515,9 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.to_string().contains("Q diagonal"));
-        assert!(single_track_kind(
-            &SingleTrackEstimationModel::seed_000(0.01).unwrap(),
-            "kf",
-            (1.0, 2.0, 0.0)
-        )
-        .unwrap_err()
-        .to_string()
-        .contains("unknown estimator"));
+        assert!(crate::registry::EstimatorChoice::from_name("kf")
+            .unwrap_err()
+            .to_string()
+            .contains("unknown estimator"));
     }
 }

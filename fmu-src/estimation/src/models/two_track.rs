@@ -13,7 +13,7 @@
 //!
 //! **The linear comparison filter of seed 001.** The seed compares its UKF with "a Kalman filter
 //! built on the linear single-track model" (001: §4, fig. 5-7). Here that is
-//! [`two_track_kind`]`("lkf")`: the LKF on the linearisation of this same 3-state model about
+//! the registry's `lkf` with [`TwoTrackEstimationModel::estimator_settings`]: the LKF on the linearisation of this same 3-state model about
 //! straight driving at the operating speed (`β = r = ay = 0`, `δ = 0`, `vx = v0`,
 //! [`seed_001_operating_point`]). At that point the linearisation *is* the linear single-track
 //! model of 001 (text before eq 1): both wheels of an axle act with the axle's slip angle, each
@@ -28,7 +28,9 @@ use nalgebra::{SMatrix, SVector};
 use vehicle_models::two_track_lateral::{input_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::{Integrator, MagicFormulaTyre, TwoTrackLateralModel, TyreModel};
 
-use crate::kalman::{EstimatorKind, SettingsError, SigmaPoints};
+use crate::kalman::{SettingsError, SigmaPoints};
+use crate::particle::ParticleFilterConfig;
+use crate::registry::{EstimatorSettings, OperatingPoint};
 use crate::StateSpaceModel;
 
 /// Process noise standard deviations per step at the default 10 ms, `[β, r, ay]`.
@@ -143,39 +145,40 @@ impl TwoTrackEstimationModel<MagicFormulaTyre> {
     }
 }
 
-/// The estimator kinds for the 3-state model B, for a caller that selects by name (the FMU's
-/// `estimator` enumeration): `lkf` (the linear single-track comparison filter of seed 001, about
-/// straight driving at `operating_speed`, see the module docs), `ekf`, `ukf` (2n points),
-/// `ukf_scaled` (with the given `alpha, beta, kappa`; seed 001 follows Wan/van der Merwe [16]).
-/// No Luenberger design is offered for this model (seed 002 designs it for the single-track
-/// model only).
-pub fn two_track_kind(
-    name: &str,
-    scaled: (f64, f64, f64),
+/// The linear comparison filter's operating point (see the module docs): straight driving at
+/// `operating_speed`, which must be a positive speed.
+pub fn linear_comparison_point(
     operating_speed: f64,
-) -> Result<EstimatorKind<STATE_DIM, INPUT_DIM>, SettingsError> {
-    Ok(match name {
-        "lkf" => {
-            if !(operating_speed.is_finite() && operating_speed > 0.0) {
-                return Err(SettingsError(format!(
-                    "the operating speed of the linear filter must be a positive speed in m/s, got {operating_speed}"
-                )));
-            }
-            let (operating_state, operating_input) = seed_001_operating_point(operating_speed);
-            EstimatorKind::Linear {
-                operating_state,
-                operating_input,
-            }
+) -> Result<OperatingPoint<STATE_DIM, INPUT_DIM>, SettingsError> {
+    if !(operating_speed.is_finite() && operating_speed > 0.0) {
+        return Err(SettingsError(format!(
+            "the operating speed of the linear filter must be a positive speed in m/s, got {operating_speed}"
+        )));
+    }
+    Ok(seed_001_operating_point(operating_speed))
+}
+
+impl<T: TyreModel> TwoTrackEstimationModel<T> {
+    /// The registry's settings for the 3-state model B: the LKF is the linear single-track
+    /// comparison filter of seed 001 about straight driving at `operating_speed`
+    /// ([`linear_comparison_point`]); no Luenberger design is offered (seed 002 designs the
+    /// observer for the single-track model only).
+    pub fn estimator_settings(
+        &self,
+        operating_speed: f64,
+        scaled_sigma_points: SigmaPoints,
+        particles: Result<ParticleFilterConfig, SettingsError>,
+    ) -> EstimatorSettings<STATE_DIM, INPUT_DIM> {
+        EstimatorSettings {
+            operating_point: linear_comparison_point(operating_speed),
+            scaled_sigma_points,
+            observer_design: Err(SettingsError(String::from(
+                "the Luenberger observer has no design for the 3-state two-track model of seed \
+                 001: seed 002 designs it for the single-track model only",
+            ))),
+            particles,
         }
-        "ekf" => EstimatorKind::Extended,
-        "ukf" => EstimatorKind::Unscented(SigmaPoints::Symmetric),
-        "ukf_scaled" => EstimatorKind::Unscented(SigmaPoints::scaled(scaled.0, scaled.1, scaled.2)),
-        other => {
-            return Err(SettingsError(format!(
-                "unknown estimator '{other}' for the two-track model; expected one of lkf, ekf, ukf, ukf_scaled"
-            )));
-        }
-    })
+    }
 }
 
 impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
@@ -320,11 +323,25 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.to_string().contains("R diagonal"), "{err}");
-        assert!(two_track_kind("luenberger", (1.0, 2.0, 0.0), 18.0)
+        let model = TwoTrackEstimationModel::seed_001(0.01).unwrap();
+        let initial = crate::kalman::InitialEstimate::diagonal(
+            SVector::zeros(),
+            SVector::from([1e-4; STATE_DIM]),
+        );
+        let build = |choice, speed| {
+            let settings = model.estimator_settings(
+                speed,
+                SigmaPoints::Symmetric,
+                Err(SettingsError("unused".into())),
+            );
+            crate::registry::build(model.clone(), choice, &settings, &initial).map(|_| ())
+        };
+        use crate::registry::EstimatorChoice;
+        assert!(build(EstimatorChoice::Luenberger, 18.0)
             .unwrap_err()
             .to_string()
-            .contains("unknown estimator"));
-        assert!(two_track_kind("lkf", (1.0, 2.0, 0.0), 0.0)
+            .contains("no design"));
+        assert!(build(EstimatorChoice::Lkf, 0.0)
             .unwrap_err()
             .to_string()
             .contains("operating speed"));

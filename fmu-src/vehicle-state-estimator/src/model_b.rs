@@ -1,0 +1,195 @@
+//! Model B (the 3-state form of seed 001, `x = [sideslip, yaw_rate, ay]`, `u = [steering_angle,
+//! vx]`, `y = [ay, yaw_rate]`, 001: eqs 6-11, `TwoTrackEstimationModel`) as the FMU runs it: the
+//! same car as model A with Magic Formula tyres matched to the HSRI parameters (seed 001 prints
+//! no tyre data; SPEC §4). The speed is an input (vx_meas or the wheel-speed fallback); the
+//! wheel speeds are passed through.
+
+use estimation::kalman::InitialEstimate;
+use estimation::models::two_track::TwoTrackEstimationModel;
+use estimation::registry::EstimatorSettings;
+use fmi_export::{StateError, StateReader, StateWriter};
+use nalgebra::SVector;
+use vehicle_models::parameters::same_car_two_track;
+use vehicle_models::two_track_lateral::{state_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM};
+use vehicle_models::tyre::MagicFormulaParams;
+use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel};
+
+use crate::model_description::{RealOutputs, Variables};
+use crate::parameters::{self, positive, variances};
+use crate::runner::{finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors};
+use crate::status;
+
+/// Model B as the filters see it.
+pub type ModelB = TwoTrackEstimationModel<MagicFormulaTyre>;
+type StateB = SVector<f64, STATE_DIM>;
+
+/// The running estimator on model B.
+pub type RunnerB = Runner<ModelB, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>;
+
+/// What model B does not estimate: the speed it runs at and the wheel speeds it passes through
+/// (XML: vx_est, omega_front_est, omega_rear_est).
+#[derive(Clone, Copy, Debug)]
+pub struct PassedThrough {
+    pub speed: f64,
+    pub omega_front: f64,
+    pub omega_rear: f64,
+}
+
+impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
+    type Extra = PassedThrough;
+
+    fn from_parameters(v: &Variables) -> Result<Self, String> {
+        let source = parameters::source(v);
+        let vehicle = same_car_two_track(&source.single_track()?);
+        let tyre = MagicFormulaTyre::new(MagicFormulaParams::matching_hsri(&source.hsri()?));
+        // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).
+        let process = variances([
+            ("process_noise_std_sideslip", v.process_noise_std_sideslip),
+            ("process_noise_std_yaw_rate", v.process_noise_std_yaw_rate),
+            ("process_noise_std_ay", v.process_noise_std_ay),
+        ])?;
+        let measurement = variances([
+            ("measurement_noise_std_ay", v.measurement_noise_std_ay),
+            (
+                "measurement_noise_std_yaw_rate",
+                v.measurement_noise_std_yaw_rate,
+            ),
+        ])?;
+        TwoTrackEstimationModel::new(
+            TwoTrackLateralModel::new(vehicle, tyre),
+            positive("sample_time", v.sample_time)?,
+            parameters::integrator(v)?,
+            process,
+            measurement,
+        )
+        .map_err(|error| format!("estimator set-up: {}", error.0))
+    }
+
+    fn initial_estimate(v: &Variables) -> Result<InitialEstimate<STATE_DIM>, String> {
+        let variances = variances([
+            ("initial_std_sideslip", v.initial_std_sideslip),
+            ("initial_std_yaw_rate", v.initial_std_yaw_rate),
+            ("initial_std_ay", v.initial_std_ay),
+        ])?;
+        Ok(InitialEstimate::diagonal(
+            StateB::from([v.sideslip_initial, v.yaw_rate_initial, v.ay_initial]),
+            StateB::from(variances),
+        ))
+    }
+
+    /// The LKF is the linear single-track comparison filter of seed 001 about straight driving
+    /// at `lkf_vx`; no Luenberger design exists for model B.
+    fn registry_settings(&self, v: &Variables) -> EstimatorSettings<STATE_DIM, INPUT_DIM> {
+        self.estimator_settings(
+            v.lkf_vx,
+            parameters::scaled_sigma_points(v),
+            parameters::particle_config(v),
+        )
+    }
+
+    /// Before the first sample: the speed the sensors show now, else vx_initial; the wheels
+    /// free rolling at that speed until they are measured.
+    fn start_extra(v: &Variables, min_speed: f64) -> PassedThrough {
+        let sensors = Sensors::of(v);
+        let speed = sensors
+            .speed(v.wheel_radius, min_speed)
+            .unwrap_or(v.vx_initial);
+        let free_rolling = speed / v.wheel_radius;
+        PassedThrough {
+            speed,
+            omega_front: finite_or(sensors.omega_front, free_rolling),
+            omega_rear: finite_or(sensors.omega_rear, free_rolling),
+        }
+    }
+
+    /// `y = [ay, r]` (001: eq 9), `u = [δ, vx]`.
+    fn sample(
+        runner: &mut Runner<Self, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>,
+        sensors: &Sensors,
+    ) -> Result<Sample<MEASUREMENT_DIM, INPUT_DIM>, i32> {
+        let passed = &mut runner.extra;
+        if sensors.omega_front.is_finite() {
+            passed.omega_front = sensors.omega_front;
+        }
+        if sensors.omega_rear.is_finite() {
+            passed.omega_rear = sensors.omega_rear;
+        }
+        let Some(speed) = sensors.speed(runner.parameters.wheel_radius, runner.min_speed) else {
+            // Model B divides by the speed: hold the estimate until a speed is measured again.
+            return Err(status::BELOW_MIN_SPEED);
+        };
+        let mut bits = 0;
+        if !sensors.vx.is_finite() {
+            // vx_meas is missing and the wheel-speed fallback stands in for it.
+            bits |= status::ROW_SKIPPED;
+        }
+        passed.speed = speed;
+        Ok(Sample {
+            measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
+            input: SVector::from([runner.input[0], speed]),
+            bits,
+        })
+    }
+
+    /// The outputs as the XML descriptions state them for model B.
+    fn outputs(
+        &self,
+        sample: &OutputSample<STATE_DIM, PassedThrough>,
+        v: &Variables,
+    ) -> RealOutputs {
+        let x = sample.state;
+        let variances = sample.covariance.diagonal();
+        let passed = sample.extra;
+        let steering = sample.input[0];
+        let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed]);
+        // vy = vx tan β and the axle slip angles (001: eqs 4-5).
+        let derived = self.vehicle().outputs(&x, &u);
+        let vx = passed.speed;
+        let (sideslip, yaw_rate) = (x[state_index::SIDESLIP], x[state_index::YAW_RATE]);
+        let vy = derived.lateral_velocity;
+        // Longitudinal slip (ω r_w − vxW) / vxW with the wheel-centre speed along the wheel
+        // (000: 5.65; front wheel turned by δ, as in model A).
+        let front_along_wheel =
+            vx * steering.cos() + (vy + v.cog_to_front_axle * yaw_rate) * steering.sin();
+        let slip = |omega: f64, along: f64| (omega * v.wheel_radius - along) / along;
+        let std = |i: usize| variances[i].max(0.0).sqrt();
+        let cos_sideslip = sideslip.cos();
+        RealOutputs {
+            vx_est: vx,
+            vy_est: vy,
+            yaw_rate_est: yaw_rate,
+            omega_front_est: passed.omega_front,
+            omega_rear_est: passed.omega_rear,
+            sideslip_est: sideslip,
+            ay_est: x[state_index::LATERAL_ACCELERATION],
+            slip_angle_front_est: derived.slip_angle_front,
+            slip_angle_rear_est: derived.slip_angle_rear,
+            slip_front_est: slip(passed.omega_front, front_along_wheel),
+            slip_rear_est: slip(passed.omega_rear, vx),
+            vx_std: v.measurement_noise_std_vx,
+            // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
+            vy_std: vx * std(state_index::SIDESLIP) / (cos_sideslip * cos_sideslip),
+            yaw_rate_std: std(state_index::YAW_RATE),
+            omega_front_std: v.measurement_noise_std_omega_front,
+            omega_rear_std: v.measurement_noise_std_omega_rear,
+            sideslip_std: std(state_index::SIDESLIP),
+            nis: sample.nis,
+        }
+    }
+
+    fn write_extra(passed: &PassedThrough, writer: &mut StateWriter) {
+        writer.f64(passed.speed);
+        writer.f64(passed.omega_front);
+        writer.f64(passed.omega_rear);
+    }
+
+    fn read_extra(
+        passed: &mut PassedThrough,
+        reader: &mut StateReader<'_>,
+    ) -> Result<(), StateError> {
+        passed.speed = reader.f64("speed")?;
+        passed.omega_front = reader.f64("front wheel speed")?;
+        passed.omega_rear = reader.f64("rear wheel speed")?;
+        Ok(())
+    }
+}

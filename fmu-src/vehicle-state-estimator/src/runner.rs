@@ -1,0 +1,355 @@
+//! The estimator between samples, written once for every estimation model: the filter from
+//! the `estimation` registry, the sample clock, the last finite driver input and the outputs
+//! still to be computed. What differs between the models (how the sensors become a measurement
+//! and an input, how the outputs are derived) is the [`EstimationModel`] trait.
+
+use std::fmt::Debug;
+
+use estimation::kalman::InitialEstimate;
+use estimation::registry::{
+    self, BoxedEstimator, EstimatorChoice, EstimatorSettings, RegistryModel,
+};
+use estimation::FilterIssue;
+use fmi_export::{StateError, StateReader, StateWriter};
+use nalgebra::{SMatrix, SVector};
+use vehicle_models::driver_input::INPUT_DIM;
+
+use crate::model_description::{RealOutputs, Variables};
+use crate::parameters::{self, positive};
+use crate::state::{Sink, Source};
+use crate::status;
+
+/// The driver input `[steering_angle, drive_torque, brake_torque]`.
+pub type InputVector = SVector<f64, INPUT_DIM>;
+
+/// The sensor inputs of one doStep (XML: the `*_meas` inputs the estimator reads).
+#[derive(Clone, Copy, Debug)]
+pub struct Sensors {
+    pub yaw_rate: f64,
+    pub ay: f64,
+    pub omega_front: f64,
+    pub omega_rear: f64,
+    pub vx: f64,
+}
+
+impl Sensors {
+    pub fn of(v: &Variables) -> Self {
+        Self {
+            yaw_rate: v.yaw_rate_meas,
+            ay: v.ay_meas,
+            omega_front: v.omega_front_meas,
+            omega_rear: v.omega_rear_meas,
+            vx: v.vx_meas,
+        }
+    }
+
+    /// `r_w` times the mean of the finite wheel speeds, if any.
+    pub fn wheel_speed(&self, wheel_radius: f64) -> Option<f64> {
+        let (sum, count) = [self.omega_front, self.omega_rear]
+            .into_iter()
+            .filter(|w| w.is_finite())
+            .fold((0.0, 0u32), |(sum, count), w| (sum + w, count + 1));
+        (count > 0).then(|| wheel_radius * sum / f64::from(count))
+    }
+
+    /// The measured speed: `vx_meas`, else the wheel-speed fallback, each only when finite and
+    /// at least `min_speed` (XML: vx_meas).
+    pub fn speed(&self, wheel_radius: f64, min_speed: f64) -> Option<f64> {
+        let usable = |speed: f64| speed.is_finite() && speed >= min_speed;
+        if usable(self.vx) {
+            Some(self.vx)
+        } else {
+            self.wheel_speed(wheel_radius).filter(|&s| usable(s))
+        }
+    }
+}
+
+/// The measurement and filter input of one sample, with the status bits found on the way.
+pub struct Sample<const M: usize, const U: usize> {
+    pub measurement: SVector<f64, M>,
+    pub input: SVector<f64, U>,
+    pub bits: i32,
+}
+
+/// One estimation model as the FMU runs it: `N` states, `M` measurements, `U` filter inputs.
+pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
+    RegistryModel<N, M, U>
+{
+    /// What the runner keeps beside the filter (model B: the speed input and the wheel speeds
+    /// it passes through); part of the FMU state.
+    type Extra: Clone + Copy + Debug + Send;
+
+    /// The model from the parameters.
+    fn from_parameters(v: &Variables) -> Result<Self, String>;
+
+    /// The filter's start from the parameters.
+    fn initial_estimate(v: &Variables) -> Result<InitialEstimate<N>, String>;
+
+    /// The registry's settings from the parameters.
+    fn registry_settings(&self, v: &Variables) -> EstimatorSettings<N, U>;
+
+    /// The extra values before the first sample.
+    fn start_extra(v: &Variables, min_speed: f64) -> Self::Extra;
+
+    /// The measurement and input of one sample, or the status bits of a sample on which the
+    /// filter holds. May re-seed the filter (`runner.rebuild`).
+    fn sample(runner: &mut Runner<Self, N, M, U>, sensors: &Sensors) -> Result<Sample<M, U>, i32>;
+
+    /// The outputs of one sample's result.
+    fn outputs(&self, sample: &OutputSample<N, Self::Extra>, v: &Variables) -> RealOutputs;
+
+    fn write_extra(extra: &Self::Extra, writer: &mut StateWriter);
+
+    fn read_extra(extra: &mut Self::Extra, reader: &mut StateReader<'_>) -> Result<(), StateError>;
+}
+
+fn issue_bit(issue: FilterIssue) -> i32 {
+    match issue {
+        FilterIssue::CovarianceRepaired => status::COVARIANCE_REPAIRED,
+        FilterIssue::UpdateSkipped => status::UPDATE_SKIPPED,
+        FilterIssue::StateReset => status::STATE_RESET,
+        FilterIssue::WeightsReset => status::WEIGHTS_RESET,
+    }
+}
+
+pub(crate) fn finite_or(value: f64, fallback: f64) -> f64 {
+    if value.is_finite() {
+        value
+    } else {
+        fallback
+    }
+}
+
+/// What the outputs after a sample are computed from: the filter's estimate and covariance and
+/// the values beside them, copied when the sample is processed.
+#[derive(Clone, Copy, Debug)]
+pub struct OutputSample<const N: usize, Extra> {
+    pub state: SVector<f64, N>,
+    pub covariance: SMatrix<f64, N, N>,
+    /// The driver input of the sample.
+    pub input: InputVector,
+    pub extra: Extra,
+    pub nis: f64,
+    pub rows_used: i32,
+}
+
+/// How many doSteps with a sample may pass without an output read before the outputs are
+/// computed anyway (bounds the memory; one evaluation per this many doSteps).
+const PENDING_CAPACITY: usize = 8;
+
+/// The estimator of one model between samples.
+#[derive(Clone, Debug)]
+pub struct Runner<Model, const N: usize, const M: usize, const U: usize>
+where
+    Model: EstimationModel<N, M, U>,
+{
+    pub(crate) model: Model,
+    pub(crate) filter: BoxedEstimator<N, M, U>,
+    choice: EstimatorChoice,
+    settings: EstimatorSettings<N, U>,
+    pub(crate) extra: Model::Extra,
+    sample_time: f64,
+    start_time: f64,
+    /// Index of the next sample to process, at `start_time + next_sample * sample_time`.
+    next_sample: u64,
+    pub(crate) input: InputVector,
+    pub(crate) min_speed: f64,
+    pub(crate) nis: f64,
+    pub(crate) rows_used: i32,
+    /// The parameters, to rebuild the filter when it has to be re-seeded and for the outputs.
+    pub(crate) parameters: Box<Variables>,
+    /// The derived outputs (slip quantities, ay, standard deviations, sideslip) cost about as
+    /// much as a filter step, so they are computed lazily: each doStep that processed a sample
+    /// stores what its outputs are computed from, and the first output read (`publish`)
+    /// computes them. The values are exactly those of publishing after every doStep: an output
+    /// that is not finite keeps its previous value, so the samples since the last publish are
+    /// kept and a non-finite output is looked up in the older ones, newest first.
+    pending: Vec<OutputSample<N, Model::Extra>>,
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
+where
+    Model: EstimationModel<N, M, U>,
+{
+    pub fn build(v: &Variables, start_time: f64) -> Result<Self, String> {
+        let model = Model::from_parameters(v)?;
+        let initial = Model::initial_estimate(v)?;
+        let (kind, choice) = parameters::estimator_choice(v)?;
+        let settings = model.registry_settings(v);
+        let filter = registry::build(model.clone(), choice, &settings, &initial).map_err(|e| {
+            let model_item = parameters::estimator_model(v).map_or("?", |m| m.name());
+            format!(
+                "parameter estimator = {} ({}) with model = {} ({model_item}): {}",
+                i32::from(kind),
+                kind.name(),
+                v.model,
+                e.0
+            )
+        })?;
+        let min_speed = positive("min_speed", v.min_speed)?;
+        Ok(Self {
+            extra: Model::start_extra(v, min_speed),
+            model,
+            filter,
+            choice,
+            settings,
+            sample_time: positive("sample_time", v.sample_time)?,
+            start_time,
+            next_sample: 0,
+            input: InputVector::new(
+                finite_or(v.steering_angle, 0.0),
+                finite_or(v.drive_torque, 0.0),
+                finite_or(v.brake_torque, 0.0),
+            ),
+            min_speed,
+            nis: 0.0,
+            rows_used: 0,
+            parameters: Box::new(v.clone()),
+            pending: Vec::with_capacity(PENDING_CAPACITY),
+        })
+    }
+
+    /// The running filter (for tests and benchmarks).
+    pub fn filter(&self) -> &BoxedEstimator<N, M, U> {
+        &self.filter
+    }
+
+    /// Replaces the filter by a new one of the same kind and settings started at `initial`;
+    /// returns whether that worked.
+    pub(crate) fn rebuild(&mut self, initial: &InitialEstimate<N>) -> bool {
+        match registry::build(self.model.clone(), self.choice, &self.settings, initial) {
+            Ok(rebuilt) => {
+                self.filter = rebuilt;
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// One sample: measurement update with the sensors, then time update to the next sample.
+    /// Returns the status bits of the sample.
+    pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
+        let sample = match Model::sample(self, sensors) {
+            Ok(sample) => sample,
+            Err(bits) => {
+                self.nis = 0.0;
+                self.rows_used = 0;
+                return bits;
+            }
+        };
+        let mut bits = sample.bits;
+        if sample.measurement.iter().any(|value| !value.is_finite()) {
+            bits |= status::ROW_SKIPPED;
+        }
+        // Non-finite rows are skipped by the filters themselves (SPEC §6).
+        let report = self
+            .filter
+            .update(&sample.measurement, &sample.input, &[true; M]);
+        let report = report.unwrap_or_else(|issue| {
+            bits |= issue_bit(issue);
+            self.filter.last_report()
+        });
+        self.nis = report.nis;
+        self.rows_used = report.rows_used as i32;
+        if let Err(issue) = self.filter.predict(&sample.input) {
+            bits |= issue_bit(issue);
+        }
+        bits
+    }
+
+    /// Processes every sample in `[t, t + h)`; returns the status bits and whether any ran.
+    pub fn advance(&mut self, t: f64, h: f64, sensors: &Sensors) -> (i32, bool) {
+        let tolerance = 1e-6 * self.sample_time;
+        let mut bits = 0;
+        let mut processed = false;
+        loop {
+            let sample_time = self.start_time + self.next_sample as f64 * self.sample_time;
+            if sample_time >= t + h - tolerance {
+                break;
+            }
+            bits |= self.process_sample(sensors);
+            self.next_sample += 1;
+            processed = true;
+        }
+        (bits, processed)
+    }
+
+    /// Stores the outputs of the sample just processed, to be computed at the next read.
+    pub fn defer_publish(&mut self, variables: &mut Variables, status_awaits_publish: bool) {
+        if self.pending.len() == PENDING_CAPACITY {
+            self.publish(variables, status_awaits_publish);
+        }
+        self.pending.push(OutputSample {
+            state: *self.filter.state(),
+            covariance: *self.filter.covariance(),
+            input: self.input,
+            extra: self.extra,
+            nis: self.nis,
+            rows_used: self.rows_used,
+        });
+    }
+
+    /// Writes the pending estimate into the outputs; keeps an output's previous value (and
+    /// reports status bit 8 for the latest doStep) if it would not be finite.
+    pub fn publish(&mut self, variables: &mut Variables, status_awaits_publish: bool) {
+        let Some((newest, older)) = self.pending.split_last() else {
+            return;
+        };
+        let mut values = self.model.outputs(newest, &self.parameters);
+        let mut finite = values.finite();
+        let reset = finite.contains(&false);
+        // Eager publishing would have kept the value of the newest older sample where it was
+        // finite; walk back only while some output is still missing.
+        for sample in older.iter().rev() {
+            if !finite.contains(&false) {
+                break;
+            }
+            values.fill_from(&self.model.outputs(sample, &self.parameters), &mut finite);
+        }
+        values.write_where(&finite, variables);
+        variables.rows_used = newest.rows_used;
+        if reset && status_awaits_publish {
+            variables.status |= status::STATE_RESET;
+        }
+        self.pending.clear();
+    }
+
+    /// Forgets the outputs not yet computed (they were published before a state was taken).
+    pub fn forget_pending(&mut self) {
+        self.pending.clear();
+    }
+
+    pub fn write_state(&self, writer: &mut StateWriter) {
+        // The filter's own running state (Kalman-type: (x, P); the particle filter: its
+        // particles and random generator), then what the runner keeps beside it.
+        self.filter.save(&mut Sink(writer));
+        Model::write_extra(&self.extra, writer);
+        writer.f64(self.start_time);
+        writer.u64(self.next_sample);
+        writer.f64s(self.input.as_slice());
+        writer.f64(self.nis);
+        writer.i32(self.rows_used);
+    }
+
+    pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
+        // Built from the parameters as at initialisation, then continued from the stored state
+        // (the estimator kind is a parameter, restored first).
+        let mut runner = Self::build(v, 0.0).map_err(StateError::new)?;
+        let initial = Model::initial_estimate(v).map_err(StateError::new)?;
+        runner.filter = registry::restore(
+            runner.model.clone(),
+            runner.choice,
+            &runner.settings,
+            &initial,
+            &mut Source(reader),
+        )
+        .map_err(|e| StateError::new(e.0))?;
+        Model::read_extra(&mut runner.extra, reader)?;
+        runner.start_time = reader.f64("start time")?;
+        runner.next_sample = reader.u64("next sample")?;
+        reader.f64s_into(runner.input.as_mut_slice(), "driver input")?;
+        runner.nis = reader.f64("nis")?;
+        runner.rows_used = reader.i32("rows used")?;
+        Ok(runner)
+    }
+}
