@@ -29,8 +29,16 @@ ESTIMATE_OUTPUTS = ["vx_est", "vy_est", "yaw_rate_est", "omega_front_est", "omeg
                     "sideslip_est", "ay_est", "slip_angle_front_est", "slip_angle_rear_est",
                     "slip_front_est", "slip_rear_est", "vx_std", "vy_std", "yaw_rate_std",
                     "omega_front_std", "omega_rear_std", "sideslip_std", "nis", "status"]
-# Enumeration values fixed by issue 4 point 2.
-ESTIMATOR_KINDS = {"lkf": 1, "ekf": 2, "ukf": 3, "ukf_scaled": 4, "particle_filter": 5, "luenberger": 6}
+# The estimators (item name -> value of the `estimator` parameter) as the source modelDescription
+# declares them, read with fmpy: the XML's enumeration is the one list (the estimation crate's
+# registry is checked against it), so a new estimator needs no line here.
+ESTIMATOR_KINDS = {
+    item.name: int(item.value)
+    for item in next(
+        simple_type for simple_type in read_model_description(
+            str(ROOT / "modelDescription" / f"{ESTIMATOR}.xml"), validate=False).typeDefinitions
+        if simple_type.name == "EstimatorKind").items
+}
 
 # Seed-000 manoeuvres (SPEC section 7), defined once for the project in the Rust crate
 # harness/manoeuvres (src/seed000.rs) and read here from the table it generates (a Rust test keeps

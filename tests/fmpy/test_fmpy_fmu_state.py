@@ -7,7 +7,7 @@ import pytest
 
 import fmu_support as support
 
-ESTIMATORS = ["lkf", "ekf", "ukf", "ukf_scaled", "particle_filter", "luenberger"]
+ESTIMATORS = list(support.ESTIMATOR_KINDS)
 OUTPUTS = ["vx_est", "vy_est", "yaw_rate_est", "sideslip_est", "vx_std", "nis"]
 SENSORS = ["yaw_rate_meas", "ay_meas", "omega_front_meas", "omega_rear_meas"]
 
