@@ -21,13 +21,14 @@ use estimation::identification::EmSchedule;
 use estimation::models::rear_axle::PARAMETER_NAMES;
 use estimation::particle::Proposal;
 
+pub use crate::findings::{fmt, window_mean, window_rmse, Finding};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
 use crate::mismatch::{self, MismatchReport};
 use fmi_master::plot::{self, Panel, Series};
 use fmi_master::report::Document;
 use fmi_master::runner::{self, Environment, RunOutput};
 use fmi_master::scenario::Scenario;
-use fmi_master::scoring::{RunScores, StateScore};
+use fmi_master::scoring::RunScores;
 use manoeuvres::{Channel, ManoeuvreRun};
 
 /// The experiments, in report order: (scenario file, seed, section title).
@@ -185,265 +186,10 @@ pub fn ensure_fmus(fmu_dir: &Path, allow_build: bool) -> Result<()> {
     Ok(())
 }
 
-/// RMSE of `estimate - truth` over t in [from, to].
-pub fn window_rmse(
-    output: &RunOutput,
-    truth: &str,
-    estimate: &str,
-    from: f64,
-    to: f64,
-) -> Option<f64> {
-    let r = &output.result;
-    let truth = r.column(truth)?;
-    let estimate = r.column(estimate)?;
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    for (k, &t) in r.times.iter().enumerate() {
-        if t >= from - 1e-12 && t <= to + 1e-12 {
-            let e = estimate[k] - truth[k];
-            if e.is_finite() {
-                sum += e * e;
-                count += 1;
-            }
-        }
-    }
-    (count > 0).then(|| (sum / count as f64).sqrt())
-}
-
-/// Mean of a column over t in [from, to].
-pub fn window_mean(output: &RunOutput, column: &str, from: f64, to: f64) -> Option<f64> {
-    let r = &output.result;
-    let values = r.column(column)?;
-    let selected: Vec<f64> = r
-        .times
-        .iter()
-        .zip(values)
-        .filter(|(t, _)| **t >= from - 1e-12 && **t <= to + 1e-12)
-        .map(|(_, v)| *v)
-        .collect();
-    (!selected.is_empty()).then(|| selected.iter().sum::<f64>() / selected.len() as f64)
-}
-
-fn peak_abs(output: &RunOutput, column: &str) -> f64 {
-    output
-        .result
-        .column(column)
-        .map_or(f64::NAN, |v| v.iter().fold(0.0, |m, x| m.max(x.abs())))
-}
-
-fn state<'a>(scores: &'a RunScores, label: &str, estimator: &str) -> Option<&'a StateScore> {
-    scores.state(label, estimator)
-}
-
-fn rmse_of(output: &RunOutput, label: &str, estimator: &str) -> f64 {
-    state(&output.scores, label, estimator).map_or(f64::NAN, |s| s.rmse)
-}
-
-/// One seed finding checked on our numbers.
-#[derive(Debug, Clone)]
-pub struct Finding {
-    pub seed: String,
-    pub experiment: String,
-    pub seed_says: String,
-    pub we_measure: String,
-    pub agrees: bool,
-    /// Why we differ (only shown when `agrees` is false), or a remark.
-    pub note: String,
-}
-
-fn fmt(x: f64) -> String {
-    if x.is_nan() {
-        "n/a".into()
-    } else if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e4) {
-        format!("{x:.3e}")
-    } else {
-        format!("{x:.4}")
-    }
-}
-
-/// Evaluate every seed finding from the runs (keyed by scenario name).
-pub fn findings(outputs: &[(String, RunOutput)]) -> Vec<Finding> {
-    let get = |name: &str| outputs.iter().find(|(n, _)| n == name).map(|(_, o)| o);
-    let mut out = Vec::new();
-    if let Some(o) = get("seed000_ramp_moderate_ay") {
-        let peak = peak_abs(o, "vehicle.vy");
-        let r: Vec<f64> = ["LKF", "EKF", "UKF", "UKF_scaled"]
-            .iter()
-            .map(|e| rmse_of(o, "vy", e))
-            .collect();
-        let lkf_before = window_rmse(o, "vehicle.vy", "LKF.vy_est", 0.0, 6.0).unwrap_or(f64::NAN);
-        let lkf_after = window_rmse(o, "vehicle.vy", "LKF.vy_est", 6.0, 12.0).unwrap_or(f64::NAN);
-        let ay = window_mean(o, "vehicle.ay", 10.0, 12.0).unwrap_or(f64::NAN);
-        let nonlinear_best = r[1].max(r[2]).max(r[3]);
-        out.push(Finding {
-            seed: "000".into(),
-            experiment: "7.1 moderate ramp".into(),
-            seed_says: "all filters agree with the truth; the LKF drifts slightly in vy after about 6 s; ay about 3.7 m/s²".into(),
-            we_measure: format!(
-                "vy RMSE LKF {} / EKF {} / UKF {} / UKF scaled {} m/s (peak |vy| {}); LKF vy RMSE before 6 s {}, after {}; ay over 10-12 s {} m/s²",
-                fmt(r[0]), fmt(r[1]), fmt(r[2]), fmt(r[3]), fmt(peak), fmt(lkf_before), fmt(lkf_after), fmt(ay)
-            ),
-            agrees: nonlinear_best < 0.05 * peak && r[0] < 0.25 * peak && r[0] > nonlinear_best && lkf_after > lkf_before && (ay - 3.7).abs() < 0.3,
-            note: "The LKF's deviation is a linearisation error about straight driving (000 ch. 7.1).".into(),
-        });
-    }
-    let high = get("seed000_ramp_high_ay");
-    if let Some(o) = high {
-        let vy: Vec<f64> = ["LKF", "EKF", "UKF", "UKF_scaled"]
-            .iter()
-            .map(|e| rmse_of(o, "vy", e))
-            .collect();
-        let ay: Vec<f64> = ["LKF", "EKF", "UKF"]
-            .iter()
-            .map(|e| rmse_of(o, "ay", e))
-            .collect();
-        let peak = peak_abs(o, "vehicle.vy");
-        let nonlinear = vy[1].max(vy[2]);
-        out.push(Finding {
-            seed: "000".into(),
-            experiment: "7.2 high-ay ramp".into(),
-            seed_says: "the LKF is far off in vy and ay (it can even correct in the wrong direction); EKF ≈ UKF ≈ truth".into(),
-            we_measure: format!(
-                "vy RMSE LKF {} / EKF {} / UKF {} / UKF scaled {} m/s (peak |vy| {}); ay RMSE LKF {} / EKF {} / UKF {} m/s²",
-                fmt(vy[0]), fmt(vy[1]), fmt(vy[2]), fmt(vy[3]), fmt(peak), fmt(ay[0]), fmt(ay[1]), fmt(ay[2])
-            ),
-            agrees: vy[0] > 5.0 * nonlinear && ay[0] > 5.0 * ay[1].max(ay[2]) && nonlinear < 0.05 * peak && vy[1] < 2.0 * vy[2] && vy[2] < 2.0 * vy[1],
-            note: "".into(),
-        });
-        let big_q = rmse_of(o, "vy", "LKF_Q1e-2");
-        out.push(Finding {
-            seed: "000".into(),
-            experiment: "7.2 LKF with Q = 1e-2 I".into(),
-            seed_says: "a bigger process noise Q = 1e-2 I brings the LKF no significant improvement".into(),
-            we_measure: format!(
-                "vy RMSE LKF {} m/s, LKF with Q = 1e-2 I {} m/s (ratio {}); ay RMSE {} vs {} m/s²",
-                fmt(vy[0]), fmt(big_q), fmt(big_q / vy[0]), fmt(ay[0]), fmt(rmse_of(o, "ay", "LKF_Q1e-2"))
-            ),
-            agrees: big_q > 0.5 * vy[0] || big_q > 5.0 * nonlinear,
-            note: "With Q = 1e-2 I the filter trusts the sensors more; it still has no model of the tyre saturation, so vy stays far from the truth.".into(),
-        });
-    }
-    if let (Some(braking), Some(plain)) = (get("seed000_ramp_high_ay_braking"), high) {
-        let with = window_rmse(braking, "vehicle.vy", "LKF.vy_est", 9.0, 12.0).unwrap_or(f64::NAN);
-        let without = window_rmse(plain, "vehicle.vy", "LKF.vy_est", 9.0, 12.0).unwrap_or(f64::NAN);
-        let ay_with =
-            window_rmse(braking, "vehicle.ay", "LKF.ay_est", 9.0, 12.0).unwrap_or(f64::NAN);
-        let ay_without =
-            window_rmse(plain, "vehicle.ay", "LKF.ay_est", 9.0, 12.0).unwrap_or(f64::NAN);
-        let ax = window_mean(braking, "vehicle.ax", 11.0, 12.0).unwrap_or(f64::NAN);
-        let ekf = window_rmse(braking, "vehicle.vy", "EKF.vy_est", 9.0, 12.0).unwrap_or(f64::NAN);
-        let ukf = window_rmse(braking, "vehicle.vy", "UKF.vy_est", 9.0, 12.0).unwrap_or(f64::NAN);
-        out.push(Finding {
-            seed: "000".into(),
-            experiment: "7.2.1 high-ay ramp with braking".into(),
-            seed_says: "after braking starts (9 s) the LKF deviates even more than without braking; deceleration about 4 m/s² from 11 s; EKF ≈ UKF ≈ truth".into(),
-            we_measure: format!(
-                "LKF vy RMSE over 9-12 s: {} m/s with braking vs {} without; LKF ay RMSE {} vs {} m/s²; EKF / UKF vy RMSE over 9-12 s {} / {}; ax over 11-12 s {} m/s²",
-                fmt(with), fmt(without), fmt(ay_with), fmt(ay_without), fmt(ekf), fmt(ukf), fmt(ax)
-            ),
-            agrees: with > without && ay_with > ay_without && (ax + 4.0).abs() < 1.0 && ekf < 0.2 * with && ukf < 0.2 * with,
-            note: "".into(),
-        });
-    }
-    let mut sample_parts = Vec::new();
-    let mut sample_ok = true;
-    for (name, label) in [
-        ("seed000_ramp_high_ay_T10ms", "10 ms"),
-        ("seed000_ramp_high_ay_T50ms", "50 ms"),
-    ] {
-        if let Some(o) = get(name) {
-            let e = rmse_of(o, "vy", "EKF");
-            let u = rmse_of(o, "vy", "UKF");
-            sample_parts.push(format!(
-                "T = {label}: vy RMSE EKF {} / UKF {} / UKF scaled {} m/s",
-                fmt(e),
-                fmt(u),
-                fmt(rmse_of(o, "vy", "UKF_scaled"))
-            ));
-            sample_ok &= e < 1.5 * u && u < 1.5 * e;
-        }
-    }
-    if !sample_parts.is_empty() {
-        out.push(Finding {
-            seed: "000".into(),
-            experiment: "7.2.2 sample time 10 / 50 ms".into(),
-            seed_says: "no significant difference between EKF and UKF at T = 10 ms and 50 ms on the ramp (slow dynamics)".into(),
-            we_measure: sample_parts.join("; "),
-            agrees: sample_ok,
-            note: "".into(),
-        });
-    }
-    if let (Some(t10), Some(t50)) = (
-        get("seed000_step_steer_T10ms"),
-        get("seed000_step_steer_T50ms"),
-    ) {
-        let w = |o: &RunOutput, e: &str| {
-            window_rmse(o, "vehicle.vy", &format!("{e}.vy_est"), 4.0, 5.0).unwrap_or(f64::NAN)
-        };
-        let (e10, u10, e50, u50) = (w(t10, "EKF"), w(t10, "UKF"), w(t50, "EKF"), w(t50, "UKF"));
-        let vx50 = |e: &str| {
-            window_rmse(t50, "vehicle.vx", &format!("{e}.vx_est"), 4.0, 5.0).unwrap_or(f64::NAN)
-        };
-        out.push(Finding {
-            seed: "000".into(),
-            experiment: "7.3 2° steering step".into(),
-            seed_says: "at T = 10 ms EKF ≈ UKF; at T = 50 ms the EKF deviates from the truth in vy at the step while the UKF follows it; both deviate in vx at the step".into(),
-            we_measure: format!(
-                "vy RMSE over 4-5 s: T = 10 ms EKF {} / UKF {}; T = 50 ms EKF {} / UKF {} m/s (EKF/UKF {}); vx RMSE over 4-5 s at 50 ms EKF {} / UKF {}",
-                fmt(e10), fmt(u10), fmt(e50), fmt(u50), fmt(e50 / u50), fmt(vx50("EKF")), fmt(vx50("UKF"))
-            ),
-            agrees: e50 > 1.2 * u50 && e10 < 1.5 * u10 && u10 < 1.5 * e10,
-            note: "Our EKF linearises the discrete seed-000 step at the estimate with exact (automatic-differentiation) Jacobians, and the reference integrates at 1 ms while the filters predict one 50 ms Euler step; the EKF/UKF difference at the step is the linearisation error of that one large step. Where the ratio is close to 1, the step's transient is mostly the discretisation error both filters share (see the vx panel).".into(),
-        });
-    }
-    let mut costs = Vec::new();
-    for (name, label) in [
-        ("seed001_step_steer_40deg", "step steer 40°"),
-        ("seed001_double_lane_change", "double lane change"),
-        ("seed001_moose_test", "moose test (ISO 3888-2)"),
-        ("seed001_wobble", "wobble"),
-    ] {
-        if let Some(o) = get(name) {
-            let b = rmse_of(o, "sideslip", "UKF_B");
-            let l = rmse_of(o, "sideslip", "LKF");
-            let a = rmse_of(o, "sideslip", "UKF_A");
-            let peak = peak_abs(o, "vehicle.sideslip").to_degrees();
-            let wall = |inst: &str| {
-                o.scores
-                    .step_wall_time
-                    .iter()
-                    .find(|(n, _)| n == inst)
-                    .map_or(f64::NAN, |(_, s)| s * 1e6)
-            };
-            costs.push(format!(
-                "{label}: UKF_B {} µs, LKF {} µs per doStep",
-                fmt(wall("UKF_B")),
-                fmt(wall("LKF"))
-            ));
-            out.push(Finding {
-                seed: "001".into(),
-                experiment: label.into(),
-                seed_says: "the UKF on the nonlinear two-track model estimates the sideslip angle far better than the linear single-track KF".into(),
-                we_measure: format!(
-                    "sideslip RMSE UKF (3-state model B) {} deg, LKF {} deg, UKF on model A {} deg (peak |sideslip| {} deg)",
-                    fmt(b), fmt(l), fmt(a), fmt(peak)
-                ),
-                agrees: b < l,
-                note: "The reference here is our model B FMU (not the seed's 10-DOF vehicle), so the estimator's model B matches the reference's structure; differences come from the CAN-like corruption, the speed input and the tuning.".into(),
-            });
-        }
-    }
-    if !costs.is_empty() {
-        out.push(Finding {
-            seed: "001".into(),
-            experiment: "computing cost".into(),
-            seed_says: "the UKF costs only slightly more than the KF".into(),
-            we_measure: costs.join("; "),
-            agrees: true,
-            note: "Wall time per communication step of 1 ms, the filter running every 10 ms; measured, not compared to a threshold.".into(),
-        });
-    }
-    out
+/// Evaluate every co-simulated seed finding (harness/studies/findings/seed*.toml) on the runs
+/// (keyed by scenario name).
+pub fn findings(outputs: &[(String, RunOutput)]) -> Result<Vec<Finding>> {
+    crate::findings::findings(outputs)
 }
 
 /// Runs the seed-003 identification (seed 003 §3.2) on the demo's noise seeds; `done` after each.
@@ -681,7 +427,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &mut failures,
     );
     bar.finish_with_message("all experiments done");
-    let mut findings = findings(&outputs);
+    let mut findings = findings(&outputs)?;
     if let Some(outcome) = &seed003 {
         findings.extend(seed003_findings(outcome));
     }

@@ -5,6 +5,8 @@
 //! feature (and through it `vehicle-models`).
 
 pub mod demo;
+pub mod expression;
+pub mod findings;
 pub mod identify;
 pub mod mismatch;
 pub mod seed003;
