@@ -211,27 +211,6 @@ fn number(value: f64) -> String {
     format!("{value}")
 }
 
-fn causality_name(causality: md::Causality) -> &'static str {
-    match causality {
-        md::Causality::Parameter => "parameter",
-        md::Causality::CalculatedParameter => "calculatedParameter",
-        md::Causality::Input => "input",
-        md::Causality::Output => "output",
-        md::Causality::Local => "local",
-        md::Causality::Independent => "independent",
-    }
-}
-
-fn variability_name(variability: md::Variability) -> &'static str {
-    match variability {
-        md::Variability::Constant => "constant",
-        md::Variability::Fixed => "fixed",
-        md::Variability::Tunable => "tunable",
-        md::Variability::Discrete => "discrete",
-        md::Variability::Continuous => "continuous",
-    }
-}
-
 fn initial_name(initial: md::Initial) -> &'static str {
     match initial {
         md::Initial::Exact => "exact",
@@ -272,8 +251,8 @@ fn convert_variable(variable: &md::ScalarVariable) -> ScalarVariable {
         name: variable.name.clone(),
         value_reference: variable.value_reference,
         description: variable.description.clone(),
-        causality: causality_name(variable.causality).into(),
-        variability: variability_name(variable.variability).into(),
+        causality: variable.causality.xml_name().into(),
+        variability: variable.variability.xml_name().into(),
         initial: variable.initial.map(|i| initial_name(i).to_string()),
         line: variable.line,
         ..ScalarVariable::default()

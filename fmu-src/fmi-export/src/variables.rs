@@ -10,25 +10,56 @@ pub enum ValueType {
     String,
 }
 
-/// FMI 2.0 causality.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
+/// Defines an FMI attribute's enum with its XML spellings (`xml_name`, `from_xml_name`, `ALL`),
+/// so that the parser, the code generator and packaging share one definition.
+macro_rules! xml_enum {
+    ($(#[$meta:meta])* $name:ident { $($variant:ident = $xml:literal,)+ }) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum $name {
+            $($variant,)+
+        }
+
+        impl $name {
+            /// Every value, in the order of the FMI 2.0 standard's attribute description.
+            pub const ALL: &'static [Self] = &[$(Self::$variant),+];
+
+            /// The attribute value in modelDescription.xml.
+            pub const fn xml_name(self) -> &'static str {
+                match self {
+                    $(Self::$variant => $xml,)+
+                }
+            }
+
+            /// The value with this XML spelling.
+            pub fn from_xml_name(name: &str) -> Option<Self> {
+                Self::ALL.iter().copied().find(|value| value.xml_name() == name)
+            }
+        }
+    };
 }
 
-/// FMI 2.0 variability.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
+xml_enum! {
+    /// FMI 2.0 causality (FMI 2.0, section 2.2.7).
+    Causality {
+        Parameter = "parameter",
+        CalculatedParameter = "calculatedParameter",
+        Input = "input",
+        Output = "output",
+        Local = "local",
+        Independent = "independent",
+    }
+}
+
+xml_enum! {
+    /// FMI 2.0 variability (FMI 2.0, section 2.2.7).
+    Variability {
+        Constant = "constant",
+        Fixed = "fixed",
+        Tunable = "tunable",
+        Discrete = "discrete",
+        Continuous = "continuous",
+    }
 }
 
 /// One row of the generated variable table.

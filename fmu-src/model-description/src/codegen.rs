@@ -31,7 +31,7 @@ use std::path::Path;
 
 use crate::{
     BaseType, Causality, EnumerationItem, ModelDescription, SimpleType, SimpleTypeKind,
-    Variability, VariableValue,
+    VariableValue,
 };
 
 const KEYWORDS: &[&str] = &[
@@ -231,21 +231,9 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
                 ("Integer", min.map(f64::from), max.map(f64::from), items)
             }
         };
-        let causality = match variable.causality {
-            Causality::Parameter => "Parameter",
-            Causality::CalculatedParameter => "CalculatedParameter",
-            Causality::Input => "Input",
-            Causality::Output => "Output",
-            Causality::Local => "Local",
-            Causality::Independent => "Independent",
-        };
-        let variability = match variable.variability {
-            Variability::Constant => "Constant",
-            Variability::Fixed => "Fixed",
-            Variability::Tunable => "Tunable",
-            Variability::Discrete => "Discrete",
-            Variability::Continuous => "Continuous",
-        };
+        // The variants' Rust names are those of fmi_export's enums (`Debug`).
+        let causality = format!("{:?}", variable.causality);
+        let variability = format!("{:?}", variable.variability);
         let allowed: Vec<String> = allowed.iter().map(i32::to_string).collect();
         let _ = writeln!(
             w,

@@ -195,26 +195,9 @@ pub struct DefaultExperiment {
     pub step_size: Option<f64>,
 }
 
-/// FMI 2.0 causality of a variable.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-/// FMI 2.0 variability of a variable.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
+/// FMI 2.0 causality and variability, defined once in fmi-export (with their XML spellings)
+/// and shared by the parser, the generated variable tables and packaging.
+pub use fmi_export::{Causality, Variability};
 
 /// FMI 2.0 `initial` attribute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

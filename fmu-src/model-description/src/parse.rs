@@ -508,31 +508,23 @@ fn parse_variable(file: &str, element: &Element) -> Result<ScalarVariable, Error
         .ok_or_else(|| a.error("missing attribute 'valueReference'"))?;
     let context = format!("variable '{name}' (valueReference {value_reference})");
     let a = Attributes::new(file, element, context.clone());
-    let causality = match a.string("causality").as_deref() {
-        None | Some("local") => Causality::Local,
-        Some("parameter") => Causality::Parameter,
-        Some("calculatedParameter") => Causality::CalculatedParameter,
-        Some("input") => Causality::Input,
-        Some("output") => Causality::Output,
-        Some("independent") => Causality::Independent,
-        Some(other) => {
-            return Err(a.error(format!(
-                "causality \"{other}\" is not one of parameter, calculatedParameter, input, \
-                 output, local, independent"
-            )))
-        }
+    let causality = match a.string("causality") {
+        None => Causality::Local,
+        Some(name) => Causality::from_xml_name(&name).ok_or_else(|| {
+            a.error(format!(
+                "causality \"{name}\" is not one of {}",
+                xml_names(Causality::ALL.iter().map(|c| c.xml_name()))
+            ))
+        })?,
     };
-    let variability = match a.string("variability").as_deref() {
-        None | Some("continuous") => Variability::Continuous,
-        Some("constant") => Variability::Constant,
-        Some("fixed") => Variability::Fixed,
-        Some("tunable") => Variability::Tunable,
-        Some("discrete") => Variability::Discrete,
-        Some(other) => {
-            return Err(a.error(format!(
-            "variability \"{other}\" is not one of constant, fixed, tunable, discrete, continuous"
-        )))
-        }
+    let variability = match a.string("variability") {
+        None => Variability::Continuous,
+        Some(name) => Variability::from_xml_name(&name).ok_or_else(|| {
+            a.error(format!(
+                "variability \"{name}\" is not one of {}",
+                xml_names(Variability::ALL.iter().map(|v| v.xml_name()))
+            ))
+        })?,
     };
     let initial = match a.string("initial").as_deref() {
         None => None,
@@ -702,4 +694,9 @@ fn parse_model_structure(file: &str, element: &Element) -> Result<ModelStructure
         }
     }
     Ok(structure)
+}
+
+/// `a, b, c` for a message listing the valid attribute values.
+fn xml_names<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    names.collect::<Vec<_>>().join(", ")
 }
