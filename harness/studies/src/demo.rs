@@ -535,6 +535,40 @@ fn write_report(
 ) -> Result<()> {
     let out = &env.out_dir;
     let mut doc = Document::default();
+    introduction(&mut doc, env);
+    summary_section(&mut doc, findings, failures);
+    library_section(&mut doc, out)?;
+    experiment_sections(&mut doc, experiments, outputs, findings, out);
+    match seed003 {
+        Some(outcome) => seed003_section(&mut doc, outcome, findings, out)?,
+        None => {
+            doc.heading(2, "Seed 003: EM identification");
+            doc.paragraph(format!(
+                "The identification `harness/scenarios/{SEED003_IDENTIFICATION}` failed; the error is listed above."
+            ));
+        }
+    }
+    match mismatch {
+        Some(report) => mismatch_section(&mut doc, report),
+        None => {
+            doc.heading(2, "Beyond the seeds: model mismatch");
+            doc.paragraph(format!(
+                "The study ({MISMATCH_STUDY}) failed; the error is listed above."
+            ));
+        }
+    }
+
+    let md = doc.to_markdown();
+    std::fs::write(out.join("report.md"), md)
+        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+    let html = doc.to_html("Vehicle state estimation: seed experiments");
+    std::fs::write(out.join("report.html"), html)
+        .with_context(|| format!("writing {}", out.join("report.html").display()))?;
+    Ok(())
+}
+
+/// What the report is, how it was produced, and its conventions.
+fn introduction(doc: &mut Document, env: &Environment) {
     doc.heading(
         1,
         "Vehicle state estimation: the seed experiments, reproduced by co-simulation",
@@ -554,7 +588,10 @@ fn write_report(
          is indicative only (`harness montecarlo` gives the band over runs).",
         env.fmu_dir.display()
     ));
+}
 
+/// The findings table, the disagreements with their reasons, and the experiments that failed.
+fn summary_section(doc: &mut Document, findings: &[Finding], failures: &[(String, String)]) {
     doc.heading(2, "Summary of the seed findings");
     doc.table(
         vec![
@@ -600,7 +637,10 @@ fn write_report(
                 .collect(),
         );
     }
+}
 
+/// The manoeuvre library: the definitions with the project's choices, and their signals.
+fn library_section(doc: &mut Document, out: &Path) -> Result<()> {
     doc.heading(2, "Manoeuvre library");
     doc.paragraph(
         "Each manoeuvre is defined once in the `manoeuvres` crate (`harness/manoeuvres/src/lib.rs`). The seeds leave durations, rise times \
@@ -622,7 +662,17 @@ fn write_report(
         relative(&library_png, out),
         "The library's open-loop signals",
     );
+    Ok(())
+}
 
+/// One section per co-simulated experiment, under a heading per seed.
+fn experiment_sections(
+    doc: &mut Document,
+    experiments: &[&(&str, &str, &str)],
+    outputs: &[(String, RunOutput)],
+    findings: &[Finding],
+    out: &Path,
+) {
     let mut current_seed = "";
     for (file, seed, title) in experiments {
         let Some((_, output)) = outputs
@@ -644,111 +694,99 @@ fn write_report(
                 },
             );
         }
-        doc.heading(3, title.to_string());
+        experiment_section(doc, file, title, output, findings, out);
+    }
+}
+
+/// One experiment: scenario, the findings on it, its score tables and plots.
+fn experiment_section(
+    doc: &mut Document,
+    file: &str,
+    title: &str,
+    output: &RunOutput,
+    findings: &[Finding],
+    out: &Path,
+) {
+    doc.heading(3, title.to_string());
+    doc.paragraph(format!(
+        "Scenario `harness/scenarios/{file}`: {}. Step order: {}. CSV: `{}`.",
+        output.scenario.description,
+        output.step_order.join(" → "),
+        relative(&output.csv, out)
+    ));
+    if let Some((amplitude, angle)) = output.derived_amplitude {
         doc.paragraph(format!(
-            "Scenario `harness/scenarios/{file}`: {}. Step order: {}. CSV: `{}`.",
-            output.scenario.description,
-            output.step_order.join(" → "),
-            relative(&output.csv, out)
+            "The slowly increasing steer reached 0.3 g at a steering-wheel angle of {:.2}°; amplitude A = {:.2}°.",
+            angle.to_degrees(),
+            amplitude.to_degrees()
         ));
-        if let Some((amplitude, angle)) = output.derived_amplitude {
-            doc.paragraph(format!(
-                "The slowly increasing steer reached 0.3 g at a steering-wheel angle of {:.2}°; amplitude A = {:.2}°.",
-                angle.to_degrees(),
-                amplitude.to_degrees()
-            ));
-        }
-        for f in findings
-            .iter()
-            .filter(|f| outputs_match(&f.experiment, &output.scenario.name))
-        {
-            doc.paragraph(format!(
-                "**Seed reports:** {} **We measure:** {}",
-                f.seed_says, f.we_measure
-            ));
-        }
+    }
+    for f in findings
+        .iter()
+        .filter(|f| outputs_match(&f.experiment, &output.scenario.name))
+    {
+        doc.paragraph(format!(
+            "**Seed reports:** {} **We measure:** {}",
+            f.seed_says, f.we_measure
+        ));
+    }
+    score_tables(doc, &output.scores);
+    for plot in &output.plots {
+        let caption = plot
+            .file_stem()
+            .map(|s| s.to_string_lossy().replace('_', " "))
+            .unwrap_or_default();
+        doc.image(relative(plot, out), caption);
+    }
+}
+
+/// The per-state scores, the NIS per estimator and the wall time per doStep of one run.
+fn score_tables(doc: &mut Document, scores: &RunScores) {
+    doc.table(
+        vec![
+            "state".into(),
+            "estimator".into(),
+            "RMSE".into(),
+            "max abs error".into(),
+            "unit".into(),
+            "time-avg NEES".into(),
+            "95 % band".into(),
+        ],
+        score_rows(scores),
+    );
+    let nis_rows: Vec<Vec<String>> = scores
+        .nis
+        .iter()
+        .map(|n| {
+            vec![
+                n.estimator.clone(),
+                format!("{:.3}", n.mean_nis),
+                format!("{:.2}", n.mean_dof),
+                format!("[{:.3}, {:.3}]", n.band.0, n.band.1),
+                n.updates.to_string(),
+            ]
+        })
+        .collect();
+    if !nis_rows.is_empty() {
         doc.table(
             vec![
-                "state".into(),
                 "estimator".into(),
-                "RMSE".into(),
-                "max abs error".into(),
-                "unit".into(),
-                "time-avg NEES".into(),
+                "time-avg NIS".into(),
+                "mean dof".into(),
                 "95 % band".into(),
+                "updates".into(),
             ],
-            score_rows(&output.scores),
+            nis_rows,
         );
-        let nis_rows: Vec<Vec<String>> = output
-            .scores
-            .nis
+    }
+    doc.table(
+        vec!["instance".into(), "wall time per doStep [µs]".into()],
+        scores
+            .step_wall_time
             .iter()
-            .map(|n| {
-                vec![
-                    n.estimator.clone(),
-                    format!("{:.3}", n.mean_nis),
-                    format!("{:.2}", n.mean_dof),
-                    format!("[{:.3}, {:.3}]", n.band.0, n.band.1),
-                    n.updates.to_string(),
-                ]
-            })
-            .collect();
-        if !nis_rows.is_empty() {
-            doc.table(
-                vec![
-                    "estimator".into(),
-                    "time-avg NIS".into(),
-                    "mean dof".into(),
-                    "95 % band".into(),
-                    "updates".into(),
-                ],
-                nis_rows,
-            );
-        }
-        doc.table(
-            vec!["instance".into(), "wall time per doStep [µs]".into()],
-            output
-                .scores
-                .step_wall_time
-                .iter()
-                .map(|(n, s)| vec![n.clone(), format!("{:.2}", s * 1e6)])
-                .collect(),
-        );
-        for plot in &output.plots {
-            let caption = plot
-                .file_stem()
-                .map(|s| s.to_string_lossy().replace('_', " "))
-                .unwrap_or_default();
-            doc.image(relative(plot, out), caption);
-        }
-    }
-
-    match seed003 {
-        Some(outcome) => seed003_section(&mut doc, outcome, findings, out)?,
-        None => {
-            doc.heading(2, "Seed 003: EM identification");
-            doc.paragraph(format!(
-                "The identification `harness/scenarios/{SEED003_IDENTIFICATION}` failed; the error is listed above."
-            ));
-        }
-    }
-    match mismatch {
-        Some(report) => mismatch_section(&mut doc, report),
-        None => {
-            doc.heading(2, "Beyond the seeds: model mismatch");
-            doc.paragraph(format!(
-                "The study ({MISMATCH_STUDY}) failed; the error is listed above."
-            ));
-        }
-    }
-
-    let md = doc.to_markdown();
-    std::fs::write(out.join("report.md"), md)
-        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
-    let html = doc.to_html("Vehicle state estimation: seed experiments");
-    std::fs::write(out.join("report.html"), html)
-        .with_context(|| format!("writing {}", out.join("report.html").display()))?;
-    Ok(())
+            .map(|(n, s)| vec![n.clone(), format!("{:.2}", s * 1e6)])
+            .collect(),
+    );
 }
 
 /// How the report and the failure list name the model-mismatch study.
@@ -860,6 +898,15 @@ fn seed003_section(
     findings: &[Finding],
     out: &Path,
 ) -> Result<()> {
+    seed003_method(doc, outcome);
+    seed003_table_3_1(doc, outcome, findings);
+    seed003_table_3_2(doc, outcome, findings);
+    seed003_runs(doc, outcome);
+    seed003_history(doc, outcome, out)
+}
+
+/// How the seed-003 experiment was set up and where it deviates from the seed's procedure.
+fn seed003_method(doc: &mut Document, outcome: &Outcome) {
     let config = &outcome.job.config;
     let runs = outcome.runs.len();
     let seeds: Vec<String> = outcome
@@ -900,7 +947,12 @@ fn seed003_section(
         config.start_parameters.as_slice(),
         config.tolerance,
     ));
+}
 
+/// Table 3.1 (filter against smoother RMSE) beside the seed's, with the finding.
+fn seed003_table_3_1(doc: &mut Document, outcome: &Outcome, findings: &[Finding]) {
+    let config = &outcome.job.config;
+    let runs = outcome.runs.len();
     doc.heading(3, "Table 3.1: particle filter against particle smoother");
     let mut rows = Vec::new();
     for (i, label) in STATE_LABELS.iter().enumerate() {
@@ -955,7 +1007,11 @@ fn seed003_section(
             ours.join(", "),
         ));
     }
+}
 
+/// Table 3.2 (identified parameters) beside the seed's, with a verdict per parameter.
+fn seed003_table_3_2(doc: &mut Document, outcome: &Outcome, findings: &[Finding]) {
+    let runs = outcome.runs.len();
     doc.heading(3, "Table 3.2: identified parameters");
     let mut rows = Vec::new();
     for (j, name) in PARAMETER_NAMES.iter().enumerate() {
@@ -1009,6 +1065,10 @@ fn seed003_section(
         doc.paragraph("Where we miss the seed's accuracy:");
         doc.list(missed);
     }
+}
+
+/// One row per noise seed: iterations, convergence, wall time, identified parameters.
+fn seed003_runs(doc: &mut Document, outcome: &Outcome) {
     let mut rows = Vec::new();
     for run in &outcome.runs {
         let errors = outcome.relative_errors(run).unwrap_or([f64::NAN; 4]);
@@ -1034,7 +1094,10 @@ fn seed003_section(
     ];
     header.extend(PARAMETER_NAMES.map(|n| format!("{n} (rel. error)")));
     doc.table(header, rows);
+}
 
+/// The iteration history (CSV) and the convergence figure (fig. 3.11 counterpart).
+fn seed003_history(doc: &mut Document, outcome: &Outcome, out: &Path) -> Result<()> {
     let png = out.join("seed003_convergence.png");
     outcome.draw_convergence(&png)?;
     let history = out.join("seed003_history.csv");
