@@ -289,131 +289,185 @@ fn describe_fmu(plan: &Plan, instance: usize) -> String {
     )
 }
 
+/// One resolved connection: output `output` of instance `from` drives input `input` of `to`.
+struct Edge {
+    from: usize,
+    output: VariableInfo,
+    to: usize,
+    input: VariableInfo,
+    /// The scenario field it comes from, for messages.
+    field: String,
+}
+
+/// What drives each `(instance, value reference)` input so far (a scenario field), so that no
+/// input is driven twice.
+type Drivers = HashMap<(usize, u32), String>;
+
+/// Load step: each distinct .fmu file once, and per `[[fmu]]` entry its parameters checked
+/// against the model description.
+fn load_instances(
+    scenario: &Scenario,
+    fmu_dir: &Path,
+    work_dir: &Path,
+) -> Result<(Vec<LoadedFmu>, Vec<InstancePlan>)> {
+    let source = scenario.source.display().to_string();
+    let mut fmus: Vec<LoadedFmu> = Vec::new();
+    let mut loaded_paths: HashMap<PathBuf, usize> = HashMap::new();
+    let mut instances = Vec::new();
+    for (i, section) in scenario.fmus.iter().enumerate() {
+        let path = scenario.fmu_path(i, fmu_dir);
+        let key = path.canonicalize().unwrap_or_else(|_| path.clone());
+        let fmu = match loaded_paths.get(&key) {
+            Some(&index) => index,
+            None => {
+                let loaded = LoadedFmu::load(&path, work_dir)
+                    .with_context(|| format!("scenario {source}: fmu[{i}] ({:?})", section.name))?;
+                fmus.push(loaded);
+                loaded_paths.insert(key, fmus.len() - 1);
+                fmus.len() - 1
+            }
+        };
+        let mut parameters = Vec::new();
+        for (name, value) in &section.parameters {
+            let field = format!("scenario {source}: fmu[{i}].parameters.{name}");
+            let var = settable(&fmus[fmu], name).with_context(|| field.clone())?;
+            let value = convert_value(var, value).with_context(|| field.clone())?;
+            parameters.push((var.clone(), value));
+        }
+        instances.push(InstancePlan {
+            name: section.name.clone(),
+            fmu,
+            parameters,
+            parameter_signals: Vec::new(),
+            inputs: TypedGroup::default(),
+            reads: Vec::new(),
+            read_groups: TypedGroup::default(),
+        });
+    }
+    Ok((fmus, instances))
+}
+
+/// Resolve step: every `[[connection]]` to output/input pairs (connect-by-name expanded),
+/// checked for compatible types and for inputs driven twice.
+fn resolve_connections(
+    scenario: &Scenario,
+    fmus: &[LoadedFmu],
+    instances: &[InstancePlan],
+) -> Result<(Vec<Edge>, Drivers)> {
+    let source = scenario.source.display().to_string();
+    let instance_index: HashMap<String, usize> = instances
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.name.clone(), i))
+        .collect();
+    let var_of = |instance: usize, name: &str| -> Option<&VariableInfo> {
+        fmus[instances[instance].fmu].variable(name)
+    };
+    let mut edges: Vec<Edge> = Vec::new();
+    for (i, c) in scenario.connections.iter().enumerate() {
+        let field = format!("scenario {source}: connection[{i}]");
+        match (VarRef::parse(&c.from), VarRef::parse(&c.to)) {
+            (Some(from), Some(to)) => {
+                let a = instance_index[&from.instance];
+                let b = instance_index[&to.instance];
+                let out = var_of(a, &from.variable)
+                    .filter(|v| v.is_output())
+                    .ok_or_else(|| {
+                        anyhow!(
+                            "{field}.from: FMU '{}' has no output named {:?}",
+                            from.instance,
+                            from.variable
+                        )
+                    })?;
+                let inp = var_of(b, &to.variable)
+                    .filter(|v| v.is_input())
+                    .ok_or_else(|| {
+                        anyhow!(
+                            "{field}.to: FMU '{}' has no input named {:?}",
+                            to.instance,
+                            to.variable
+                        )
+                    })?;
+                edges.push(Edge {
+                    from: a,
+                    output: out.clone(),
+                    to: b,
+                    input: inp.clone(),
+                    field,
+                });
+            }
+            _ => {
+                let a = instance_index[&c.from];
+                let b = instance_index[&c.to];
+                let before = edges.len();
+                for out in fmus[instances[a].fmu]
+                    .variables
+                    .iter()
+                    .filter(|v| v.is_output())
+                {
+                    if let Some(inp) = var_of(b, &out.name).filter(|v| v.is_input()) {
+                        edges.push(Edge {
+                            from: a,
+                            output: out.clone(),
+                            to: b,
+                            input: inp.clone(),
+                            field: field.clone(),
+                        });
+                    }
+                }
+                if edges.len() == before {
+                    bail!(
+                        "{field}: connect-by-name found no output of '{}' with the name of an input of '{}'",
+                        c.from,
+                        c.to
+                    );
+                }
+            }
+        }
+    }
+    let drivers = check_connections(&edges, instances)?;
+    Ok((edges, drivers))
+}
+
+/// Every connection joins compatible types and drives an input no other connection drives.
+fn check_connections(edges: &[Edge], instances: &[InstancePlan]) -> Result<Drivers> {
+    for e in edges {
+        if !compatible(e.output.var_type, e.input.var_type) {
+            bail!(
+                "{}: cannot connect {:?} ({:?}) to {:?} ({:?})",
+                e.field,
+                e.output.name,
+                e.output.var_type,
+                e.input.name,
+                e.input.var_type
+            );
+        }
+    }
+    let mut driven: Drivers = HashMap::new();
+    for e in edges {
+        if let Some(previous) = driven.insert((e.to, e.input.value_reference), e.field.clone()) {
+            bail!(
+                "{}: input {:?} of '{}' is already driven by {previous}",
+                e.field,
+                e.input.name,
+                instances[e.to].name
+            );
+        }
+    }
+    Ok(driven)
+}
+
 impl Plan {
-    /// Load the scenario's FMUs (extracted under `work_dir`) and resolve every name.
+    /// Load the scenario's FMUs (extracted under `work_dir`) and resolve every name: load the
+    /// FMUs, resolve the connections, order the instances, bind inputs, feedback and recording.
     pub fn new(scenario: Scenario, fmu_dir: &Path, work_dir: &Path) -> Result<Plan> {
         let manoeuvre = scenario.manoeuvre()?;
-        let source = scenario.source.display().to_string();
-        let mut fmus: Vec<LoadedFmu> = Vec::new();
-        let mut loaded_paths: HashMap<PathBuf, usize> = HashMap::new();
-        let mut instances = Vec::new();
-        for (i, section) in scenario.fmus.iter().enumerate() {
-            let path = scenario.fmu_path(i, fmu_dir);
-            let key = path.canonicalize().unwrap_or_else(|_| path.clone());
-            let fmu = match loaded_paths.get(&key) {
-                Some(&index) => index,
-                None => {
-                    let loaded = LoadedFmu::load(&path, work_dir).with_context(|| {
-                        format!("scenario {source}: fmu[{i}] ({:?})", section.name)
-                    })?;
-                    fmus.push(loaded);
-                    loaded_paths.insert(key, fmus.len() - 1);
-                    fmus.len() - 1
-                }
-            };
-            let mut parameters = Vec::new();
-            for (name, value) in &section.parameters {
-                let field = format!("scenario {source}: fmu[{i}].parameters.{name}");
-                let var = settable(&fmus[fmu], name).with_context(|| field.clone())?;
-                let value = convert_value(var, value).with_context(|| field.clone())?;
-                parameters.push((var.clone(), value));
-            }
-            instances.push(InstancePlan {
-                name: section.name.clone(),
-                fmu,
-                parameters,
-                parameter_signals: Vec::new(),
-                inputs: TypedGroup::default(),
-                reads: Vec::new(),
-                read_groups: TypedGroup::default(),
-            });
-        }
-        let instance_index: HashMap<String, usize> = instances
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (p.name.clone(), i))
-            .collect();
-        let var_of = |instance: usize, name: &str| -> Option<&VariableInfo> {
-            fmus[instances[instance].fmu].variable(name)
-        };
-
-        // Connections: (source instance, source variable, sink instance, sink variable).
-        let mut edges: Vec<(usize, VariableInfo, usize, VariableInfo, String)> = Vec::new();
-        for (i, c) in scenario.connections.iter().enumerate() {
-            let field = format!("scenario {source}: connection[{i}]");
-            match (VarRef::parse(&c.from), VarRef::parse(&c.to)) {
-                (Some(from), Some(to)) => {
-                    let a = instance_index[&from.instance];
-                    let b = instance_index[&to.instance];
-                    let out = var_of(a, &from.variable)
-                        .filter(|v| v.is_output())
-                        .ok_or_else(|| {
-                            anyhow!(
-                                "{field}.from: FMU '{}' has no output named {:?}",
-                                from.instance,
-                                from.variable
-                            )
-                        })?;
-                    let inp = var_of(b, &to.variable)
-                        .filter(|v| v.is_input())
-                        .ok_or_else(|| {
-                            anyhow!(
-                                "{field}.to: FMU '{}' has no input named {:?}",
-                                to.instance,
-                                to.variable
-                            )
-                        })?;
-                    edges.push((a, out.clone(), b, inp.clone(), field));
-                }
-                _ => {
-                    let a = instance_index[&c.from];
-                    let b = instance_index[&c.to];
-                    let before = edges.len();
-                    for out in fmus[instances[a].fmu]
-                        .variables
-                        .iter()
-                        .filter(|v| v.is_output())
-                    {
-                        if let Some(inp) = var_of(b, &out.name).filter(|v| v.is_input()) {
-                            edges.push((a, out.clone(), b, inp.clone(), field.clone()));
-                        }
-                    }
-                    if edges.len() == before {
-                        bail!(
-                            "{field}: connect-by-name found no output of '{}' with the name of an input of '{}'",
-                            c.from,
-                            c.to
-                        );
-                    }
-                }
-            }
-        }
-        for (_, out, _, inp, field) in &edges {
-            if !compatible(out.var_type, inp.var_type) {
-                bail!(
-                    "{field}: cannot connect {:?} ({:?}) to {:?} ({:?})",
-                    out.name,
-                    out.var_type,
-                    inp.name,
-                    inp.var_type
-                );
-            }
-        }
-        let mut driven: HashMap<(usize, u32), String> = HashMap::new();
-        for (_, _, b, inp, field) in &edges {
-            if let Some(previous) = driven.insert((*b, inp.value_reference), field.clone()) {
-                bail!(
-                    "{field}: input {:?} of '{}' is already driven by {previous}",
-                    inp.name,
-                    instances[*b].name
-                );
-            }
-        }
-
+        let (fmus, instances) = load_instances(&scenario, fmu_dir, work_dir)?;
+        let (edges, mut driven) = resolve_connections(&scenario, &fmus, &instances)?;
         let mut plan = Plan {
             manoeuvre,
+            order: topological_order(instances.len(), &edges),
             instances,
-            order: Vec::new(),
             columns: Vec::new(),
             record: Vec::new(),
             feedback: None,
@@ -421,127 +475,186 @@ impl Plan {
             fmus,
             scenario,
         };
-        plan.order = topological_order(plan.instances.len(), &edges);
+        plan.bind_connections(&edges);
+        plan.bind_manoeuvre_inputs(&mut driven)?;
+        plan.bind_feedback()?;
+        plan.bind_recording()?;
+        Ok(plan)
+    }
 
-        for (a, out, b, inp, _) in &edges {
-            let slot = plan.read_slot(*a, out);
-            plan.instances[*b].inputs.push(
-                inp.var_type,
-                inp.value_reference,
-                Source::Upstream { instance: *a, slot },
+    /// The scenario file, for messages.
+    fn source(&self) -> String {
+        self.scenario.source.display().to_string()
+    }
+
+    /// Each connection's sink input reads its source's output slot.
+    fn bind_connections(&mut self, edges: &[Edge]) {
+        for e in edges {
+            let slot = self.read_slot(e.from, &e.output);
+            self.instances[e.to].inputs.push(
+                e.input.var_type,
+                e.input.value_reference,
+                Source::Upstream {
+                    instance: e.from,
+                    slot,
+                },
             );
         }
+    }
 
-        // Manoeuvre inputs.
-        let inputs = plan.scenario.inputs.clone();
+    /// `[[input]]`: manoeuvre channels to Real inputs (each step) or parameters (before init).
+    fn bind_manoeuvre_inputs(&mut self, driven: &mut Drivers) -> Result<()> {
+        let source = self.source();
+        let inputs = self.scenario.inputs.clone();
         for (i, input) in inputs.iter().enumerate() {
             let channel = Channel::from_name(&input.signal).expect("validated");
             for (j, target) in input.to.iter().enumerate() {
                 let field = format!("scenario {source}: input[{i}].to[{j}]");
                 let r = VarRef::parse(target).expect("validated");
-                let matches = plan.matching(&r, |v| v.is_input() || v.is_parameter());
+                let matches = self.matching(&r, |v| v.is_input() || v.is_parameter());
                 if matches.is_empty() {
                     bail!("{field}: {target:?} names no input or parameter of any FMU");
                 }
                 for (instance, var) in matches {
-                    if var.var_type != VariableType::Real {
-                        bail!(
-                            "{field}: {}.{} is not a Real variable",
-                            plan.instances[instance].name,
-                            var.name
-                        );
-                    }
-                    if let Some(previous) =
-                        driven.insert((instance, var.value_reference), field.clone())
-                    {
-                        bail!(
-                            "{field}: {}.{} is already driven by {previous}",
-                            plan.instances[instance].name,
-                            var.name
-                        );
-                    }
-                    if var.is_parameter() {
-                        plan.instances[instance]
-                            .parameter_signals
-                            .push((var, channel));
-                    } else {
-                        plan.instances[instance].inputs.push(
-                            var.var_type,
-                            var.value_reference,
-                            Source::Channel(channel),
-                        );
-                    }
+                    self.bind_channel(instance, var, channel, &field, driven)?;
                 }
             }
         }
+        Ok(())
+    }
 
-        // Closed-loop feedback.
-        if let Some(fb) = plan
+    fn bind_channel(
+        &mut self,
+        instance: usize,
+        var: VariableInfo,
+        channel: Channel,
+        field: &str,
+        driven: &mut Drivers,
+    ) -> Result<()> {
+        if var.var_type != VariableType::Real {
+            bail!(
+                "{field}: {}.{} is not a Real variable",
+                self.instances[instance].name,
+                var.name
+            );
+        }
+        if let Some(previous) = driven.insert((instance, var.value_reference), field.to_string()) {
+            bail!(
+                "{field}: {}.{} is already driven by {previous}",
+                self.instances[instance].name,
+                var.name
+            );
+        }
+        if var.is_parameter() {
+            self.instances[instance]
+                .parameter_signals
+                .push((var, channel));
+        } else {
+            self.instances[instance].inputs.push(
+                var.var_type,
+                var.value_reference,
+                Source::Channel(channel),
+            );
+        }
+        Ok(())
+    }
+
+    /// `[manoeuvre.feedback]`: the three Real variables of one FMU a closed-loop driver reads.
+    fn bind_feedback(&mut self) -> Result<()> {
+        let source = self.source();
+        let Some(fb) = self
             .scenario
             .manoeuvre
             .as_ref()
             .and_then(|m| m.feedback.clone())
+        else {
+            return Ok(());
+        };
+        let mut vrs = [0u32; 3];
+        let mut instance_of = None;
+        for (k, (field, text)) in [
+            ("longitudinal_velocity", &fb.longitudinal_velocity),
+            ("lateral_velocity", &fb.lateral_velocity),
+            ("yaw_rate", &fb.yaw_rate),
+        ]
+        .into_iter()
+        .enumerate()
         {
-            let mut vrs = [0u32; 3];
-            let mut instance_of = None;
-            for (k, (field, text)) in [
-                ("longitudinal_velocity", &fb.longitudinal_velocity),
-                ("lateral_velocity", &fb.lateral_velocity),
-                ("yaw_rate", &fb.yaw_rate),
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                let r = VarRef::parse(text).expect("validated");
-                let instance = plan_instance(&plan, &r.instance);
-                let var = plan
-                    .var(instance, &r.variable)
-                    .filter(|v| v.var_type == VariableType::Real)
-                    .ok_or_else(|| {
-                        anyhow!(
-                            "scenario {source}: manoeuvre.feedback.{field}: FMU '{}' has no Real variable {:?}",
-                            r.instance,
-                            r.variable
-                        )
-                    })?;
-                if instance_of.is_some_and(|i| i != instance) {
-                    bail!("scenario {source}: manoeuvre.feedback: all three variables must come from one FMU");
-                }
-                instance_of = Some(instance);
-                vrs[k] = var.value_reference;
+            let r = VarRef::parse(text).expect("validated");
+            let instance = plan_instance(self, &r.instance);
+            let var = self
+                .var(instance, &r.variable)
+                .filter(|v| v.var_type == VariableType::Real)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "scenario {source}: manoeuvre.feedback.{field}: FMU '{}' has no Real variable {:?}",
+                        r.instance,
+                        r.variable
+                    )
+                })?;
+            if instance_of.is_some_and(|i| i != instance) {
+                bail!("scenario {source}: manoeuvre.feedback: all three variables must come from one FMU");
             }
-            plan.feedback = Some(Feedback {
-                instance: instance_of.expect("three variables"),
-                value_references: vrs,
-            });
+            instance_of = Some(instance);
+            vrs[k] = var.value_reference;
         }
+        self.feedback = Some(Feedback {
+            instance: instance_of.expect("three variables"),
+            value_references: vrs,
+        });
+        Ok(())
+    }
 
-        // Recorded columns: the manoeuvre's signals, the driver's pose, then the patterns.
-        if let Some(m) = plan.manoeuvre.clone() {
+    /// Recorded columns: the manoeuvre's signals, the driver's pose, then the `[record]`
+    /// patterns and everything scores and NIS need, each column once.
+    fn bind_recording(&mut self) -> Result<()> {
+        if let Some(m) = self.manoeuvre.clone() {
             for channel in [
                 Channel::SteeringAngle,
                 Channel::SteeringWheelAngle,
                 Channel::DriveTorque,
                 Channel::BrakeTorque,
             ] {
-                plan.add_column(
+                self.add_column(
                     format!("manoeuvre.{}", channel.name()),
                     Slot::Channel(channel),
                 );
             }
             if m.needs_feedback() {
-                plan.add_column("driver.x".into(), Slot::PoseX);
-                plan.add_column("driver.y".into(), Slot::PoseY);
-                plan.add_column("driver.yaw".into(), Slot::PoseYaw);
+                self.add_column("driver.x".into(), Slot::PoseX);
+                self.add_column("driver.y".into(), Slot::PoseY);
+                self.add_column("driver.yaw".into(), Slot::PoseYaw);
             }
         }
-        let mut wanted: Vec<(String, String)> = Vec::new();
-        for (i, pattern) in plan.scenario.record.variables.iter().enumerate() {
+        let mut wanted = self.recorded_patterns()?;
+        wanted.extend(self.score_variables()?);
+        wanted.extend(self.nis_variables()?);
+        for (instance_name, variable) in wanted {
+            let column = format!("{instance_name}.{variable}");
+            if self.columns.contains(&column) {
+                continue;
+            }
+            let instance = plan_instance(self, &instance_name);
+            let var = self
+                .var(instance, &variable)
+                .expect("resolved above")
+                .clone();
+            let slot = self.read_slot(instance, &var);
+            self.add_column(column, Slot::Read { instance, slot });
+        }
+        Ok(())
+    }
+
+    /// `(instance, variable)` of every `[record] variables` pattern (`inst.*`: all outputs).
+    fn recorded_patterns(&self) -> Result<Vec<(String, String)>> {
+        let source = self.source();
+        let mut wanted = Vec::new();
+        for (i, pattern) in self.scenario.record.variables.iter().enumerate() {
             let r = VarRef::parse(pattern).expect("validated");
             let matches = if r.variable == "*" {
                 let mut all = Vec::new();
-                for instance in plan.instance_indices(&r.instance) {
-                    for v in plan.fmus[plan.instances[instance].fmu].variables.iter() {
+                for instance in self.instance_indices(&r.instance) {
+                    for v in self.fmus[self.instances[instance].fmu].variables.iter() {
                         if v.is_output() && v.var_type != VariableType::String {
                             all.push((instance, v.clone()));
                         }
@@ -549,22 +662,27 @@ impl Plan {
                 }
                 all
             } else {
-                plan.matching(&r, |v| v.var_type != VariableType::String)
+                self.matching(&r, |v| v.var_type != VariableType::String)
             };
             if matches.is_empty() {
                 bail!("scenario {source}: record.variables[{i}]: {pattern:?} matches no variable");
             }
             for (instance, var) in matches {
-                wanted.push((plan.instances[instance].name.clone(), var.name.clone()));
+                wanted.push((self.instances[instance].name.clone(), var.name.clone()));
             }
         }
-        // Everything scores and NIS need is recorded too.
-        let scores = plan.scenario.scores.clone();
-        for (i, s) in scores.iter().enumerate() {
+        Ok(wanted)
+    }
+
+    /// The truth, estimate and standard-deviation variables of every `[[score]]`.
+    fn score_variables(&self) -> Result<Vec<(String, String)>> {
+        let source = self.source();
+        let mut wanted = Vec::new();
+        for (i, s) in self.scenario.scores.iter().enumerate() {
             let field = format!("scenario {source}: score[{i}]");
             let truth = VarRef::parse(&s.truth).expect("validated");
-            let t_inst = plan_instance(&plan, &truth.instance);
-            plan.var(t_inst, &truth.variable).ok_or_else(|| {
+            let t_inst = plan_instance(self, &truth.instance);
+            self.var(t_inst, &truth.variable).ok_or_else(|| {
                 anyhow!(
                     "{field}.truth: FMU '{}' has no variable {:?}",
                     truth.instance,
@@ -573,18 +691,18 @@ impl Plan {
             })?;
             wanted.push((truth.instance.clone(), truth.variable.clone()));
             let est = VarRef::parse(&s.estimate).expect("validated");
-            let matches = plan.matching(&est, |_| true);
+            let matches = self.matching(&est, |_| true);
             if matches.is_empty() {
                 bail!("{field}.estimate: {:?} matches no variable", s.estimate);
             }
             for (instance, var) in matches {
-                let name = plan.instances[instance].name.clone();
+                let name = self.instances[instance].name.clone();
                 if let Some(std) = &s.std {
                     let std_ref = VarRef::parse(std).expect("validated");
                     if std_ref.instance != "*" && std_ref.instance != name {
                         bail!("{field}.std: {std:?} must belong to the estimate's instance '{name}' (or use '*')");
                     }
-                    plan.var(instance, &std_ref.variable).ok_or_else(|| {
+                    self.var(instance, &std_ref.variable).ok_or_else(|| {
                         anyhow!(
                             "{field}.std: FMU '{name}' has no variable {:?}",
                             std_ref.variable
@@ -595,10 +713,16 @@ impl Plan {
                 wanted.push((name, var.name));
             }
         }
-        let nis = plan.scenario.nis.clone();
-        for (i, n) in nis.iter().enumerate() {
+        Ok(wanted)
+    }
+
+    /// The NIS (and degrees-of-freedom) variables of every `[[nis]]`.
+    fn nis_variables(&self) -> Result<Vec<(String, String)>> {
+        let source = self.source();
+        let mut wanted = Vec::new();
+        for (i, n) in self.scenario.nis.iter().enumerate() {
             let r = VarRef::parse(&n.nis).expect("validated");
-            let matches = plan.matching(&r, |_| true);
+            let matches = self.matching(&r, |_| true);
             if matches.is_empty() {
                 bail!(
                     "scenario {source}: nis[{i}].nis: {:?} matches no variable",
@@ -606,10 +730,10 @@ impl Plan {
                 );
             }
             for (instance, var) in matches {
-                let name = plan.instances[instance].name.clone();
+                let name = self.instances[instance].name.clone();
                 if let toml::Value::String(dof) = &n.dof {
                     let d = VarRef::parse(dof).expect("validated");
-                    plan.var(instance, &d.variable).ok_or_else(|| {
+                    self.var(instance, &d.variable).ok_or_else(|| {
                         anyhow!(
                             "scenario {source}: nis[{i}].dof: FMU '{name}' has no variable {:?}",
                             d.variable
@@ -620,20 +744,7 @@ impl Plan {
                 wanted.push((name, var.name));
             }
         }
-        for (instance_name, variable) in wanted {
-            let column = format!("{instance_name}.{variable}");
-            if plan.columns.contains(&column) {
-                continue;
-            }
-            let instance = plan_instance(&plan, &instance_name);
-            let var = plan
-                .var(instance, &variable)
-                .expect("resolved above")
-                .clone();
-            let slot = plan.read_slot(instance, &var);
-            plan.add_column(column, Slot::Read { instance, slot });
-        }
-        Ok(plan)
+        Ok(wanted)
     }
 
     fn add_column(&mut self, name: String, slot: Slot) {
@@ -1140,14 +1251,11 @@ fn set_value(instance: &mut InstanceCS, var: &VariableInfo, value: &ParameterVal
 
 /// Instances in the order they must receive inputs: Kahn's algorithm, ties and cycles resolved
 /// by declaration order.
-fn topological_order<T>(
-    count: usize,
-    edges: &[(usize, VariableInfo, usize, VariableInfo, T)],
-) -> Vec<usize> {
+fn topological_order(count: usize, edges: &[Edge]) -> Vec<usize> {
     let mut indegree = vec![0usize; count];
     let mut pairs: Vec<(usize, usize)> = edges
         .iter()
-        .map(|e| (e.0, e.2))
+        .map(|e| (e.from, e.to))
         .filter(|(a, b)| a != b)
         .collect();
     pairs.sort_unstable();
