@@ -577,111 +577,11 @@ fn noise_std(
 }
 
 fn load_toml(path: &Path) -> Result<Job> {
-    let text = std::fs::read_to_string(path).with_context(|| {
-        format!(
-            "identification file {}: cannot read the file",
-            path.display()
-        )
-    })?;
-    let file: IdentificationFile = toml::from_str(&text).map_err(|e| {
-        let mut message = e.to_string().trim_end().to_string();
-        if text.contains("[[fmu]]") {
-            message += "\n(this looks like a co-simulation scenario for `harness run`; `harness identify` reads identification files, harness/scenarios/README.md)";
-        }
-        anyhow!("identification file {}: {message}", path.display())
-    })?;
-    if file.name.is_empty()
-        || !file
-            .name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
-    {
-        return Err(field_error(
-            path,
-            "name",
-            format!(
-                "{:?}: expected letters, digits, '_', '-' or '.' (it names the output folder)",
-                file.name
-            ),
-        ));
-    }
+    let file = read_identification_file(path)?;
+    check_name(path, &file.name)?;
     let mut config = Seed003Config::default();
     let section = &file.identification;
-    let field = |name: &str| format!("identification.{name}");
-    if let Some(n) = checked(
-        path,
-        &field("particles"),
-        section.particles,
-        |n| n >= 2,
-        "at least 2 particles",
-    )? {
-        config.filter.particle_count = n;
-    }
-    if let Some(seed) = section.filter_seed {
-        config.filter.seed = seed;
-    }
-    if let Some(proposal) = section.proposal {
-        config.proposal = match proposal {
-            ProposalName::LinearisedOptimal => Proposal::LinearisedOptimal,
-            ProposalName::Bootstrap => Proposal::Bootstrap,
-        };
-    }
-    let default_sweeps = match config.schedule {
-        EmSchedule::FullMaximisation { max_sweeps } => max_sweeps,
-        EmSchedule::ParameterWise => 30,
-    };
-    checked(
-        path,
-        &field("max_sweeps"),
-        section.max_sweeps,
-        |n| n >= 1,
-        "at least 1 sweep",
-    )?;
-    let max_sweeps = section.max_sweeps.unwrap_or(default_sweeps);
-    config.schedule = match section.schedule {
-        Some(ScheduleName::ParameterWise) => {
-            if section.max_sweeps.is_some() {
-                return Err(field_error(
-                    path,
-                    "identification.max_sweeps",
-                    "only for schedule = \"full\"; the parameter-wise schedule makes one line search per parameter",
-                ));
-            }
-            EmSchedule::ParameterWise
-        }
-        Some(ScheduleName::Full) => EmSchedule::FullMaximisation { max_sweeps },
-        None => match config.schedule {
-            EmSchedule::FullMaximisation { .. } => EmSchedule::FullMaximisation { max_sweeps },
-            other => other,
-        },
-    };
-    if let Some(tolerance) = checked(
-        path,
-        &field("tolerance"),
-        section.tolerance,
-        |t| t.is_finite() && t > 0.0,
-        "a positive relative parameter change",
-    )? {
-        config.tolerance = tolerance;
-    }
-    if let Some(max) = checked(
-        path,
-        &field("max_iterations"),
-        section.max_iterations,
-        |n| n >= 1,
-        "at least 1",
-    )? {
-        config.max_iterations = max;
-    }
-    if let Some(std) = &section.measurement_noise_std {
-        config.measurement_noise_std =
-            noise_std(path, "identification.measurement_noise_std", std, false)?;
-    }
-    if let Some(std) = &section.process_noise_std {
-        config.identification_process_noise_std =
-            noise_std(path, "identification.process_noise_std", std, false)?;
-    }
-
+    section.apply(path, &mut config)?;
     let (data, truth) = match (&file.data, &file.simulation) {
         (Some(_), Some(_)) => {
             return Err(field_error(
@@ -697,24 +597,7 @@ fn load_toml(path: &Path) -> Result<Job> {
                 "neither `data` (a CSV data set) nor [simulation] is given; expected one of them",
             ))
         }
-        (Some(csv), None) => {
-            let base = path.parent().unwrap_or(Path::new("."));
-            let csv_path = base.join(csv);
-            let data = read_csv(&csv_path)
-                .with_context(|| format!("identification file {}: field `data`", path.display()))?;
-            config.samples = data.len();
-            config.sample_time = data.sample_time;
-            if let Some(truth) = &file.true_parameters {
-                check_parameters(path, "true_parameters", truth, config.sample_time)?;
-            }
-            (
-                JobData::Recorded {
-                    path: csv_path,
-                    data,
-                },
-                file.true_parameters,
-            )
-        }
+        (Some(csv), None) => recorded_data(path, csv, file.true_parameters, &mut config)?,
         (None, Some(simulation)) => {
             if file.true_parameters.is_some() {
                 return Err(field_error(
@@ -723,46 +606,7 @@ fn load_toml(path: &Path) -> Result<Job> {
                     "only for a recorded data set (`data`); a simulated one has `simulation.true_parameters`",
                 ));
             }
-            if let Some(samples) = checked(
-                path,
-                "simulation.samples",
-                simulation.samples,
-                |n| n >= 2,
-                "at least 2",
-            )? {
-                config.samples = samples;
-            }
-            if let Some(t) = checked(
-                path,
-                "simulation.sample_time",
-                simulation.sample_time,
-                |t| t.is_finite() && t > 0.0,
-                "a positive number of seconds",
-            )? {
-                config.sample_time = t;
-            }
-            if let Some(p) = &simulation.true_parameters {
-                check_parameters(path, "simulation.true_parameters", p, config.sample_time)?;
-                config.true_parameters = RearAxleParameterVector::from(*p);
-            }
-            if let Some(std) = &simulation.process_noise_std {
-                config.simulation_process_noise_std =
-                    noise_std(path, "simulation.process_noise_std", std, true)?;
-            }
-            if let Some(seeds) = &simulation.noise_seeds {
-                if seeds.is_empty() {
-                    return Err(field_error(
-                        path,
-                        "simulation.noise_seeds",
-                        "empty; expected at least one noise seed",
-                    ));
-                }
-                config.noise_seeds = seeds.clone();
-            } else {
-                config.noise_seeds = vec![config.noise_seeds[0]];
-            }
-            let truth: [f64; 4] = config.true_parameters.into();
-            (JobData::Simulated, Some(truth))
+            simulation.apply(path, &mut config)?
         }
     };
     if let Some(start) = &section.start {
@@ -777,6 +621,205 @@ fn load_toml(path: &Path) -> Result<Job> {
         config,
         truth,
     })
+}
+
+/// The file parsed by serde into its sections (unknown fields and wrong types refused with
+/// line and column); a co-simulation scenario given by mistake is named as such.
+fn read_identification_file(path: &Path) -> Result<IdentificationFile> {
+    let text = std::fs::read_to_string(path).with_context(|| {
+        format!(
+            "identification file {}: cannot read the file",
+            path.display()
+        )
+    })?;
+    let file: IdentificationFile = toml::from_str(&text).map_err(|e| {
+        let mut message = e.to_string().trim_end().to_string();
+        if text.contains("[[fmu]]") {
+            message += "\n(this looks like a co-simulation scenario for `harness run`; `harness identify` reads identification files, harness/scenarios/README.md)";
+        }
+        anyhow!("identification file {}: {message}", path.display())
+    })?;
+    Ok(file)
+}
+
+/// The job's name names the output folder: letters, digits, '_', '-' or '.' only.
+fn check_name(path: &Path, name: &str) -> Result<()> {
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
+    {
+        return Err(field_error(
+            path,
+            "name",
+            format!(
+                "{:?}: expected letters, digits, '_', '-' or '.' (it names the output folder)",
+                name
+            ),
+        ));
+    }
+    Ok(())
+}
+
+impl IdentificationSection {
+    /// Checks the `[identification]` settings and writes them into `config` (seed 003's values
+    /// where a field is absent).
+    fn apply(&self, path: &Path, config: &mut Seed003Config) -> Result<()> {
+        let section = self;
+        let field = |name: &str| format!("identification.{name}");
+        if let Some(n) = checked(
+            path,
+            &field("particles"),
+            section.particles,
+            |n| n >= 2,
+            "at least 2 particles",
+        )? {
+            config.filter.particle_count = n;
+        }
+        if let Some(seed) = section.filter_seed {
+            config.filter.seed = seed;
+        }
+        if let Some(proposal) = section.proposal {
+            config.proposal = match proposal {
+                ProposalName::LinearisedOptimal => Proposal::LinearisedOptimal,
+                ProposalName::Bootstrap => Proposal::Bootstrap,
+            };
+        }
+        let default_sweeps = match config.schedule {
+            EmSchedule::FullMaximisation { max_sweeps } => max_sweeps,
+            EmSchedule::ParameterWise => 30,
+        };
+        checked(
+            path,
+            &field("max_sweeps"),
+            section.max_sweeps,
+            |n| n >= 1,
+            "at least 1 sweep",
+        )?;
+        let max_sweeps = section.max_sweeps.unwrap_or(default_sweeps);
+        config.schedule = match section.schedule {
+            Some(ScheduleName::ParameterWise) => {
+                if section.max_sweeps.is_some() {
+                    return Err(field_error(
+                        path,
+                        "identification.max_sweeps",
+                        "only for schedule = \"full\"; the parameter-wise schedule makes one line search per parameter",
+                    ));
+                }
+                EmSchedule::ParameterWise
+            }
+            Some(ScheduleName::Full) => EmSchedule::FullMaximisation { max_sweeps },
+            None => match config.schedule {
+                EmSchedule::FullMaximisation { .. } => EmSchedule::FullMaximisation { max_sweeps },
+                other => other,
+            },
+        };
+        if let Some(tolerance) = checked(
+            path,
+            &field("tolerance"),
+            section.tolerance,
+            |t| t.is_finite() && t > 0.0,
+            "a positive relative parameter change",
+        )? {
+            config.tolerance = tolerance;
+        }
+        if let Some(max) = checked(
+            path,
+            &field("max_iterations"),
+            section.max_iterations,
+            |n| n >= 1,
+            "at least 1",
+        )? {
+            config.max_iterations = max;
+        }
+        if let Some(std) = &section.measurement_noise_std {
+            config.measurement_noise_std =
+                noise_std(path, "identification.measurement_noise_std", std, false)?;
+        }
+        if let Some(std) = &section.process_noise_std {
+            config.identification_process_noise_std =
+                noise_std(path, "identification.process_noise_std", std, false)?;
+        }
+        Ok(())
+    }
+}
+
+/// A recorded data set: the CSV (relative to the identification file) sets the sample time
+/// and length; its true parameters, when given, must be a valid model-C vector.
+fn recorded_data(
+    path: &Path,
+    csv: &Path,
+    true_parameters: Option<[f64; 4]>,
+    config: &mut Seed003Config,
+) -> Result<(JobData, Option<[f64; 4]>)> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    let csv_path = base.join(csv);
+    let data = read_csv(&csv_path)
+        .with_context(|| format!("identification file {}: field `data`", path.display()))?;
+    config.samples = data.len();
+    config.sample_time = data.sample_time;
+    if let Some(truth) = true_parameters.as_ref() {
+        check_parameters(path, "true_parameters", truth, config.sample_time)?;
+    }
+    Ok((
+        JobData::Recorded {
+            path: csv_path,
+            data,
+        },
+        true_parameters,
+    ))
+}
+
+impl SimulationSection {
+    /// Checks `[simulation]` and writes it into `config`; the data set is simulated, its truth
+    /// is the simulation's parameters.
+    fn apply(
+        &self,
+        path: &Path,
+        config: &mut Seed003Config,
+    ) -> Result<(JobData, Option<[f64; 4]>)> {
+        let simulation = self;
+        if let Some(samples) = checked(
+            path,
+            "simulation.samples",
+            simulation.samples,
+            |n| n >= 2,
+            "at least 2",
+        )? {
+            config.samples = samples;
+        }
+        if let Some(t) = checked(
+            path,
+            "simulation.sample_time",
+            simulation.sample_time,
+            |t| t.is_finite() && t > 0.0,
+            "a positive number of seconds",
+        )? {
+            config.sample_time = t;
+        }
+        if let Some(p) = &simulation.true_parameters {
+            check_parameters(path, "simulation.true_parameters", p, config.sample_time)?;
+            config.true_parameters = RearAxleParameterVector::from(*p);
+        }
+        if let Some(std) = &simulation.process_noise_std {
+            config.simulation_process_noise_std =
+                noise_std(path, "simulation.process_noise_std", std, true)?;
+        }
+        if let Some(seeds) = &simulation.noise_seeds {
+            if seeds.is_empty() {
+                return Err(field_error(
+                    path,
+                    "simulation.noise_seeds",
+                    "empty; expected at least one noise seed",
+                ));
+            }
+            config.noise_seeds = seeds.clone();
+        } else {
+            config.noise_seeds = vec![config.noise_seeds[0]];
+        }
+        let truth: [f64; 4] = config.true_parameters.into();
+        Ok((JobData::Simulated, Some(truth)))
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
