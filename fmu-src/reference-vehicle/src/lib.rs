@@ -40,12 +40,12 @@ use fmi_export::{
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
-use vehicle_models::parameters::{positive, same_car_two_track, ParameterSource};
+use vehicle_models::parameters::{positive, ParameterSource};
 use vehicle_models::reference::MAX_STATE_DIM;
 use vehicle_models::tyre::MagicFormulaParams;
 use vehicle_models::{
     DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
-    ReferenceVehicleParams, VehicleTruth,
+    ReferenceVehicleParams, SingleTrackParams, TwoTrackParams, VehicleTruth,
 };
 
 /// Generated from modelDescription/ReferenceVehicle.xml.
@@ -142,8 +142,15 @@ impl Simulation {
         // vehicle-models; model B is the same car (track width, CoG height and roll-moment
         // split keep the vehicle-models defaults, SPEC §4).
         let source = ParameterSource::new(|name| v.real_by_name(name));
-        let single_track = source.single_track()?;
-        let two_track = same_car_two_track(&single_track);
+        let chassis = source.chassis()?;
+        let single_track = SingleTrackParams {
+            chassis: chassis.clone(),
+            ..SingleTrackParams::default()
+        };
+        let two_track = TwoTrackParams {
+            chassis,
+            ..TwoTrackParams::default()
+        };
         let hsri = source.hsri()?;
         // Seed 001 gives no Magic Formula numbers: the tyre is matched to the HSRI tyre
         // (same stiffnesses and peak friction), as in the vehicle-models crate.

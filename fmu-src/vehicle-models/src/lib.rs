@@ -45,7 +45,7 @@ pub use reference::{
 };
 pub use scalar::{Dual, Scalar};
 pub use single_track::{
-    SingleTrackHsri, SingleTrackLinearisation, SingleTrackModel, SingleTrackParams,
+    Chassis, SingleTrackHsri, SingleTrackLinearisation, SingleTrackModel, SingleTrackParams,
     SingleTrackState,
 };
 pub use truth::VehicleTruth;

@@ -1,11 +1,11 @@
 //! The car's parameters as both FMUs declare them: the VehicleStateEstimator and the
 //! ReferenceVehicle name the vehicle and HSRI tyre parameters alike in their modelDescriptions
 //! (`mass`, `cog_to_front_axle`, …, `tyre_f00`, …), so the mapping from those names to the
-//! models' parameter structs is written once, here. An FMU passes a lookup of its Real
+//! models' parameter structs is written once, here: the car ([`Chassis`], embedded in both
+//! models' parameters) and the HSRI tyre. An FMU passes a lookup of its Real
 //! variables by name (the generated `Variables::real_by_name`).
 
-use crate::single_track::SingleTrackParams;
-use crate::two_track::TwoTrackParams;
+use crate::single_track::Chassis;
 use crate::tyre::HsriParams;
 
 /// `value` if it is a positive finite number, else the message naming the parameter.
@@ -40,10 +40,9 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
         positive(name, self.value(name)?)
     }
 
-    /// The single-track vehicle parameters (model A): the FMU's vehicle parameters, the rest
-    /// the seed car's defaults.
-    pub fn single_track(&self) -> Result<SingleTrackParams, String> {
-        Ok(SingleTrackParams {
+    /// The car: the FMU's vehicle parameters, the steering ratio the seed car's.
+    pub fn chassis(&self) -> Result<Chassis, String> {
+        Ok(Chassis {
             mass: self.positive("mass")?,
             cog_to_front_axle: self.positive("cog_to_front_axle")?,
             cog_to_rear_axle: self.positive("cog_to_rear_axle")?,
@@ -54,7 +53,7 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
             wheel_radius: self.positive("wheel_radius")?,
             front_wheel_load: self.positive("wheel_load_front")?,
             rear_wheel_load: self.positive("wheel_load_rear")?,
-            ..SingleTrackParams::default()
+            ..Chassis::default()
         })
     }
 
@@ -74,23 +73,5 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
             reference_sliding_speed: self.positive("tyre_v_mu")?,
             ..HsriParams::default()
         })
-    }
-}
-
-/// Model B is the same car: the vehicle parameters shared with model A go to it; track width,
-/// CoG height and roll-moment split keep the two-track defaults (SPEC §4).
-pub fn same_car_two_track(single_track: &SingleTrackParams) -> TwoTrackParams {
-    TwoTrackParams {
-        mass: single_track.mass,
-        cog_to_front_axle: single_track.cog_to_front_axle,
-        cog_to_rear_axle: single_track.cog_to_rear_axle,
-        yaw_inertia: single_track.yaw_inertia,
-        front_wheel_inertia: single_track.front_wheel_inertia,
-        rear_wheel_inertia: single_track.rear_wheel_inertia,
-        brake_split_front: single_track.brake_split_front,
-        wheel_radius: single_track.wheel_radius,
-        front_wheel_load: single_track.front_wheel_load,
-        rear_wheel_load: single_track.rear_wheel_load,
-        ..TwoTrackParams::default()
     }
 }

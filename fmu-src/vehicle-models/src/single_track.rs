@@ -105,10 +105,12 @@ impl NamedSingleTrackState {
     }
 }
 
-/// Vehicle data of seed 000, table 5.1, plus the wheel loads quoted after table 5.2.
+/// The car both vehicle models describe: seed 000's table 5.1, the tyre radius of table 5.2 and
+/// the wheel loads quoted after it. Embedded in [`SingleTrackParams`] and
+/// [`crate::TwoTrackParams`], so the seed car's values are written once.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct SingleTrackParams {
+pub struct Chassis {
     /// `m`, vehicle mass, kg.
     pub mass: f64,
     /// `lF` (`l1`), CoG to front axle, m.
@@ -125,12 +127,39 @@ pub struct SingleTrackParams {
     pub brake_split_front: f64,
     /// `r`, tyre radius, m (table 5.2).
     pub wheel_radius: f64,
-    /// `FZF`, vertical load of **one** front wheel, N.
+    /// `FZF`, static vertical load of **one** front wheel, N.
     pub front_wheel_load: f64,
-    /// `FZR`, vertical load of **one** rear wheel, N.
+    /// `FZR`, static vertical load of **one** rear wheel, N.
     pub rear_wheel_load: f64,
-    /// `iL`, steering ratio (steering-wheel angle / road-wheel angle).
+    /// `iL`, steering ratio (steering-wheel angle / road-wheel angle); the manoeuvres' value.
     pub steering_ratio: f64,
+}
+
+impl Default for Chassis {
+    fn default() -> Self {
+        // 000: table 5.1; wheel radius from table 5.2; wheel loads from the text after table 5.2.
+        Self {
+            mass: 1400.0,
+            cog_to_front_axle: 1.4346,
+            cog_to_rear_axle: 1.4831,
+            yaw_inertia: 2978.7,
+            front_wheel_inertia: 10.3,
+            rear_wheel_inertia: 3.0,
+            brake_split_front: 0.6,
+            wheel_radius: 0.3,
+            front_wheel_load: 3492.0,
+            rear_wheel_load: 3374.0,
+            steering_ratio: manoeuvres::STEERING_RATIO,
+        }
+    }
+}
+
+/// Model A's parameters: the car ([`Chassis`]) and what only the single-track model has.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SingleTrackParams {
+    /// The car (seed 000, table 5.1).
+    pub chassis: Chassis,
     /// Smallest longitudinal wheel-centre speed used as divisor in slip and slip angle, m/s
     /// (project's guard against division by zero near standstill, see module docs).
     pub low_speed_guard: f64,
@@ -145,19 +174,8 @@ pub struct SingleTrackParams {
 
 impl Default for SingleTrackParams {
     fn default() -> Self {
-        // 000: table 5.1; wheel radius from table 5.2; wheel loads from the text after table 5.2.
         Self {
-            mass: 1400.0,
-            cog_to_front_axle: 1.4346,
-            cog_to_rear_axle: 1.4831,
-            yaw_inertia: 2978.7,
-            front_wheel_inertia: 10.3,
-            rear_wheel_inertia: 3.0,
-            brake_split_front: 0.6,
-            wheel_radius: 0.3,
-            front_wheel_load: 3492.0,
-            rear_wheel_load: 3374.0,
-            steering_ratio: 14.97,
+            chassis: Chassis::default(),
             low_speed_guard: 1.0,
             cornering_stiffness_scale_front: 1.0,
             cornering_stiffness_scale_rear: 1.0,
@@ -268,7 +286,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// Straight driving at `speed` with freely rolling wheels (`ω r = vx`).
     pub fn straight_rolling_state(&self, speed: f64) -> SingleTrackState {
-        let omega = speed / self.vehicle.wheel_radius;
+        let omega = speed / self.vehicle.chassis.wheel_radius;
         SingleTrackState::new(speed, 0.0, 0.0, omega, omega)
     }
 
@@ -292,7 +310,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         // (000: 5.17), (000: 5.22)
         let tan_slip_angle = -wheel_lateral_velocity * inverse_divisor;
         // (000: 5.65)
-        let slip = (omega * p.wheel_radius - wheel_velocity) * inverse_divisor;
+        let slip = (omega * p.chassis.wheel_radius - wheel_velocity) * inverse_divisor;
         let kinematics = TyreKinematics {
             slip,
             tan_slip_angle,
@@ -305,7 +323,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
                 .force_and_slip_derivative(&kinematics, cornering_stiffness_scale);
             // ∂Fx/∂ω = ∂Fx/∂s · ∂s/∂ω with ∂s/∂ω = r / divisor (000: 5.65), both wheels
             let spin_derivative =
-                slip_derivative * (p.wheel_radius * WHEELS_PER_AXLE) * inverse_divisor;
+                slip_derivative * (p.chassis.wheel_radius * WHEELS_PER_AXLE) * inverse_divisor;
             (force, spin_derivative)
         } else {
             let force = self
@@ -336,7 +354,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         sin_steer: S,
         with_spin_derivative: bool,
     ) -> AxleState<S> {
-        let lateral_at_axle = vy + yaw_rate * self.vehicle.cog_to_front_axle;
+        let lateral_at_axle = vy + yaw_rate * self.vehicle.chassis.cog_to_front_axle;
         // (000: 5.16)
         let wheel_velocity = vx * cos_steer + lateral_at_axle * sin_steer;
         let wheel_lateral_velocity = -(vx * sin_steer) + lateral_at_axle * cos_steer;
@@ -344,7 +362,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
             wheel_velocity,
             wheel_lateral_velocity,
             omega,
-            self.vehicle.front_wheel_load,
+            self.vehicle.chassis.front_wheel_load,
             self.vehicle.cornering_stiffness_scale_front,
             with_spin_derivative,
         )
@@ -361,12 +379,12 @@ impl<T: TyreModel> SingleTrackModel<T> {
         with_spin_derivative: bool,
     ) -> AxleState<S> {
         // (000: 5.21)
-        let wheel_lateral_velocity = vy - yaw_rate * self.vehicle.cog_to_rear_axle;
+        let wheel_lateral_velocity = vy - yaw_rate * self.vehicle.chassis.cog_to_rear_axle;
         self.axle(
             vx,
             wheel_lateral_velocity,
             omega,
-            self.vehicle.rear_wheel_load,
+            self.vehicle.chassis.rear_wheel_load,
             self.vehicle.cornering_stiffness_scale_rear,
             with_spin_derivative,
         )
@@ -420,7 +438,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let (vx, vy, yaw_rate) = (x[VX], x[VY], x[YAW_RATE]);
         // Products with f64 reciprocals: one division each, also for dual numbers (which would
         // divide every component).
-        let inverse_mass = 1.0 / p.mass;
+        let inverse_mass = 1.0 / p.chassis.mass;
         // (000: 5.43)
         let vx_dot = (rear_longitudinal - front_lateral * sin_steer
             + front_longitudinal * cos_steer)
@@ -431,9 +449,10 @@ impl<T: TyreModel> SingleTrackModel<T> {
             * inverse_mass
             - vx * yaw_rate;
         // (000: 5.44)
-        let yaw_acceleration = (-(rear_lateral * p.cog_to_rear_axle)
-            + (front_lateral * cos_steer + front_longitudinal * sin_steer) * p.cog_to_front_axle)
-            * (1.0 / p.yaw_inertia);
+        let yaw_acceleration = (-(rear_lateral * p.chassis.cog_to_rear_axle)
+            + (front_lateral * cos_steer + front_longitudinal * sin_steer)
+                * p.chassis.cog_to_front_axle)
+            * (1.0 / p.chassis.yaw_inertia);
         [vx_dot, vy_dot, yaw_acceleration]
     }
 
@@ -443,9 +462,9 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let p = &self.vehicle;
         let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
         // (000: 5.45)
-        (u[input_index::DRIVE_TORQUE] + brake * p.brake_split_front
-            - longitudinal_force * p.wheel_radius)
-            * (1.0 / p.front_wheel_inertia)
+        (u[input_index::DRIVE_TORQUE] + brake * p.chassis.brake_split_front
+            - longitudinal_force * p.chassis.wheel_radius)
+            * (1.0 / p.chassis.front_wheel_inertia)
     }
 
     /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`.
@@ -454,8 +473,8 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let p = &self.vehicle;
         let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
         // (000: 5.46)
-        (brake * (1.0 - p.brake_split_front) - longitudinal_force * p.wheel_radius)
-            * (1.0 / p.rear_wheel_inertia)
+        (brake * (1.0 - p.chassis.brake_split_front) - longitudinal_force * p.chassis.wheel_radius)
+            * (1.0 / p.chassis.rear_wheel_inertia)
     }
 
     /// Continuous-time right-hand side `ẋ = f(x, u)` (000: 5.42-5.46), generic over the scalar.
@@ -495,10 +514,12 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let front_spin = self.front_spin_acceleration(u, front.longitudinal_force);
         let rear_spin = self.rear_spin_acceleration(u, rear.longitudinal_force);
         // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46)
-        let front_spin_derivative = -(front.longitudinal_force_spin_derivative * p.wheel_radius)
-            * (1.0 / p.front_wheel_inertia);
-        let rear_spin_derivative = -(rear.longitudinal_force_spin_derivative * p.wheel_radius)
-            * (1.0 / p.rear_wheel_inertia);
+        let front_spin_derivative = -(front.longitudinal_force_spin_derivative
+            * p.chassis.wheel_radius)
+            * (1.0 / p.chassis.front_wheel_inertia);
+        let rear_spin_derivative = -(rear.longitudinal_force_spin_derivative
+            * p.chassis.wheel_radius)
+            * (1.0 / p.chassis.rear_wheel_inertia);
         // (000: 6.3), (000: 6.4), (000: 6.5)
         let body = explicit_euler(
             &[x[VX], x[VY], x[YAW_RATE]],
@@ -546,7 +567,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let lateral_acceleration = (e.rear.lateral_force
             + e.front.lateral_force * e.cos_steer
             + e.front.longitudinal_force * e.sin_steer)
-            * (1.0 / self.vehicle.mass);
+            * (1.0 / self.vehicle.chassis.mass);
         [
             x[YAW_RATE],
             lateral_acceleration,
@@ -776,7 +797,7 @@ mod cornering_stiffness_scale_tests {
             slip: e.rear.slip,
             tan_slip_angle: e.rear.tan_slip_angle,
             wheel_velocity: e.rear.wheel_velocity,
-            vertical_load: model.vehicle.rear_wheel_load,
+            vertical_load: model.vehicle.chassis.rear_wheel_load,
         };
         let force = model.tyre.force(&kinematics);
         assert_eq!(
@@ -811,7 +832,7 @@ mod cornering_stiffness_scale_tests {
         let hsri = HsriTyre::default();
         let expected = WHEELS_PER_AXLE
             * 0.8
-            * hsri.cornering_stiffness(SingleTrackParams::default().front_wheel_load)
+            * hsri.cornering_stiffness(SingleTrackParams::default().chassis.front_wheel_load)
             * front.slip_angle_front.tan()
             / (1.0 + front.slip_front);
         assert!(relative(front.lateral_force_front, expected) < 1e-12);

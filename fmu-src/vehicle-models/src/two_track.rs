@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVector, INPUT_DIM};
 use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
 use crate::scalar::{Dual, Scalar};
-use crate::single_track::guarded_speed;
+use crate::single_track::{guarded_speed, Chassis};
 use crate::truth::VehicleTruth;
 use crate::tyre::{MagicFormulaTyre, TyreKinematics, TyreModel};
 
@@ -89,32 +89,13 @@ const CONVERGED_ACCELERATION: f64 = 1e-12;
 /// Share of a torque that goes to each wheel of an axle (equal left/right split).
 const PER_WHEEL_OF_AXLE: f64 = 0.5;
 
-/// Parameters of model B for the same car as model A (see the module documentation).
+/// Parameters of model B for the same car as model A (see the module documentation): the car
+/// ([`Chassis`]) and what only the two-track model has.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TwoTrackParams {
-    /// Vehicle mass, kg (000: table 5.1).
-    pub mass: f64,
-    /// CoG to front axle, m (000: table 5.1).
-    pub cog_to_front_axle: f64,
-    /// CoG to rear axle, m (000: table 5.1).
-    pub cog_to_rear_axle: f64,
-    /// Yaw moment of inertia, kg m² (000: table 5.1).
-    pub yaw_inertia: f64,
-    /// Spin inertia of both front wheels together, kg m² (000: table 5.1).
-    pub front_wheel_inertia: f64,
-    /// Spin inertia of both rear wheels together, kg m² (000: table 5.1).
-    pub rear_wheel_inertia: f64,
-    /// Share `ν` of the brake torque on the front axle (000: table 5.1).
-    pub brake_split_front: f64,
-    /// Tyre radius, m (000: table 5.2).
-    pub wheel_radius: f64,
-    /// Static load of one front wheel, N (000: after table 5.2).
-    pub front_wheel_load: f64,
-    /// Static load of one rear wheel, N (000: after table 5.2).
-    pub rear_wheel_load: f64,
-    /// Steering ratio (000: table 5.1).
-    pub steering_ratio: f64,
+    /// Model A's car (000: table 5.1, table 5.2, after table 5.2).
+    pub chassis: Chassis,
     /// Track width `s`, m (001: eq 2; value chosen by the project).
     pub track_width: f64,
     /// CoG height `h`, m (001: text before eq 1; value chosen by the project).
@@ -131,18 +112,7 @@ pub struct TwoTrackParams {
 impl Default for TwoTrackParams {
     fn default() -> Self {
         Self {
-            // model A's car (000: table 5.1, table 5.2, after table 5.2)
-            mass: 1400.0,
-            cog_to_front_axle: 1.4346,
-            cog_to_rear_axle: 1.4831,
-            yaw_inertia: 2978.7,
-            front_wheel_inertia: 10.3,
-            rear_wheel_inertia: 3.0,
-            brake_split_front: 0.6,
-            wheel_radius: 0.3,
-            front_wheel_load: 3492.0,
-            rear_wheel_load: 3374.0,
-            steering_ratio: 14.97,
+            chassis: Chassis::default(),
             // the project's choice for what model A does not have
             track_width: 1.5,
             cog_height: 0.55,
@@ -159,10 +129,10 @@ impl TwoTrackParams {
     pub fn wheel_position(&self, wheel: usize) -> (f64, f64) {
         let half_track = 0.5 * self.track_width;
         match wheel {
-            wheel_index::FRONT_LEFT => (self.cog_to_front_axle, half_track),
-            wheel_index::FRONT_RIGHT => (self.cog_to_front_axle, -half_track),
-            wheel_index::REAR_LEFT => (-self.cog_to_rear_axle, half_track),
-            _ => (-self.cog_to_rear_axle, -half_track),
+            wheel_index::FRONT_LEFT => (self.chassis.cog_to_front_axle, half_track),
+            wheel_index::FRONT_RIGHT => (self.chassis.cog_to_front_axle, -half_track),
+            wheel_index::REAR_LEFT => (-self.chassis.cog_to_rear_axle, half_track),
+            _ => (-self.chassis.cog_to_rear_axle, -half_track),
         }
     }
 
@@ -172,15 +142,15 @@ impl TwoTrackParams {
     pub fn wheel_loads<S: Scalar>(&self, lateral_acceleration: S) -> [S; WHEELS] {
         // roll moment m ay h, carried by the axles as ξ and 1 − ξ over the track width
         let transfer_per_share =
-            lateral_acceleration * (self.mass * self.cog_height / self.track_width);
+            lateral_acceleration * (self.chassis.mass * self.cog_height / self.track_width);
         let front = transfer_per_share * self.front_roll_moment_share;
         let rear = transfer_per_share * (1.0 - self.front_roll_moment_share);
         // in a left turn (ay > 0) the right (outer) wheels gain load
         [
-            -front + self.front_wheel_load,
-            front + self.front_wheel_load,
-            -rear + self.rear_wheel_load,
-            rear + self.rear_wheel_load,
+            -front + self.chassis.front_wheel_load,
+            front + self.chassis.front_wheel_load,
+            -rear + self.chassis.rear_wheel_load,
+            rear + self.chassis.rear_wheel_load,
         ]
     }
 
@@ -234,7 +204,7 @@ impl<T: TyreModel> TwoTrackModel<T> {
 
     /// Straight driving at `speed` with freely rolling wheels.
     pub fn straight_rolling_state(&self, speed: f64) -> TwoTrackState {
-        let omega = speed / self.vehicle.wheel_radius;
+        let omega = speed / self.vehicle.chassis.wheel_radius;
         TwoTrackState::from([speed, 0.0, 0.0, omega, omega, omega, omega])
     }
 
@@ -275,7 +245,8 @@ impl<T: TyreModel> TwoTrackModel<T> {
             // (001: eqs 4-5), (000: 5.17, 5.22)
             let tan_slip_angle = -wheel_lateral_velocity / divisor;
             // (000: 5.65)
-            let slip = (x[FIRST_WHEEL_STATE + wheel] * p.wheel_radius - wheel_velocity) / divisor;
+            let slip =
+                (x[FIRST_WHEEL_STATE + wheel] * p.chassis.wheel_radius - wheel_velocity) / divisor;
             let force = self.tyre.force(&TyreKinematics {
                 slip,
                 tan_slip_angle,
@@ -332,7 +303,7 @@ impl<T: TyreModel> TwoTrackModel<T> {
             force_x,
             force_y,
             yaw_moment,
-            lateral_acceleration: force_y / p.mass,
+            lateral_acceleration: force_y / p.chassis.mass,
         }
     }
 
@@ -373,10 +344,10 @@ impl<T: TyreModel> TwoTrackModel<T> {
         let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
         if TwoTrackParams::is_front(wheel) {
             // (000: 5.45) per wheel
-            (u[input_index::DRIVE_TORQUE] + brake * p.brake_split_front) * PER_WHEEL_OF_AXLE
+            (u[input_index::DRIVE_TORQUE] + brake * p.chassis.brake_split_front) * PER_WHEEL_OF_AXLE
         } else {
             // (000: 5.46) per wheel
-            brake * ((1.0 - p.brake_split_front) * PER_WHEEL_OF_AXLE)
+            brake * ((1.0 - p.chassis.brake_split_front) * PER_WHEEL_OF_AXLE)
         }
     }
 
@@ -385,9 +356,9 @@ impl<T: TyreModel> TwoTrackModel<T> {
     fn single_wheel_inertia(&self, wheel: usize) -> f64 {
         let p = &self.vehicle;
         if TwoTrackParams::is_front(wheel) {
-            p.front_wheel_inertia * PER_WHEEL_OF_AXLE
+            p.chassis.front_wheel_inertia * PER_WHEEL_OF_AXLE
         } else {
-            p.rear_wheel_inertia * PER_WHEEL_OF_AXLE
+            p.chassis.rear_wheel_inertia * PER_WHEEL_OF_AXLE
         }
     }
 
@@ -403,9 +374,9 @@ impl<T: TyreModel> TwoTrackModel<T> {
         use state_index::*;
         let p = &self.vehicle;
         [
-            force_x / p.mass + x[VY] * x[YAW_RATE],
-            force_y / p.mass - x[VX] * x[YAW_RATE],
-            yaw_moment / p.yaw_inertia,
+            force_x / p.chassis.mass + x[VY] * x[YAW_RATE],
+            force_y / p.chassis.mass - x[VX] * x[YAW_RATE],
+            yaw_moment / p.chassis.yaw_inertia,
         ]
     }
 
@@ -422,7 +393,7 @@ impl<T: TyreModel> TwoTrackModel<T> {
         derivative[..3].copy_from_slice(&body);
         for wheel in 0..WHEELS {
             derivative[FIRST_WHEEL_STATE + wheel] = (self.wheel_torque(wheel, u)
-                - e.wheels.longitudinal_force[wheel] * self.vehicle.wheel_radius)
+                - e.wheels.longitudinal_force[wheel] * self.vehicle.chassis.wheel_radius)
                 / self.single_wheel_inertia(wheel);
         }
         derivative
@@ -466,8 +437,8 @@ impl<T: TyreModel> TwoTrackModel<T> {
             let force = plain.wheels.longitudinal_force[wheel];
             let force_slope = e.wheels.longitudinal_force[wheel].gradient[wheel];
             // (000: 5.45-5.46) per wheel
-            let rate = (self.wheel_torque(wheel, u) - force * p.wheel_radius) / inertia;
-            let rate_derivative = -(force_slope * p.wheel_radius) / inertia;
+            let rate = (self.wheel_torque(wheel, u) - force * p.chassis.wheel_radius) / inertia;
+            let rate_derivative = -(force_slope * p.chassis.wheel_radius) / inertia;
             // (000: 6.1-6.2)
             next[FIRST_WHEEL_STATE + wheel] =
                 semi_implicit_update(x[FIRST_WHEEL_STATE + wheel], rate, rate_derivative, dt);

@@ -126,11 +126,11 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         let divisor = guarded_speed(speed, p.low_speed_guard);
         let tan_sideslip = sideslip.sin() / sideslip.cos();
         // (001: eq 4): αF = δ − atan(q), tan(δ − atan q) = (tan δ − q)/(1 + q tan δ)
-        let front_direction = tan_sideslip + yaw_rate * p.cog_to_front_axle / divisor;
+        let front_direction = tan_sideslip + yaw_rate * p.chassis.cog_to_front_axle / divisor;
         let tan_steer = steer.sin() / steer.cos();
         let tan_front = (tan_steer - front_direction) / (front_direction * tan_steer + 1.0);
         // (001: eq 5)
-        let tan_rear = -(tan_sideslip - yaw_rate * p.cog_to_rear_axle / divisor);
+        let tan_rear = -(tan_sideslip - yaw_rate * p.chassis.cog_to_rear_axle / divisor);
         (tan_front, tan_rear)
     }
 
@@ -174,9 +174,9 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
             // (001: eq 1)
             force_y: rear_sum + front_sum * cos_steer,
             // (001: eq 2)
-            yaw_moment: front_sum * cos_steer * p.cog_to_front_axle
+            yaw_moment: front_sum * cos_steer * p.chassis.cog_to_front_axle
                 + (lateral[FRONT_LEFT] - lateral[FRONT_RIGHT]) * sin_steer * half_track
-                - rear_sum * p.cog_to_rear_axle,
+                - rear_sum * p.chassis.cog_to_rear_axle,
         }
     }
 
@@ -192,12 +192,12 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
     ) -> [S; 2] {
         let p = &self.vehicle;
         let forces = self.lateral_forces(sideslip, yaw_rate, steer, speed, load_acceleration);
-        let lateral_acceleration = forces.force_y / p.mass;
+        let lateral_acceleration = forces.force_y / p.chassis.mass;
         let divisor = guarded_speed(speed, p.low_speed_guard);
         // (001: eq 11) β̇ = ay/v − r with v = vx / cos β
         let sideslip_rate = lateral_acceleration * sideslip.cos() / divisor - yaw_rate;
         // (001: eq 2)
-        let yaw_acceleration = forces.yaw_moment / p.yaw_inertia;
+        let yaw_acceleration = forces.yaw_moment / p.chassis.yaw_inertia;
         [sideslip_rate, yaw_acceleration]
     }
 
@@ -227,7 +227,7 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         let lateral_acceleration = self
             .lateral_forces(sideslip, yaw_rate, steer, speed, load_acceleration)
             .force_y
-            / self.vehicle.mass;
+            / self.vehicle.chassis.mass;
         [sideslip, yaw_rate, lateral_acceleration]
     }
 
@@ -304,7 +304,7 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
             load_acceleration,
         )
         .force_y
-            / self.vehicle.mass
+            / self.vehicle.chassis.mass
     }
 
     /// Sideslip, lateral velocity and axle slip angles.

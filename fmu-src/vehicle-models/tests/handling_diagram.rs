@@ -65,8 +65,9 @@ fn handling_diagram<T: TyreModel>(
     model: &SingleTrackModel<T>,
     accelerations: &[f64],
 ) -> Vec<SteadyState> {
-    let r_w = model.vehicle.wheel_radius;
-    let wheelbase = model.vehicle.cog_to_front_axle + model.vehicle.cog_to_rear_axle;
+    let r_w = model.vehicle.chassis.wheel_radius;
+    let wheelbase =
+        model.vehicle.chassis.cog_to_front_axle + model.vehicle.chassis.cog_to_rear_axle;
     let first_speed = (accelerations[0] * RADIUS).sqrt();
     let mut z = Unknowns::from([
         first_speed,
@@ -156,7 +157,7 @@ fn linear_and_nonlinear_handling_diagrams_agree_up_to_about_6_mps2() {
 fn the_car_understeers_and_its_sideslip_changes_sign_near_3_mps2() {
     let diagram = handling_diagram(&SingleTrackHsri::default(), &accelerations());
     let params = SingleTrackParams::default();
-    let ackermann = (params.cog_to_front_axle + params.cog_to_rear_axle) / RADIUS;
+    let ackermann = (params.chassis.cog_to_front_axle + params.chassis.cog_to_rear_axle) / RADIUS;
     // understeer: the steering angle needed on the circle grows with an beyond Ackermann
     // (000: fig. 5.7), and the front slip angle exceeds the rear one (000: fig. 5.9-5.10)
     for pair in diagram.windows(2) {

@@ -47,16 +47,19 @@ fn stiffness_check_values_of_seed_000() {
     // at FZR = 3374 N (1.0963e5), so the tolerance is 5e-4.
     let close = |a: f64, b: f64| ((a - b) / b).abs() < 5e-4;
     assert!(close(
-        tyre.cornering_stiffness(p.front_wheel_load),
+        tyre.cornering_stiffness(p.chassis.front_wheel_load),
         6.6109e4
     ));
-    assert!(close(tyre.cornering_stiffness(p.rear_wheel_load), 6.4639e4));
     assert!(close(
-        tyre.longitudinal_stiffness(p.front_wheel_load),
+        tyre.cornering_stiffness(p.chassis.rear_wheel_load),
+        6.4639e4
+    ));
+    assert!(close(
+        tyre.longitudinal_stiffness(p.chassis.front_wheel_load),
         1.1623e5
     ));
     assert!(close(
-        tyre.longitudinal_stiffness(p.rear_wheel_load),
+        tyre.longitudinal_stiffness(p.chassis.rear_wheel_load),
         1.0967e5
     ));
 }
@@ -65,7 +68,7 @@ fn stiffness_check_values_of_seed_000() {
 fn hsri_small_slip_force_equals_stiffness_times_slip() {
     // The slope of the HSRI force at zero slip is the stiffness of (000: 5.70, 5.71).
     let model = SingleTrackHsri::default();
-    let fz = model.vehicle.front_wheel_load;
+    let fz = model.vehicle.chassis.front_wheel_load;
     let tiny = 1e-5;
     let lateral = model.tyre.force(&vehicle_models::tyre::TyreKinematics {
         slip: 0.0,
@@ -367,7 +370,7 @@ fn exact_jacobians_match_central_differences_hsri() {
     assert_eq!(o.longitudinal_force_front, 0.0);
     for (x, u) in &points[2..] {
         let o = model.outputs(x, u);
-        let load = model.vehicle.front_wheel_load;
+        let load = model.vehicle.chassis.front_wheel_load;
         let linear_demand = 2.0
             * (model.tyre.cornering_stiffness(load) * o.slip_angle_front.tan())
                 .hypot(model.tyre.longitudinal_stiffness(load) * o.slip_front)
@@ -440,12 +443,12 @@ fn linearisation_about_straight_driving_is_the_seed_linear_model() {
     let (x0, u0) = SingleTrackHsri::seed_operating_point();
     let linear = model.linearise(&x0, &u0, SAMPLE_TIME, Integrator::SemiImplicitEuler);
     let p = &model.vehicle;
-    let front = 2.0 * model.tyre.cornering_stiffness(p.front_wheel_load);
-    let rear = 2.0 * model.tyre.cornering_stiffness(p.rear_wheel_load);
-    let expected = 1.0 - SAMPLE_TIME * (front + rear) / (p.mass * x0[state_index::VX]);
+    let front = 2.0 * model.tyre.cornering_stiffness(p.chassis.front_wheel_load);
+    let rear = 2.0 * model.tyre.cornering_stiffness(p.chassis.rear_wheel_load);
+    let expected = 1.0 - SAMPLE_TIME * (front + rear) / (p.chassis.mass * x0[state_index::VX]);
     let vy = state_index::VY;
     assert!((linear.transition[(vy, vy)] - expected).abs() < 1e-12);
-    let expected_steer = SAMPLE_TIME * front / p.mass; // (000: 5.32) B entry CF/m
+    let expected_steer = SAMPLE_TIME * front / p.chassis.mass; // (000: 5.32) B entry CF/m
     assert!((linear.input_matrix[(vy, input_index::STEERING_ANGLE)] - expected_steer).abs() < 1e-9);
     let mut errors = Vec::new();
     for scale in [1e-2, 1e-3] {

@@ -60,7 +60,7 @@ fn magic_formula_matches_model_a_stiffness_and_peak_friction() {
     let mf = MagicFormulaTyre::default();
     let hsri = HsriTyre::default();
     let p = TwoTrackParams::default();
-    for load in [p.front_wheel_load, p.rear_wheel_load] {
+    for load in [p.chassis.front_wheel_load, p.chassis.rear_wheel_load] {
         let tiny = 1e-6;
         let force = |tan_slip_angle: f64, slip: f64| {
             mf.force(&TyreKinematics {
@@ -125,14 +125,14 @@ fn full_model_b_transfers_load_to_the_outer_wheels() {
     let ay = model.truth(&x, &u).lateral_acceleration;
     let p = &model.vehicle;
     // left turn: right wheels are outer
-    let front_transfer = loads[wheel_index::FRONT_RIGHT] - p.front_wheel_load;
-    let rear_transfer = loads[wheel_index::REAR_RIGHT] - p.rear_wheel_load;
-    let expected = p.mass * ay * p.cog_height / p.track_width;
+    let front_transfer = loads[wheel_index::FRONT_RIGHT] - p.chassis.front_wheel_load;
+    let rear_transfer = loads[wheel_index::REAR_RIGHT] - p.chassis.rear_wheel_load;
+    let expected = p.chassis.mass * ay * p.cog_height / p.track_width;
     // the load-transfer loop is solved: loads and resulting ay agree to rounding level
     assert!((front_transfer / (p.front_roll_moment_share * expected) - 1.0).abs() < 1e-9);
     assert!((rear_transfer / ((1.0 - p.front_roll_moment_share) * expected) - 1.0).abs() < 1e-9);
     let total: f64 = loads.iter().sum();
-    assert!((total - 2.0 * (p.front_wheel_load + p.rear_wheel_load)).abs() < 1e-6);
+    assert!((total - 2.0 * (p.chassis.front_wheel_load + p.chassis.rear_wheel_load)).abs() < 1e-6);
 }
 
 #[test]

@@ -26,7 +26,10 @@ fn partial_files_keep_the_seed_defaults_and_unknown_keys_are_named() {
     )
     .expect("partial file");
     assert_eq!(params.two_track.cog_height, 0.6);
-    assert_eq!(params.two_track.mass, TwoTrackParams::default().mass);
+    assert_eq!(
+        params.two_track.chassis.mass,
+        TwoTrackParams::default().chassis.mass
+    );
     assert_eq!(params.hsri.friction_base, 1.0);
     assert_eq!(
         params.hsri.reference_load,
@@ -35,7 +38,8 @@ fn partial_files_keep_the_seed_defaults_and_unknown_keys_are_named() {
     assert_eq!(params.single_track, SingleTrackParams::default());
     assert_eq!(params.magic_formula, MagicFormulaParams::default());
 
-    let error = toml::from_str::<SingleTrackParams>("mass = 1400.0\nmas = 3.0\n").unwrap_err();
+    let error =
+        toml::from_str::<SingleTrackParams>("[chassis]\nmass = 1400.0\nmas = 3.0\n").unwrap_err();
     assert!(error.to_string().contains("mas"), "{error}");
 }
 
@@ -44,24 +48,28 @@ fn model_a_defaults_are_table_5_1() {
     let p = SingleTrackParams::default();
     assert_eq!(
         [
-            p.mass,
-            p.cog_to_front_axle,
-            p.cog_to_rear_axle,
-            p.yaw_inertia
+            p.chassis.mass,
+            p.chassis.cog_to_front_axle,
+            p.chassis.cog_to_rear_axle,
+            p.chassis.yaw_inertia
         ],
         [1400.0, 1.4346, 1.4831, 2978.7]
     );
     assert_eq!(
         [
-            p.front_wheel_inertia,
-            p.rear_wheel_inertia,
-            p.brake_split_front,
-            p.steering_ratio
+            p.chassis.front_wheel_inertia,
+            p.chassis.rear_wheel_inertia,
+            p.chassis.brake_split_front,
+            p.chassis.steering_ratio
         ],
         [10.3, 3.0, 0.6, 14.97]
     );
     assert_eq!(
-        [p.front_wheel_load, p.rear_wheel_load, p.wheel_radius],
+        [
+            p.chassis.front_wheel_load,
+            p.chassis.rear_wheel_load,
+            p.chassis.wheel_radius
+        ],
         [3492.0, 3374.0, 0.3]
     );
 }

@@ -30,6 +30,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         let source = parameters::source(v);
         let vehicle = SingleTrackParams {
+            chassis: source.chassis()?,
             // Beyond the seeds: per-axle factors on Cα (000: 5.70), 1 = the seed's model A.
             cornering_stiffness_scale_front: positive(
                 "cornering_stiffness_scale_front",
@@ -39,7 +40,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
                 "cornering_stiffness_scale_rear",
                 v.cornering_stiffness_scale_rear,
             )?,
-            ..source.single_track()?
+            ..SingleTrackParams::default()
         };
         let tyre = HsriTyre::new(source.hsri()?);
         let integrator = parameters::integrator(v)?;

@@ -9,10 +9,9 @@ use estimation::models::two_track::TwoTrackEstimationModel;
 use estimation::registry::EstimatorSettings;
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::SVector;
-use vehicle_models::parameters::same_car_two_track;
 use vehicle_models::two_track_lateral::{state_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::tyre::MagicFormulaParams;
-use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel};
+use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
@@ -40,7 +39,12 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         let source = parameters::source(v);
-        let vehicle = same_car_two_track(&source.single_track()?);
+        // The same car as model A; track width, CoG height and roll-moment split keep the
+        // two-track defaults (SPEC §4).
+        let vehicle = TwoTrackParams {
+            chassis: source.chassis()?,
+            ..TwoTrackParams::default()
+        };
         let tyre = MagicFormulaTyre::new(MagicFormulaParams::matching_hsri(&source.hsri()?));
         // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).
         let process = variances([
