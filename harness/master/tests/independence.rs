@@ -19,40 +19,63 @@ const FORBIDDEN: [&str; 8] = [
 /// The workspace crates the master may take: the manoeuvre signals (no model, no FMI).
 const ALLOWED_WORKSPACE_CRATES: [&str; 1] = ["manoeuvres"];
 
-#[test]
-fn the_master_depends_on_no_model_estimator_or_fmu_crate() {
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml");
-    let text = std::fs::read_to_string(&manifest).unwrap();
-    let parsed: toml::Table = toml::from_str(&text).unwrap();
-    let mut checked = 0;
+/// `[table] package` of every dependency the manifest must not have, and how many it has.
+fn refused_dependencies(manifest: &str) -> (Vec<String>, usize) {
+    let parsed: toml::Table = toml::from_str(manifest).unwrap();
+    let mut refused = Vec::new();
+    let mut count = 0;
     for table in ["dependencies", "dev-dependencies", "build-dependencies"] {
         let Some(dependencies) = parsed.get(table).and_then(toml::Value::as_table) else {
             continue;
         };
         for (name, spec) in dependencies {
-            checked += 1;
+            count += 1;
             let package = spec
                 .get("package")
                 .and_then(toml::Value::as_str)
                 .unwrap_or(name);
-            assert!(
-                !FORBIDDEN.contains(&package),
-                "{} lists `{package}` under [{table}]: the master must stay free of the \
-                 workspace's models, estimators and FMU crates",
-                manifest.display()
-            );
-            let path = spec.get("path").and_then(toml::Value::as_str);
-            assert!(
-                path.is_none() || ALLOWED_WORKSPACE_CRATES.contains(&package),
-                "{} lists `{name}` by path ({path:?}) under [{table}]: the master takes no \
-                 workspace crate",
-                manifest.display()
-            );
+            let by_path = spec.get("path").is_some();
+            if FORBIDDEN.contains(&package)
+                || (by_path && !ALLOWED_WORKSPACE_CRATES.contains(&package))
+            {
+                refused.push(format!("[{table}] {package}"));
+            }
         }
     }
+    (refused, count)
+}
+
+#[test]
+fn the_master_depends_on_no_model_estimator_or_fmu_crate() {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml");
+    let (refused, count) = refused_dependencies(&std::fs::read_to_string(&manifest).unwrap());
     assert!(
-        checked >= 5,
-        "found only {checked} dependencies in {}",
+        refused.is_empty(),
+        "{} lists {refused:?}: the master must stay free of the workspace's models, estimators \
+         and FMU crates",
         manifest.display()
+    );
+    assert!(
+        count >= 5,
+        "found only {count} dependencies in {}",
+        manifest.display()
+    );
+}
+
+#[test]
+fn the_check_refuses_an_estimator_renamed_or_by_path() {
+    let manifest = r#"
+[dependencies]
+serde = "1"
+manoeuvres = { path = "../manoeuvres" }
+filters = { path = "../../fmu-src/estimation", package = "estimation" }
+[dev-dependencies]
+models = { path = "../../fmu-src/somewhere-else" }
+"#;
+    let (refused, count) = refused_dependencies(manifest);
+    assert_eq!(count, 4);
+    assert_eq!(
+        refused,
+        ["[dependencies] estimation", "[dev-dependencies] models"]
     );
 }
