@@ -36,7 +36,8 @@ struct Run {
 /// The reference run of model B, sampled every 10 ms, deterministic for `seed`.
 fn reference_run(seed: u64) -> Run {
     let vehicle = TwoTrackMagicFormula::default();
-    let road_wheel_angle = STEERING_WHEEL_ANGLE_DEG.to_radians() / vehicle.vehicle.chassis.steering_ratio;
+    let road_wheel_angle =
+        STEERING_WHEEL_ANGLE_DEG.to_radians() / vehicle.vehicle.chassis.steering_ratio;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let ay_noise = Normal::new(0.0, SEED_001_MEASUREMENT_NOISE_STD[0]).unwrap();
     let yaw_rate_noise = Normal::new(0.0, SEED_001_MEASUREMENT_NOISE_STD[1]).unwrap();
