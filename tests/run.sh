@@ -1,15 +1,36 @@
 #!/usr/bin/env bash
 # The project's one test command (README; .ci/run calls exactly this). Installs what is missing,
-# checks formatting and lints, runs every Rust test, packages the FMUs and runs the Python tests
-# (fmpy, filterpy, cross-tool) against them. Packaging comes before the Rust tests: the harness's
-# co-simulation tests (e.g. the model-mismatch study) load the packaged FMUs from target/fmu.
+# checks formatting and lints, packages the FMUs, runs every Rust test and the Python tests
+# (fmpy, filterpy, cross-tool, docs) against the packaged FMUs.
+#
+# Built once: after clippy (check mode, which cargo cannot share with a build), everything is
+# compiled in one release build of every workspace target that `cargo test --workspace --release`
+# needs. Packaging takes its FMU libraries from that build (--with-workspace-targets), the Rust
+# tests run in it, and the Python tests use its binaries (tests/conftest.py asks cargo for the
+# same selection, which then compiles nothing). Cargo unifies dependency features per invocation,
+# so a different selection (`-p packaging`, `-p harness`, a dev-profile example) would compile the
+# dependencies again; that was most of the 22-30 minutes this took before (issue 11).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 bash packaging/setup.sh
 
-cargo fmt --all --check
-cargo clippy --workspace --all-targets -- -D warnings
-cargo run --release -p packaging
-cargo test --workspace
-"$root/.venv/bin/python" -m pytest tests -q
+# A fresh clone gains nothing from incremental compilation, it only writes more.
+if [ "${CI:-}" = true ]; then
+    export CARGO_INCREMENTAL=0
+fi
+phase() {
+    local started=$SECONDS
+    echo "== $*" >&2
+    "$@"
+    echo "== $1 ... done in $((SECONDS - started)) s" >&2
+}
+
+phase cargo fmt --all --check
+phase cargo clippy --workspace --all-targets -- -D warnings
+phase cargo build --release --workspace --lib --bins --tests --examples
+target=$("$root/.venv/bin/python" -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])' \
+    < <(cargo metadata --format-version 1 --no-deps))
+phase "$target/release/packaging" --with-workspace-targets
+phase cargo test --workspace --release
+phase "$root/.venv/bin/python" -m pytest tests -q

@@ -84,12 +84,44 @@ pub(crate) fn json_string_array(text: &str, key: &str) -> Option<Vec<String>> {
     }
 }
 
+/// Which targets the release build of the FMU libraries compiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BuildScope {
+    /// Only the two FMU packages (`cargo build --release -p … -p …`): the quickest build, and
+    /// the FMUs exactly as users package them.
+    #[default]
+    FmuPackages,
+    /// Every workspace target that `cargo test --workspace --release` compiles (libraries,
+    /// binaries, tests, examples). Cargo unifies dependency features over the packages and
+    /// targets of one invocation, so the two-package build compiles its dependencies with other
+    /// features than the test build and a CI run would compile them twice; with this scope the
+    /// FMU libraries are the test build's and a test run that follows compiles nothing again.
+    Workspace,
+}
+
+impl BuildScope {
+    /// The `cargo build` selection arguments of this scope.
+    fn arguments(self, packages: &[&str]) -> Vec<String> {
+        match self {
+            BuildScope::FmuPackages => packages
+                .iter()
+                .flat_map(|package| ["-p".to_owned(), (*package).to_owned()])
+                .collect(),
+            BuildScope::Workspace => ["--workspace", "--lib", "--bins", "--tests", "--examples"]
+                .map(String::from)
+                .to_vec(),
+        }
+    }
+}
+
 /// Where the workspace is and where cargo puts build output.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Workspace {
     pub root: PathBuf,
     pub target_directory: PathBuf,
     pub manifest: PathBuf,
+    /// What the release build of the FMU libraries compiles (see [`BuildScope`]).
+    pub build_scope: BuildScope,
 }
 
 impl Workspace {
@@ -123,6 +155,7 @@ impl Workspace {
             root: field("workspace_root")?,
             target_directory: field("target_directory")?,
             manifest: manifest.to_path_buf(),
+            build_scope: BuildScope::default(),
         })
     }
 
@@ -139,31 +172,23 @@ pub fn build_release_libraries(
     packages: &[&str],
     library_names: &[&str],
 ) -> Result<Vec<PathBuf>> {
-    let mut command = cargo();
-    command
+    let selection = workspace.build_scope.arguments(packages);
+    let shown = format!("cargo build --release {}", selection.join(" "));
+    eprintln!("packaging: {shown}");
+    let output = cargo()
         .args([
             "build",
             "--release",
             "--message-format=json-render-diagnostics",
         ])
         .arg("--manifest-path")
-        .arg(&workspace.manifest);
-    for package in packages {
-        command.args(["-p", package]);
-    }
-    eprintln!(
-        "packaging: cargo build --release -p {}",
-        packages.join(" -p ")
-    );
-    let output = command
+        .arg(&workspace.manifest)
+        .args(&selection)
         .stderr(Stdio::inherit())
         .output()
         .context("running `cargo build`")?;
     if !output.status.success() {
-        bail!(
-            "`cargo build --release -p {}` failed (see the compiler output above)",
-            packages.join(" -p ")
-        );
+        bail!("`{shown}` failed (see the compiler output above)");
     }
     let stdout = String::from_utf8_lossy(&output.stdout);
     let mut found = Vec::new();

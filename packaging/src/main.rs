@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 use packaging::archive::WriteOutcome;
-use packaging::cargo::Workspace;
+use packaging::cargo::{BuildScope, Workspace};
 
 #[derive(Parser, Debug)]
 #[command(about = "Builds the FMI 2.0 Co-Simulation FMUs and the SSP system of this workspace")]
@@ -18,6 +18,11 @@ struct Arguments {
     /// Root Cargo.toml of the workspace (default: the workspace this tool was built in).
     #[arg(long, value_name = "PATH")]
     manifest_path: Option<PathBuf>,
+    /// Build the FMU libraries as part of every workspace target that `cargo test --workspace
+    /// --release` compiles, so that test run compiles nothing again (tests/run.sh uses this; the
+    /// default builds only the two FMU packages).
+    #[arg(long)]
+    with_workspace_targets: bool,
 }
 
 fn run(arguments: Arguments) -> anyhow::Result<()> {
@@ -26,7 +31,10 @@ fn run(arguments: Arguments) -> anyhow::Result<()> {
             .join("..")
             .join("Cargo.toml")
     });
-    let workspace = Workspace::locate(&manifest)?;
+    let mut workspace = Workspace::locate(&manifest)?;
+    if arguments.with_workspace_targets {
+        workspace.build_scope = BuildScope::Workspace;
+    }
     if arguments.check {
         let checked = packaging::check_descriptions(&workspace.root)?;
         for c in &checked {

@@ -1,9 +1,10 @@
 """Step-by-step agreement of this project's EKF, 2n UKF and scaled UKF (Rust, estimation crate)
 with filterpy 2.0.0 on model A over a seed-000 manoeuvre (issue 3, point 2).
 
-The Rust side runs `cargo run -p estimation --example filterpy_case` (high steering ramp with
-braking, filters at T = 10 ms, truth at 1 ms with the SPEC section 7 noise) and writes its inputs,
-measurements, states and covariances per step. This side re-implements model A from SPEC
+The Rust side runs the estimation crate's example `filterpy_case` (its release build, found
+through tests/conftest.py; high steering ramp with braking, filters at T = 10 ms, truth at 1 ms
+with the SPEC section 7 noise) and writes its inputs, measurements, states and covariances per
+step. This side re-implements model A from SPEC
 (model_a.py, not calling Rust), feeds the same inputs and measurements to filterpy's filters and
 compares after every predict + update:
 
@@ -51,11 +52,8 @@ R = np.diag(np.square([1e-4] * 4))
 SCALED_CASES = [(0.5, 2.0, 0.0)]
 
 
-def run_rust_case(out, alpha, beta, kappa):
-    command = [
-        "cargo", "run", "--quiet", "-p", "estimation", "--example", "filterpy_case", "--",
-        str(out), repr(alpha), repr(beta), repr(kappa),
-    ]
+def run_rust_case(example, out, alpha, beta, kappa):
+    command = [str(example), str(out), repr(alpha), repr(beta), repr(kappa)]
     subprocess.run(command, cwd=ROOT, check=True, timeout=1800)
     with open(out, newline="") as handle:
         comment = handle.readline()
@@ -66,10 +64,11 @@ def run_rust_case(out, alpha, beta, kappa):
 
 
 @pytest.fixture(scope="module", params=SCALED_CASES, ids=lambda c: "alpha=%g,beta=%g,kappa=%g" % c)
-def rust_case(request, tmp_path_factory):
+def rust_case(request, tmp_path_factory, workspace_executables):
     alpha, beta, kappa = request.param
     out = tmp_path_factory.mktemp("filterpy") / "case.csv"
-    sample_time, rows = run_rust_case(out, alpha, beta, kappa)
+    example = workspace_executables[("example", "filterpy_case")]
+    sample_time, rows = run_rust_case(example, out, alpha, beta, kappa)
     return (alpha, beta, kappa), sample_time, rows
 
 

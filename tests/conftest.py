@@ -1,0 +1,39 @@
+"""Shared by every Python test: the release build of the workspace's binaries.
+
+tests/run.sh compiles every workspace target once, as `cargo build --release --workspace --lib
+--bins --tests --examples`. Asking cargo for exactly that selection again compiles nothing, while
+any other (`-p harness`, `cargo run --example` in the dev profile) would make cargo unify the
+dependency features differently and compile them a second time. The binaries are found through
+cargo's own artefact messages, so CARGO_TARGET_DIR and cargo configs are honoured."""
+
+import json
+import pathlib
+import subprocess
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+WORKSPACE_BUILD = ["cargo", "build", "--release", "--workspace", "--lib", "--bins", "--tests",
+                   "--examples", "--message-format=json-render-diagnostics"]
+
+
+def build_workspace():
+    """Builds (or finds up to date) every workspace target; returns {(kind, name): executable}."""
+    completed = subprocess.run(WORKSPACE_BUILD, cwd=ROOT, stdout=subprocess.PIPE, text=True,
+                               timeout=3600)
+    if completed.returncode != 0:
+        raise AssertionError(f"`{' '.join(WORKSPACE_BUILD)}` failed (compiler output above)")
+    executables = {}
+    for line in completed.stdout.splitlines():
+        message = json.loads(line)
+        if message.get("reason") == "compiler-artifact" and message.get("executable"):
+            target = message["target"]
+            kinds = [kind for kind in target["kind"] if kind in ("bin", "example")]
+            if kinds and not message["profile"]["test"]:
+                executables[(kinds[0], target["name"])] = pathlib.Path(message["executable"])
+    return executables
+
+
+@pytest.fixture(scope="session")
+def workspace_executables():
+    return build_workspace()
