@@ -1,5 +1,5 @@
 """Fixtures of the harness tests: the packaged FMUs (a missing archive fails with the command that
-builds it) and the release build of the harness binary."""
+builds it) and the harness binary of the workspace's release build."""
 
 import os
 import pathlib
@@ -38,11 +38,9 @@ def fmu_dir():
 
 
 @pytest.fixture(scope="session")
-def harness_binary():
-    """The harness, built in release like the README's command."""
-    subprocess.run(["cargo", "build", "--release", "-p", "harness"], cwd=ROOT, check=True,
-                   timeout=1800)
-    binary = target_directory() / "release" / "harness"
+def harness_binary(workspace_executables):
+    """The harness binary of the workspace's release build (tests/conftest.py)."""
+    binary = workspace_executables[("bin", "harness")]
     assert binary.is_file(), binary
     return binary
 
