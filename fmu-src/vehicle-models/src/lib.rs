@@ -23,6 +23,7 @@
 //! - no heap allocation in any step.
 
 pub mod driver_input;
+pub mod full_vehicle;
 pub mod integrator;
 /// The seed-000 manoeuvres, defined once in the `manoeuvres` crate (also the operating point's
 /// initial speeds, [`single_track::seed_operating_point`]).

@@ -13,6 +13,7 @@
 
 use crate::scalar::{Dual, Scalar};
 
+pub mod combined_slip;
 mod hsri;
 mod linear;
 mod magic_formula;
