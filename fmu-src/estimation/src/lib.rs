@@ -29,7 +29,6 @@ pub mod model;
 /// Small dense-matrix helpers: symmetrising, Cholesky with repair.
 pub mod linalg;
 
-/// Kalman-type filters: LKF, EKF, UKF (2n and scaled 2n+1 sigma points).
 pub mod kalman;
 
 /// Discrete Luenberger observer with pole placement (Ackermann formula, 002: §4).
@@ -41,10 +40,7 @@ pub mod models;
 /// SIR particle filter and resampling schemes (003: §2.2.4, A.4).
 pub mod particle;
 
-/// Every estimator, built by name on any model from one set of settings.
 pub mod registry;
-
-/// Where an estimator stores its running state (the host's byte format).
 pub mod snapshot;
 
 /// Reweighting (marginal) particle smoother (003: 2.63-2.75, 3.1-3.2).
