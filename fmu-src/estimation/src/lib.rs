@@ -10,13 +10,15 @@
 //!    [`registry::RunningEstimator`] implementation (`last_report`; a Kalman-type filter keeps
 //!    the default `save`/`restore` of `(x̂, P)`).
 //! 2. **One registry line** in the `registry!` invocation of [`registry`]: variant, name and how
-//!    it is built from the model, the [`registry::EstimatorSettings`] and the start. The FMU,
+//!    it is built from the model, the [`registry::EstimatorSettings`] and the start (name the new
+//!    type by its path, e.g. `crate::kalman::srukf::SquareRootUkf::new(..)`). The FMU,
 //!    the tests, the benchmarks and the studies build through [`registry::build`], and the FMU
 //!    maps its parameter to [`registry::EstimatorChoice`] by item name, so none of them lists
 //!    the estimators.
 //! 3. **One XML item** in the `EstimatorKind` enumeration of
-//!    `modelDescription/VehicleStateEstimator.xml`, with the registry line's name (a test of the
-//!    FMU crate checks that the two lists agree). The generated Rust enum, the FMU's error
+//!    `modelDescription/VehicleStateEstimator.xml`, with the registry line's name and at the
+//!    same position (a test of the FMU crate checks that the two lists agree, in order). Its
+//!    value is the `estimator` parameter's new value. The generated Rust enum, the FMU's error
 //!    messages, the fmpy tests (they read the enumeration from the XML) and the documentation
 //!    follow from it.
 //!
