@@ -131,7 +131,7 @@ impl Default for LowSpeedParams {
     fn default() -> Self {
         Self {
             damping_speed: 2.5,
-            longitudinal_damping: 4000.0,
+            longitudinal_damping: 15000.0,
             lateral_damping: 6000.0,
             slip_limit: 1.5,
             tan_slip_angle_limit: 2.0,

@@ -35,18 +35,19 @@ pub fn every_car() -> Vec<(&'static str, FullVehicleParams)> {
         .collect()
 }
 
-/// Runs `seconds` with the input of `input(t)`, calling `each(t, truth)` after every step;
+/// Runs `seconds` with the input of `input(t, truth before the step)`, calling `each(t, truth)` after every step;
 /// panics on a non-finite state.
 pub fn drive(
     vehicle: &mut FullVehicle,
     seconds: f64,
-    mut input: impl FnMut(f64) -> FullVehicleInput,
+    mut input: impl FnMut(f64, &FullVehicleTruth) -> FullVehicleInput,
     mut each: impl FnMut(f64, &FullVehicleTruth),
 ) {
     let steps = (seconds / STEP).round() as usize;
     for k in 0..steps {
         let t = k as f64 * STEP;
-        vehicle.step(&input(t), STEP);
+        let input = input(t, vehicle.truth());
+        vehicle.step(&input, STEP);
         assert!(
             vehicle.state().iter().all(|x| x.is_finite()),
             "non-finite state at t = {t}: {:?}",

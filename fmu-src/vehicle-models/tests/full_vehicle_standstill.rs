@@ -1,0 +1,272 @@
+//! The full vehicle at low speed and standstill (issue 13, point 4), its drivetrains and brakes,
+//! and energy: brake to a stop and hold, pull away, reverse slowly, no wheel spinning up under a
+//! brake, no NaN; every drivetrain moves the car; coasting never gains kinetic energy.
+
+mod full_vehicle_support;
+
+use full_vehicle_support::{car, drive, every_car, STEP};
+use vehicle_models::full_vehicle::{
+    wheel_index, FullVehicle, FullVehicleInput, FullVehicleParams, FullVehicleTruth, WHEELS,
+};
+
+fn brake(torque: f64) -> FullVehicleInput {
+    FullVehicleInput {
+        brake_torque: torque,
+        ..FullVehicleInput::default()
+    }
+}
+
+fn drive_torque(torque: f64) -> FullVehicleInput {
+    FullVehicleInput {
+        drive_torque: torque,
+        ..FullVehicleInput::default()
+    }
+}
+
+fn largest_wheel_speed(truth: &FullVehicleTruth) -> f64 {
+    truth
+        .wheel_speed
+        .iter()
+        .map(|w| w.abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn braking_to_a_stop_then_holding_ten_seconds_stays_still() {
+    for (file, p) in every_car() {
+        let mut vehicle = FullVehicle::rolling(p, 15.0);
+        drive(&mut vehicle, 6.0, |_, _| brake(2500.0), |_, _| {});
+        assert!(
+            vehicle.truth().longitudinal_velocity.abs() < 0.01,
+            "{file}: not stopped"
+        );
+        drive(
+            &mut vehicle,
+            10.0,
+            |_, _| brake(2500.0),
+            |t, truth| {
+                assert!(
+                    truth.longitudinal_velocity.abs() < 0.01,
+                    "{file}: t = {t}: {truth:?}"
+                );
+                assert!(
+                    largest_wheel_speed(truth) < 1e-9,
+                    "{file}: wheels turn: {truth:?}"
+                );
+            },
+        );
+    }
+}
+
+#[test]
+fn standing_without_brake_stays_at_rest() {
+    for (file, p) in every_car() {
+        let mut vehicle = FullVehicle::new(p);
+        drive(
+            &mut vehicle,
+            5.0,
+            |_, _| FullVehicleInput::default(),
+            |_, truth| {
+                assert_eq!(truth.longitudinal_velocity, 0.0, "{file}");
+                assert_eq!(largest_wheel_speed(truth), 0.0, "{file}");
+            },
+        );
+    }
+}
+
+#[test]
+fn a_brake_stronger_than_the_drive_keeps_the_wheels_still() {
+    for (file, p) in every_car() {
+        let mut vehicle = FullVehicle::new(p);
+        let input = FullVehicleInput {
+            drive_torque: 800.0,
+            // more than the drive torque on every wheel of every car's brake split
+            brake_torque: 3000.0,
+            ..FullVehicleInput::default()
+        };
+        drive(
+            &mut vehicle,
+            3.0,
+            |_, _| input,
+            |_, truth| {
+                assert_eq!(largest_wheel_speed(truth), 0.0, "{file}: {truth:?}");
+                assert_eq!(truth.longitudinal_velocity, 0.0, "{file}");
+            },
+        );
+    }
+}
+
+#[test]
+fn pulling_away_after_a_stop_and_reversing_slowly() {
+    for (file, p) in every_car() {
+        let radius = p.wheels.radius;
+        let mut vehicle = FullVehicle::rolling(p, 10.0);
+        drive(&mut vehicle, 5.0, |_, _| brake(2500.0), |_, _| {});
+        drive(&mut vehicle, 3.0, |_, _| drive_torque(600.0), |_, _| {});
+        let forward = *vehicle.truth();
+        assert!(forward.longitudinal_velocity > 1.0, "{file}: {forward:?}");
+        // stop again, then creep backwards with a small torque and let it roll
+        drive(&mut vehicle, 5.0, |_, _| brake(2500.0), |_, _| {});
+        drive(&mut vehicle, 2.0, |_, _| drive_torque(-150.0), |_, _| {});
+        drive(
+            &mut vehicle,
+            2.0,
+            |_, _| FullVehicleInput::default(),
+            |_, _| {},
+        );
+        let backward = *vehicle.truth();
+        assert!(
+            (-1.0..-0.1).contains(&backward.longitudinal_velocity),
+            "{file}: {backward:?}"
+        );
+        for wheel in 0..WHEELS {
+            let rolling = backward.wheel_speed[wheel] * radius;
+            assert!(
+                (rolling - backward.longitudinal_velocity).abs() < 0.01,
+                "{file}: wheel {wheel} {backward:?}"
+            );
+        }
+        // braking while reversing stops the car; it may only rock forwards on its tyres'
+        // elasticity (the deflection the braking force built up, a few millimetres), never drive
+        // forwards
+        let (mut position, mut rearmost) = (0.0_f64, 0.0_f64);
+        drive(
+            &mut vehicle,
+            3.0,
+            |_, _| brake(2500.0),
+            |_, truth| {
+                position += STEP * truth.longitudinal_velocity;
+                rearmost = rearmost.min(position);
+                assert!(
+                    position - rearmost < 0.01,
+                    "{file}: rocks {} m",
+                    position - rearmost
+                );
+            },
+        );
+        assert!(vehicle.truth().longitudinal_velocity.abs() < 0.01);
+    }
+}
+
+/// Seed car with the given front drive share.
+fn seed_with_drive_split(front: f64) -> FullVehicleParams {
+    let mut p = FullVehicleParams::default();
+    p.drivetrain.drive_split_front = front;
+    p
+}
+
+#[test]
+fn every_drivetrain_moves_the_car_through_its_driven_wheels() {
+    use wheel_index::*;
+    for (front_share, name) in [(1.0, "front"), (0.0, "rear"), (0.4, "all-wheel")] {
+        let mut vehicle = FullVehicle::new(seed_with_drive_split(front_share));
+        let mut forces = [0.0; WHEELS];
+        drive(
+            &mut vehicle,
+            2.0,
+            |_, _| drive_torque(800.0),
+            |_, truth| {
+                forces = truth.tyre_force_longitudinal;
+            },
+        );
+        let truth = vehicle.truth();
+        assert!(truth.longitudinal_velocity > 0.8, "{name}: {truth:?}");
+        // open differential: both wheels of an axle alike
+        assert!((forces[FRONT_LEFT] - forces[FRONT_RIGHT]).abs() < 1e-9);
+        assert!((forces[REAR_LEFT] - forces[REAR_RIGHT]).abs() < 1e-9);
+        let (front, rear) = (forces[FRONT_LEFT], forces[REAR_LEFT]);
+        match name {
+            "front" => assert!(front > 0.0 && rear <= 0.0, "{name}: {forces:?}"),
+            "rear" => assert!(rear > 0.0 && front <= 0.0, "{name}: {forces:?}"),
+            _ => assert!(front > 0.0 && rear > 0.0, "{name}: {forces:?}"),
+        }
+    }
+    // the car files' drivetrains
+    assert_eq!(
+        car("ford_escort.toml").vehicle.drivetrain.drive_split_front,
+        1.0
+    );
+    assert_eq!(
+        car("bmw_320i.toml").vehicle.drivetrain.drive_split_front,
+        0.0
+    );
+}
+
+/// Kinetic energy of the car: translation, yaw, roll and wheel spin.
+fn kinetic_energy(p: &FullVehicleParams, truth: &FullVehicleTruth) -> f64 {
+    let speed_squared = truth.longitudinal_velocity.powi(2) + truth.lateral_velocity.powi(2);
+    let wheels: f64 = (0..WHEELS)
+        .map(|wheel| {
+            let inertia = if wheel < wheel_index::REAR_LEFT {
+                p.wheels.inertia_front
+            } else {
+                p.wheels.inertia_rear
+            };
+            inertia * truth.wheel_speed[wheel].powi(2)
+        })
+        .sum();
+    0.5 * (p.body.mass * speed_squared
+        + p.body.yaw_inertia * truth.yaw_rate.powi(2)
+        + p.suspension.roll_inertia * truth.roll_rate.powi(2)
+        + wheels)
+}
+
+#[test]
+fn coasting_never_gains_kinetic_energy() {
+    for (file, p) in every_car() {
+        let mut vehicle = FullVehicle::rolling(p.clone(), 20.0);
+        let start = kinetic_energy(&p, vehicle.truth());
+        let mut previous = start;
+        let mut steps_checked = 0;
+        let steering = |t: f64, _: &_| FullVehicleInput {
+            steering_angle: 0.06 * (2.0 * std::f64::consts::PI * 0.4 * t).sin(),
+            ..FullVehicleInput::default()
+        };
+        drive(&mut vehicle, 6.0, steering, |t, truth| {
+            let energy = kinetic_energy(&p, truth);
+            // the tyres' and springs' stored energy is tiny; allow 1e-6 of the energy per step
+            assert!(
+                energy <= previous * (1.0 + 1e-6),
+                "{file}: t = {t}: {energy} > {previous}"
+            );
+            previous = energy;
+            steps_checked += 1;
+        });
+        println!(
+            "{file}: kinetic energy {:.4} of the start",
+            previous / start
+        );
+        assert!(
+            previous < 0.99 * start,
+            "{file}: the slip must dissipate energy"
+        );
+        assert_eq!(steps_checked, (6.0 / STEP).round() as usize);
+    }
+}
+
+#[test]
+fn abs_keeps_the_wheels_turning_under_full_braking() {
+    let count_locked = |abs: bool| {
+        let mut p = FullVehicleParams::default();
+        p.drivetrain.abs.enabled = abs;
+        let mut vehicle = FullVehicle::rolling(p, 25.0);
+        let mut locked = 0;
+        drive(
+            &mut vehicle,
+            3.0,
+            |_, _| brake(8000.0),
+            |_, truth| {
+                if truth.longitudinal_velocity > 5.0 && truth.wheel_speed[0] == 0.0 {
+                    locked += 1;
+                }
+            },
+        );
+        locked
+    };
+    let without = count_locked(false);
+    let with = count_locked(true);
+    println!(
+        "steps with a locked front-left wheel above 5 m/s: without ABS {without}, with {with}"
+    );
+    assert!(without > 500 && with < 50, "{without} {with}");
+}
