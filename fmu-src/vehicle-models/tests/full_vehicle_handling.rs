@@ -4,7 +4,7 @@
 
 mod full_vehicle_support;
 
-use full_vehicle_support::{drive, every_car, speed_keeping_torque, steer};
+use full_vehicle_support::{drive, every_car, speed_keeping_torque, steer, STEP};
 use vehicle_models::full_vehicle::{
     wheel_index, FullVehicle, FullVehicleInput, FullVehicleParams, GRAVITY,
 };
@@ -53,11 +53,13 @@ fn measured_understeer_gradient(
             drive_torque: speed_keeping_torque(p, SPEED, now.longitudinal_velocity),
             ..FullVehicleInput::default()
         },
-        |_, truth| {
+        |t, truth| {
             let ay = truth.lateral_acceleration;
             if accelerations.contains(&ay) {
                 let kinematic = p.wheelbase() * truth.yaw_rate / truth.longitudinal_velocity;
-                points.push((ay, truth.road_wheel_angle - kinematic));
+                // the commanded angle of the step just taken (`t` is its end)
+                let commanded = ramp_rate * (t - STEP);
+                points.push((ay, commanded - kinematic));
             }
         },
     );
@@ -293,4 +295,92 @@ fn straight_rolling_without_input_keeps_its_speed_exactly() {
     assert_eq!(truth.longitudinal_velocity, SPEED);
     assert_eq!(truth.lateral_velocity, 0.0);
     assert_eq!(truth.tyre_force_longitudinal, [0.0; 4]);
+}
+
+#[test]
+fn compliance_steer_adds_its_textbook_understeer() {
+    // δ = δ_cmd − c F_y,front with F_y,front = m l_r/L a_y at steady state, so the gradient grows
+    // by c m l_r/L (e.g. Gillespie, "Fundamentals of Vehicle Dynamics", ch. 6, compliance steer)
+    let rigid = FullVehicleParams::default();
+    let mut compliant = rigid.clone();
+    compliant.steering.compliance = 3e-6; // rad/N, about 0.17 deg/kN
+    let expected = compliant.steering.compliance * rigid.body.mass * rigid.body.cog_to_rear_axle
+        / rigid.wheelbase();
+    let added = measured_understeer_gradient(&compliant, 0.1..=0.8)
+        - measured_understeer_gradient(&rigid, 0.1..=0.8);
+    assert!(
+        (added / expected - 1.0).abs() < 0.03,
+        "{added} vs {expected}"
+    );
+}
+
+#[test]
+fn steering_lag_is_first_order_with_its_time_constant() {
+    let mut p = FullVehicleParams::default();
+    p.steering.lag_time_constant = 0.1;
+    let mut vehicle = FullVehicle::rolling(p, SPEED);
+    let mut at_time_constant = 0.0;
+    drive(
+        &mut vehicle,
+        0.5,
+        |_, _| steer(0.02),
+        |t, truth| {
+            if (t - 0.1).abs() < 0.5 * STEP {
+                at_time_constant = truth.road_wheel_angle;
+            }
+        },
+    );
+    // 1 − e^-1 of the step after one time constant (implicit Euler at 1 ms: within 0.5 %)
+    let expected = 0.02 * (1.0 - (-1.0_f64).exp());
+    assert!(
+        (at_time_constant / expected - 1.0).abs() < 5e-3,
+        "{at_time_constant}"
+    );
+    assert!((vehicle.truth().road_wheel_angle / 0.02 - 1.0).abs() < 1e-2); // e^-5 left
+}
+
+#[test]
+fn at_walking_pace_the_car_turns_on_its_kinematic_circle() {
+    // low a_y: r = v tan δ / L (kinematic single track) within 3 %, also below V_low; up to
+    // 0.3 rad road-wheel angle, since both front wheels steer alike (no Ackermann geometry) and
+    // scrub at larger angles (at 0.5 rad and 0.5 m/s the seed car turns 4.6 % slower)
+    for (file, p) in every_car() {
+        for (speed, angle) in [(2.0, 0.3), (0.5, 0.3), (0.2, 0.3)] {
+            let mut vehicle = FullVehicle::rolling(p.clone(), speed);
+            let input =
+                |_, now: &vehicle_models::full_vehicle::FullVehicleTruth| FullVehicleInput {
+                    steering_angle: angle,
+                    drive_torque: speed_keeping_torque(&p, speed, now.longitudinal_velocity),
+                    ..FullVehicleInput::default()
+                };
+            drive(&mut vehicle, 6.0, input, |_, _| {});
+            let truth = vehicle.truth();
+            let kinematic = truth.longitudinal_velocity * angle.tan() / p.wheelbase();
+            assert!(
+                (truth.yaw_rate / kinematic - 1.0).abs() < 0.03,
+                "{file} at {speed} m/s: r = {} vs {kinematic}",
+                truth.yaw_rate
+            );
+        }
+    }
+}
+
+#[test]
+fn a_long_step_is_the_same_as_its_internal_steps() {
+    let input = FullVehicleInput {
+        steering_angle: 0.03,
+        drive_torque: 500.0,
+        ..FullVehicleInput::default()
+    };
+    let mut long = FullVehicle::rolling(FullVehicleParams::default(), SPEED);
+    let mut short = long.clone();
+    for _ in 0..100 {
+        long.step(&input, 10.0 * STEP);
+        for _ in 0..10 {
+            short.step(&input, STEP);
+        }
+    }
+    for (a, b) in long.state().iter().zip(short.state().iter()) {
+        assert!((a - b).abs() <= 1e-9 * (1.0 + a.abs()), "{a} vs {b}");
+    }
 }

@@ -270,3 +270,56 @@ fn abs_keeps_the_wheels_turning_under_full_braking() {
     );
     assert!(without > 500 && with < 50, "{without} {with}");
 }
+
+/// A small deterministic pseudo-random sequence in [0, 1) (64-bit LCG, Knuth's MMIX constants).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+#[test]
+fn random_abuse_never_produces_nan_or_a_negative_load() {
+    // every 0.2 s a new input: any steer up to full lock, drive and brake torques of either size,
+    // friction from ice to dry; 40 s per car, starting at rest
+    for (file, p) in every_car() {
+        let mut random = Lcg(0x5eed);
+        let mut vehicle = FullVehicle::new(p);
+        let mut input = FullVehicleInput::default();
+        drive(
+            &mut vehicle,
+            40.0,
+            |t, _| {
+                if ((t / STEP).round() as usize).is_multiple_of(200) {
+                    input = FullVehicleInput {
+                        steering_angle: 1.0 * (random.next() - 0.5),
+                        drive_torque: 4000.0 * (random.next() - 0.4),
+                        brake_torque: if random.next() < 0.3 {
+                            8000.0 * random.next()
+                        } else {
+                            0.0
+                        },
+                        road_friction: 0.05 + 1.1 * random.next(),
+                    };
+                }
+                input
+            },
+            |t, truth| {
+                assert!(
+                    truth.wheel_load.iter().all(|f| *f >= 0.0),
+                    "{file}: t = {t}"
+                );
+                assert!(
+                    truth.longitudinal_velocity.abs() < 80.0,
+                    "{file}: t = {t}: {truth:?}"
+                );
+            },
+        );
+    }
+}

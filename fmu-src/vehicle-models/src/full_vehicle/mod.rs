@@ -202,7 +202,8 @@ impl FullVehicle {
     /// Advances by `dt` (s) with the input held, in internal steps of at most
     /// `params.internal_step`.
     pub fn step(&mut self, input: &FullVehicleInput, dt: f64) {
-        let steps = (dt / self.params.internal_step).ceil().max(1.0);
+        // the tolerance keeps e.g. 0.003/0.001 = 3.0000000000000004 at three steps
+        let steps = (dt / self.params.internal_step - 1e-9).ceil().max(1.0);
         let internal_dt = dt / steps;
         for _ in 0..steps as usize {
             self.internal_step(input, internal_dt);

@@ -34,7 +34,7 @@ const STIFFNESS_EPSILON: f64 = 1e-6;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CombinedSlipParams {
-    /// `F_z0`, nominal load, N; `dfz = (Fz − Fz0)/Fz0` (4.E2).
+    /// `F_z0`, nominal load, N; `dfz = (Fz − Fz0)/Fz0` (4.E2a).
     pub nominal_load: f64,
     /// Shape factor `C_x` (4.E11).
     pub p_cx1: f64,
@@ -186,7 +186,7 @@ impl CombinedSlipTyre {
         Self { params }
     }
 
-    /// Normalised load change `dfz` (4.E2).
+    /// Normalised load change `dfz` (4.E2a).
     #[inline(always)]
     fn load_change(&self, vertical_load: f64) -> f64 {
         (vertical_load - self.params.nominal_load) / self.params.nominal_load
