@@ -29,13 +29,13 @@
 //!   algebraic loop loads → forces → accelerations without iterating, a 1 ms delay against roll
 //!   and pitch modes of about 1-2 Hz;
 //! - wheel spin: `I_w Ω̇_i = T_drive,i − r_e F_x,i − T_brake,i` with the brake as Coulomb friction
-//!   on the wheel ([`corner::braked_wheel_speed`]);
+//!   on the wheel (`corner::braked_wheel_speed`);
 //! - tyres: [`CombinedSlipTyre`] at the transient slips `κ' = u/σκ`, `tan α' = v/σα` of the
-//!   relaxation states ([`corner::relaxed_deflection`], Pacejka 2012, Sect. 7.2);
+//!   relaxation states (`corner::relaxed_deflection`, Pacejka 2012, Sect. 7.2);
 //! - steering: `δ = δ_cmd − c_s F_y,front` (compliance), optionally lagged by
 //!   `τ δ̇ = δ_target − δ`; both front wheels at the same angle (no Ackermann geometry).
 //!
-//! **Low speed and standstill** (the regularisation, all in [`corner`]):
+//! **Low speed and standstill** (the regularisation, all in the private module `corner`):
 //! - no slip is ever formed by dividing by a speed: the relaxation equations
 //!   `u̇ + |V_x| u/σκ = Ω r_e − V_x`, `v̇ + |V_x| v/σα = −V_y` are regular at `V_x = 0`, where the
 //!   deflections become springs of stiffness `K_xκ/σκ` and `K_yα/σα` that hold a parked car;
