@@ -384,3 +384,31 @@ fn a_long_step_is_the_same_as_its_internal_steps() {
         assert!((a - b).abs() <= 1e-9 * (1.0 + a.abs()), "{a} vs {b}");
     }
 }
+
+#[test]
+fn the_slip_angle_builds_up_over_the_relaxation_length() {
+    // first-order relaxation (Pacejka 2012, Sect. 7.2): right after a steering step, before the
+    // car responds, the front slip angle follows δ (1 − exp(−v t/σα)); the truth of a step
+    // reports the slip the step's forces used, i.e. at its start (t − STEP)
+    for relaxation_length in [0.5, 1.0] {
+        let mut p = FullVehicleParams::default();
+        p.tyre_front.relaxation_length_lateral = relaxation_length;
+        let mut vehicle = FullVehicle::rolling(p, SPEED);
+        let angle = 0.02;
+        let mut after_5_ms = 0.0;
+        drive(
+            &mut vehicle,
+            0.005,
+            |_, _| steer(angle),
+            |_, truth| {
+                after_5_ms = truth.slip_angle[wheel_index::FRONT_LEFT];
+            },
+        );
+        let distance = SPEED * (0.005 - STEP);
+        let expected = angle * (1.0 - (-distance / relaxation_length).exp());
+        assert!(
+            (after_5_ms / expected - 1.0).abs() < 0.04,
+            "{after_5_ms} vs {expected}"
+        );
+    }
+}
