@@ -17,6 +17,7 @@ fn every_car_file_names_its_source_and_holds_a_plausible_car() {
         let data = car(file);
         assert!(!data.name.is_empty() && !data.source.is_empty(), "{file}");
         let p = &data.vehicle;
+        assert_eq!(p.validate(), Ok(()), "{file}");
         let (front, rear) = p.static_wheel_loads();
         assert!(front > 2000.0 && rear > 2000.0, "{file}: {front} {rear}");
         assert!((2.0 * (front + rear) / (p.body.mass * GRAVITY) - 1.0).abs() < 1e-12);
@@ -59,4 +60,21 @@ fn an_unknown_key_in_a_car_file_is_an_error() {
     .replace("mass = 1400.0", "mass = 1400.0\nmas = 1.0");
     let parsed: Result<vehicle_models::full_vehicle::CarData, _> = toml::from_str(&text);
     assert!(parsed.is_err());
+}
+
+#[test]
+fn validation_names_the_parameter_that_would_break_the_model() {
+    let mut p = FullVehicleParams::default();
+    p.tyre_rear.relaxation_length_lateral = 0.0;
+    assert!(p
+        .validate()
+        .unwrap_err()
+        .contains("tyre_rear.relaxation_length_lateral"));
+    let mut p = FullVehicleParams::default();
+    p.drivetrain.drive_split_front = 1.5;
+    assert!(p.validate().unwrap_err().contains("drive_split_front"));
+    let mut p = FullVehicleParams::default();
+    p.suspension.roll_stiffness_front = 1000.0;
+    p.suspension.roll_stiffness_rear = 1000.0;
+    assert!(p.validate().unwrap_err().contains("roll stiffness"));
 }

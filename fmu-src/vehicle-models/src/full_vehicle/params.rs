@@ -267,4 +267,75 @@ impl FullVehicleParams {
     pub fn road_wheel_angle(&self, steering_wheel_angle: f64) -> f64 {
         steering_wheel_angle / self.steering.steering_ratio
     }
+
+    /// Checks what the model divides by or needs for a stable roll; the first violation as a
+    /// message naming the parameter (so an FMU can refuse a car file instead of producing NaN).
+    pub fn validate(&self) -> Result<(), String> {
+        let (b, s, w) = (&self.body, &self.suspension, &self.wheels);
+        let positive = [
+            ("body.mass", b.mass),
+            ("body.cog_to_front_axle", b.cog_to_front_axle),
+            ("body.cog_to_rear_axle", b.cog_to_rear_axle),
+            ("body.yaw_inertia", b.yaw_inertia),
+            ("body.track_front", b.track_front),
+            ("body.track_rear", b.track_rear),
+            ("suspension.roll_inertia", s.roll_inertia),
+            ("wheels.radius", w.radius),
+            ("wheels.inertia_front", w.inertia_front),
+            ("wheels.inertia_rear", w.inertia_rear),
+            ("steering.steering_ratio", self.steering.steering_ratio),
+            ("tyre_front.nominal_load", self.tyre_front.nominal_load),
+            ("tyre_rear.nominal_load", self.tyre_rear.nominal_load),
+            (
+                "tyre_front.relaxation_length_longitudinal",
+                self.tyre_front.relaxation_length_longitudinal,
+            ),
+            (
+                "tyre_front.relaxation_length_lateral",
+                self.tyre_front.relaxation_length_lateral,
+            ),
+            (
+                "tyre_rear.relaxation_length_longitudinal",
+                self.tyre_rear.relaxation_length_longitudinal,
+            ),
+            (
+                "tyre_rear.relaxation_length_lateral",
+                self.tyre_rear.relaxation_length_lateral,
+            ),
+            ("low_speed.damping_speed", self.low_speed.damping_speed),
+            ("internal_step", self.internal_step),
+        ];
+        for (name, value) in positive {
+            crate::parameters::positive(name, value)?;
+        }
+        for (name, share) in [
+            (
+                "drivetrain.drive_split_front",
+                self.drivetrain.drive_split_front,
+            ),
+            (
+                "drivetrain.brake_split_front",
+                self.drivetrain.brake_split_front,
+            ),
+        ] {
+            if !(0.0..=1.0).contains(&share) {
+                return Err(format!(
+                    "parameter {name} = {share}; expected a share in [0, 1]"
+                ));
+            }
+        }
+        if self.sprung_mass() <= 0.0 {
+            return Err("the unsprung masses are not less than body.mass".to_string());
+        }
+        // the roll equation's restoring moment must beat gravity's (roll_gradient's denominator)
+        let gravity_moment = self.sprung_mass() * super::GRAVITY * self.roll_lever();
+        if self.roll_stiffness() <= gravity_moment {
+            return Err(format!(
+                "roll stiffness {} N m/rad does not exceed m_s g h' = {gravity_moment} N m/rad: \
+                 the body would fall over",
+                self.roll_stiffness()
+            ));
+        }
+        Ok(())
+    }
 }
