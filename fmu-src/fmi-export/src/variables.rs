@@ -2,7 +2,7 @@
 //! `codegen`) is made of these types.
 
 /// Base type of a variable as seen by the C API; enumerations are `Integer`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum ValueType {
     Real,
     Integer,

@@ -259,14 +259,9 @@ impl ScalarVariable {
     }
 }
 
-/// The four base types of the FMI 2.0 C API.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum BaseType {
-    Real,
-    Integer,
-    Boolean,
-    String,
-}
+/// The four base types of the FMI 2.0 C API (enumerations are accessed as Integer): fmi-export's
+/// `ValueType`, defined once.
+pub use fmi_export::ValueType as BaseType;
 
 /// The type element of a variable with its attributes.
 #[derive(Debug, Clone, PartialEq)]
