@@ -202,9 +202,10 @@ registry! {
     /// SIR particle filter (003: §2.2.4, A.4), drawing its particles from the start.
     ParticleFilter = "particle_filter" => |model, settings, initial| {
         let config = settings.particles.clone()?;
-        ParticleFilter::new(model, config, initial.state, initial.covariance)
-            .map(|filter| Box::new(filter) as BoxedEstimator<_, _, _>)
-            .map_err(|error| SettingsError(format!("particle filter set-up: {error}")))
+        boxed(
+            ParticleFilter::new(model, config, initial.state, initial.covariance)
+                .map_err(|error| SettingsError(format!("particle filter set-up: {error}"))),
+        )
     };
     /// Luenberger observer with pole placement on the linearisation (002: §4).
     Luenberger = "luenberger" => |model, settings, initial| {
