@@ -299,12 +299,15 @@ pub unsafe fn set_debug_logging<M: CoSimulationModel>(
                         }
                     }
                 }
-                match instance.set_categories(logging_on != FMI2_FALSE, &names) {
-                    Ok(()) => Outcome::Ok,
-                    Err(unknown) => Outcome::Error(format!(
-                        "fmi2SetDebugLogging: unknown log category '{unknown}'; expected one of {}",
+                let unknown = instance.set_categories(logging_on != FMI2_FALSE, &names);
+                if unknown.is_empty() {
+                    Outcome::Ok
+                } else {
+                    Outcome::Warning(format!(
+                        "fmi2SetDebugLogging: unknown log category '{}' ignored; the others were applied; known: {}",
+                        unknown.join("', '"),
                         M::LOG_CATEGORIES.join(", ")
-                    )),
+                    ))
                 }
             },
         )
@@ -681,7 +684,20 @@ fn not_settable(function: &str, variable: &VariableInfo) -> String {
     format!("{function}: {} is {what}", variable.label())
 }
 
-/// Shared body of the setters: every value is checked before any is applied.
+/// What the setters make of one value (issue 12 point 5, issue 15 point 3): a value within its
+/// variable's range is stored as it is; one outside is clamped where a nearby value means the
+/// same thing (Reals and plain Integers), or ignored where no value is near (a NaN parameter, an
+/// enumeration value that is no item); both with a warning naming the variable and the value.
+enum Admitted<T> {
+    As(T),
+    Clamped(T, String),
+    Ignored(String),
+}
+
+/// Shared body of the setters. The value references and whether each variable may be set are
+/// checked for every value before any is applied (a misuse is an fmi2Error and applies nothing);
+/// then every value is admitted ([`Admitted`]) and stored, and the call answers fmi2Warning with
+/// one log line if any was clamped or ignored.
 ///
 /// # Safety
 /// `vr` and `value` point to `nvr` elements when `nvr > 0`.
@@ -694,7 +710,7 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
     vr: *const Fmi2ValueReference,
     nvr: usize,
     value: *const T,
-    check: impl Fn(&VariableInfo, T) -> Result<(), String>,
+    admit: impl Fn(&VariableInfo, T) -> Admitted<T>,
     write: impl Fn(&mut M::Variables, u32, T) -> bool,
 ) -> Fmi2Status {
     unsafe {
@@ -703,7 +719,7 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                 return Outcome::Error(message);
             }
             let references = references(vr, nvr);
-            for (i, &reference) in references.iter().enumerate() {
+            for &reference in references {
                 let variable = match lookup::<M>(function, value_type, reference) {
                     Ok(variable) => variable,
                     Err(message) => return Outcome::Error(message),
@@ -711,17 +727,27 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                 if let Err(message) = settable(function, variable, instance.state) {
                     return Outcome::Error(message);
                 }
-                // SAFETY: `value` holds nvr elements (caller contract, checked non-null).
-                if let Err(message) = check(variable, *value.add(i)) {
-                    return Outcome::Discard(format!(
-                        "{function}: {}: {message}; no value of this call was applied",
-                        variable.label()
-                    ));
-                }
             }
+            let mut warnings = Vec::new();
             let variables = instance.model.variables_mut();
             for (i, &reference) in references.iter().enumerate() {
-                if !write(variables, reference, *value.add(i)) {
+                // Found in the first pass, so the look-up cannot fail here.
+                let Ok(variable) = lookup::<M>(function, value_type, reference) else {
+                    continue;
+                };
+                // SAFETY: `value` holds nvr elements (caller contract, checked non-null).
+                let stored = match admit(variable, *value.add(i)) {
+                    Admitted::As(stored) => stored,
+                    Admitted::Clamped(stored, message) => {
+                        warnings.push(format!("{}: {message}", variable.label()));
+                        stored
+                    }
+                    Admitted::Ignored(message) => {
+                        warnings.push(format!("{}: {message}", variable.label()));
+                        continue;
+                    }
+                };
+                if !write(variables, reference, stored) {
                     return Outcome::Error(format!(
                         "{function}: value reference {reference} is in the variable table but not in the model's storage (internal error)"
                     ));
@@ -730,52 +756,80 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
             if nvr > 0 && instance.state != MachineState::StepComplete {
                 instance.needs_initialization = true;
             }
-            Outcome::Ok
+            if warnings.is_empty() {
+                Outcome::Ok
+            } else {
+                Outcome::Warning(format!(
+                    "{function}: {}; every other value of the call was applied",
+                    warnings.join("; ")
+                ))
+            }
         })
     }
 }
 
 #[inline]
-fn check_real(variable: &VariableInfo, value: f64) -> Result<(), String> {
-    if !value.is_finite() {
-        // A non-finite input means "no sample" (sensor dropout); the model decides what to do.
+fn admit_real(variable: &VariableInfo, value: f64) -> Admitted<f64> {
+    if value.is_nan() {
+        // A NaN input means "no sample" (sensor dropout); the model decides what to do.
         return if variable.causality == Causality::Input {
-            Ok(())
+            Admitted::As(value)
         } else {
-            Err(not_finite(value))
+            Admitted::Ignored(not_finite(value))
         };
     }
-    if value < variable.min || value > variable.max {
-        return Err(out_of_range(variable, value));
+    if value >= variable.min && value <= variable.max {
+        return Admitted::As(value);
     }
-    Ok(())
+    if value.is_infinite() && variable.causality == Causality::Input {
+        return Admitted::As(value);
+    }
+    let clamped = value.clamp(variable.min, variable.max);
+    if clamped.is_finite() {
+        Admitted::Clamped(clamped, out_of_range(variable, value, clamped))
+    } else {
+        Admitted::Ignored(not_finite(value))
+    }
 }
 
 #[inline]
-fn check_integer(variable: &VariableInfo, value: Fmi2Integer) -> Result<(), String> {
+fn admit_integer(variable: &VariableInfo, value: Fmi2Integer) -> Admitted<Fmi2Integer> {
     let wide = f64::from(value);
-    if wide < variable.min || wide > variable.max {
-        return Err(out_of_range(variable, value));
+    let in_range = wide >= variable.min && wide <= variable.max;
+    if variable.allowed_values.is_empty() {
+        if in_range {
+            return Admitted::As(value);
+        }
+        // min/max of an Integer are integers (widened to f64), so the clamped value is exact.
+        let clamped = wide.clamp(variable.min, variable.max) as Fmi2Integer;
+        return Admitted::Clamped(clamped, out_of_range(variable, value, clamped));
     }
-    if !variable.allowed_values.is_empty() && !variable.allowed_values.contains(&value) {
-        return Err(not_an_item(variable, value));
+    if in_range && variable.allowed_values.contains(&value) {
+        Admitted::As(value)
+    } else {
+        // No item is "near" another one (the estimator kinds, the vehicle models): keep the
+        // current item rather than pick one the master did not ask for.
+        Admitted::Ignored(not_an_item(variable, value))
     }
-    Ok(())
 }
 
-// The messages of a refused value, kept out of the per-value path.
+// The messages of an adjusted value, kept out of the per-value path.
 
 #[cold]
 #[inline(never)]
 fn not_finite(value: f64) -> String {
-    format!("value {value} is not a finite number")
+    format!("value {value} is not a finite number; the variable keeps its value")
 }
 
 #[cold]
 #[inline(never)]
-fn out_of_range(variable: &VariableInfo, value: impl std::fmt::Display) -> String {
+fn out_of_range(
+    variable: &VariableInfo,
+    value: impl std::fmt::Display,
+    clamped: impl std::fmt::Display,
+) -> String {
     format!(
-        "value {value} is outside its range [{}, {}]",
+        "value {value} is outside its range [{}, {}]; clamped to {clamped}",
         variable.min, variable.max
     )
 }
@@ -784,7 +838,7 @@ fn out_of_range(variable: &VariableInfo, value: impl std::fmt::Display) -> Strin
 #[inline(never)]
 fn not_an_item(variable: &VariableInfo, value: Fmi2Integer) -> String {
     format!(
-        "value {value} is not an item of the enumeration; expected one of {:?}",
+        "value {value} is not an item of the enumeration; expected one of {:?}; the variable keeps its value",
         variable.allowed_values
     )
 }
@@ -807,7 +861,7 @@ pub unsafe fn set_real<M: CoSimulationModel>(
             vr,
             nvr,
             value,
-            check_real,
+            admit_real,
             |v, r, x| v.set_real(r, x),
         )
     }
@@ -831,7 +885,7 @@ pub unsafe fn set_integer<M: CoSimulationModel>(
             vr,
             nvr,
             value,
-            check_integer,
+            admit_integer,
             |v, r, x| v.set_integer(r, x),
         )
     }
@@ -855,7 +909,7 @@ pub unsafe fn set_boolean<M: CoSimulationModel>(
             vr,
             nvr,
             value,
-            |_, _| Ok(()),
+            |_, x| Admitted::As(x),
             |v, r, x| v.set_boolean(r, x != FMI2_FALSE),
         )
     }
@@ -879,7 +933,7 @@ pub unsafe fn set_string<M: CoSimulationModel>(
             vr,
             nvr,
             value,
-            |_, _| Ok(()),
+            |_, x| Admitted::As(x),
             |_, _, _| false,
         )
     }

@@ -121,10 +121,13 @@ impl<M: CoSimulationModel> Instance<M> {
             .is_some_and(|index| index < 64 && self.enabled_categories & (1 << index) != 0)
     }
 
-    /// Enables or disables categories (fmi2SetDebugLogging). An empty list means all.
-    /// Returns the first unknown category name.
-    pub(crate) fn set_categories(&mut self, on: bool, categories: &[String]) -> Result<(), String> {
+    /// Enables or disables categories (fmi2SetDebugLogging). An empty list means all. The known
+    /// categories are applied; the unknown ones (e.g. the standard's `logSingularLinearSystems`,
+    /// which a model without linear systems does not list) are returned so that the caller can
+    /// warn about them, and are otherwise ignored (issue 15, point 3).
+    pub(crate) fn set_categories(&mut self, on: bool, categories: &[String]) -> Vec<String> {
         let mut mask = 0u64;
+        let mut unknown = Vec::new();
         if categories.is_empty() {
             mask = u64::MAX;
         }
@@ -132,7 +135,7 @@ impl<M: CoSimulationModel> Instance<M> {
             match M::LOG_CATEGORIES.iter().position(|name| name == category) {
                 Some(_) if category == CATEGORY_ALL => mask = u64::MAX,
                 Some(index) if index < 64 => mask |= 1 << index,
-                _ => return Err(category.clone()),
+                _ => unknown.push(category.clone()),
             }
         }
         if on {
@@ -140,7 +143,7 @@ impl<M: CoSimulationModel> Instance<M> {
         } else {
             self.enabled_categories &= !mask;
         }
-        Ok(())
+        unknown
     }
 
     /// Logs an event (only when logging is switched on for logEvents).

@@ -22,10 +22,16 @@
 //! - **Errors.** Every `fmi2Error` is logged (always, whatever `loggingOn` says) and moves the
 //!   instance to the *Error* state, as the standard specifies; from there `fmi2Reset`,
 //!   `fmi2SetFMUstate` (back to a stored state), the getters and `fmi2FreeInstance` are allowed.
-//!   `fmi2Discard` is used where the standard allows it: a value outside its min/max (or a
-//!   non-finite parameter) in `fmi2SetXXX` (nothing of the call is applied; the state is kept),
-//!   a step the model cannot complete in `fmi2DoStep` (state *StepFailed*), and status queries
-//!   that have no answer (`fmi2GetStatus` without an asynchronous step).
+//!   `fmi2Discard` is used where the standard allows it: a step the model cannot complete in
+//!   `fmi2DoStep` (state *StepFailed*), and status queries that have no answer (`fmi2GetStatus`
+//!   without an asynchronous step).
+//! - **Values out of range** in `fmi2SetReal`/`fmi2SetInteger` answer `fmi2Warning` with a log
+//!   line naming the variable and the value, and every other value of the call is applied: a
+//!   Real or Integer outside its min/max is clamped to the nearer bound; a NaN parameter and an
+//!   enumeration value that is no item are ignored (the variable keeps its value). A NaN or
+//!   infinite *input* is stored as it is, without a warning: it means "sample missing".
+//! - **Unknown log categories** in `fmi2SetDebugLogging` answer `fmi2Warning` with a log line
+//!   and are ignored; the known ones of the call are applied and the instance stays usable.
 //! - **Checks.** Null pointers, unknown value references (per base type), wrong GUID, wrong
 //!   fmuType, `communicationStepSize <= 0` or non-finite, a `currentCommunicationPoint` that
 //!   does not continue the last step (relative tolerance [`TIME_TOLERANCE`]: masters send

@@ -295,11 +295,19 @@ fn invalid_parameters_are_named_at_initialisation() {
     );
     let mut s = slave();
     let status = s.set_integer(vr::ESTIMATOR, 9);
-    assert_eq!(status, Fmi2Status::Discard);
+    assert_eq!(
+        status,
+        Fmi2Status::Warning,
+        "ignored with a warning (issue 15)"
+    );
     assert!(s.log.last().unwrap().message.contains("not an item"));
     let mut s = slave();
     let status = s.set_integer(vr::PARTICLE_COUNT, 1);
-    assert_eq!(status, Fmi2Status::Discard);
+    assert_eq!(
+        status,
+        Fmi2Status::Warning,
+        "clamped with a warning (issue 15)"
+    );
 }
 
 #[test]
@@ -540,8 +548,8 @@ fn ekf_with_scales(truth_scales: [f64; 2], estimator_scales: Option<[f64; 2]>) -
 
 /// The cornering-stiffness scales reach model A: with the truth's scales the EKF tracks a car
 /// with a softer front axle far better than with the seed's tyre; scale 1 set explicitly is
-/// bit-identical to the default; values outside [0.05, 20] are refused (fmi2Discard, as for every
-/// out-of-range parameter) with a message.
+/// bit-identical to the default; values outside [0.05, 20] are clamped (a NaN ignored) with
+/// fmi2Warning, as for every out-of-range parameter, and a message.
 #[test]
 fn cornering_stiffness_scales_act_on_model_a() {
     let car = [0.8, 0.95];
@@ -560,7 +568,7 @@ fn cornering_stiffness_scales_act_on_model_a() {
         let mut s = slave();
         assert_eq!(
             s.set_real(vr::CORNERING_STIFFNESS_SCALE_FRONT, bad),
-            Fmi2Status::Discard,
+            Fmi2Status::Warning,
             "{bad}"
         );
         assert!(s.log.last().is_some(), "{bad}: no log line");
