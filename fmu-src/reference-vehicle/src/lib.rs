@@ -40,25 +40,22 @@ use fmi_export::{
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
-use vehicle_models::parameters::{positive, ParameterSource};
+use vehicle_models::parameters::positive;
 use vehicle_models::reference::MAX_STATE_DIM;
-use vehicle_models::tyre::MagicFormulaParams;
-use vehicle_models::{
-    DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
-    ReferenceVehicleParams, SingleTrackParams, TwoTrackParams, VehicleTruth,
-};
+use vehicle_models::{DriverInputVector, ReferenceModelKind, VehicleTruth};
+
+mod sensors;
+mod vehicle;
+
+use sensors::{Attitude, Dropout, SensorEffects, SENSORS};
+use vehicle::{Vehicle, WheelTruth};
 
 /// Generated from modelDescription/ReferenceVehicle.xml.
 pub mod model_description {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 
-use model_description::{
-    Integrator as IntegratorItem, Variables, VehicleModel as VehicleModelItem,
-};
-
-/// Number of sensor signals: `[yaw_rate, ay, omega_front, omega_rear, ax, vx]`.
-const SENSORS: usize = 6;
+use model_description::Variables;
 
 /// Longest delay line, in integration steps (sensor_latency <= 1 s, step >= 1e-5 s).
 const MAX_LATENCY_STEPS: usize = 100_000;
@@ -86,7 +83,11 @@ fn quantise(value: f64, quantum: f64) -> f64 {
 
 /// Standard deviations of the process noise on the states of the running model (the entries
 /// beyond its state dimension are unused).
-fn process_noise_std(kind: ReferenceModelKind, v: &Variables) -> [f64; MAX_STATE_DIM] {
+fn process_noise_std(vehicle: &Vehicle, v: &Variables) -> [f64; MAX_STATE_DIM] {
+    let Vehicle::Planar { model, .. } = vehicle else {
+        // model 3 is the detailed truth: no process noise
+        return [0.0; MAX_STATE_DIM];
+    };
     let (vx, vy, r, front, rear) = (
         v.process_noise_std_vx,
         v.process_noise_std_vy,
@@ -94,7 +95,7 @@ fn process_noise_std(kind: ReferenceModelKind, v: &Variables) -> [f64; MAX_STATE
         v.process_noise_std_omega_front,
         v.process_noise_std_omega_rear,
     );
-    match kind {
+    match model.kind() {
         // [vx, vy, r, ωF, ωR] (000 ch. 7)
         ReferenceModelKind::SingleTrack => [vx, vy, r, front, rear, 0.0, 0.0],
         // [vx, vy, r, ωFL, ωFR, ωRL, ωRR]: seed 000 has no per-wheel noise, so each wheel of an
@@ -106,8 +107,8 @@ fn process_noise_std(kind: ReferenceModelKind, v: &Variables) -> [f64; MAX_STATE
 /// Everything that evolves during a simulation, built from the parameters at initialisation.
 #[derive(Clone, Debug)]
 struct Simulation {
-    /// Model A or B with its state (vehicle-models crate).
-    vehicle: VehicleModel,
+    /// Model 1, 2 or 3 with its state (vehicle-models crate).
+    vehicle: Vehicle,
     integration_step: f64,
     noise_on: bool,
     /// Standard deviations of the process noise on the first `state_dim` states.
@@ -118,6 +119,11 @@ struct Simulation {
     rng: ChaCha20Rng,
     /// The driver input applied during the steps (last finite values).
     input: DriverInputVector,
+    /// The road input `[road_friction, road_bank_angle, road_grade_angle]` (last finite values).
+    road: [f64; ROAD_INPUTS],
+    /// Gravity, bias, drift and tooth counting in front of the noise chain.
+    effects: SensorEffects,
+    dropout: Dropout,
     /// Ring buffer of `latency_steps + 1` corrupted samples; `delay_head` is the newest.
     delay_line: Vec<[f64; SENSORS]>,
     delay_head: usize,
@@ -128,53 +134,27 @@ struct Simulation {
     /// The truth at the current state and input, computed once per integration step and reused
     /// by the outputs (model B's truth costs a load-transfer loop).
     truth: VehicleTruth,
+    wheels: WheelTruth,
 }
 
-/// An enumeration parameter as its typed enum; the message names the parameter.
-fn item<T: TryFrom<i32, Error = String>>(name: &str, value: i32) -> Result<T, String> {
-    T::try_from(value).map_err(|error| format!("parameter {name} = {error}"))
-}
+/// Number of road inputs.
+const ROAD_INPUTS: usize = 3;
+
+/// The input variables, driver then road, in the order of `Simulation::input` and `road`.
+const INPUT_NAMES: [&str; 3 + ROAD_INPUTS] = [
+    "steering_angle",
+    "drive_torque",
+    "brake_torque",
+    "road_friction",
+    "road_bank_angle",
+    "road_grade_angle",
+];
 
 impl Simulation {
     /// Builds the simulation from the parameters and starts it at `start_time`.
     fn start(v: &Variables, start_time: f64) -> Result<Self, String> {
-        // The vehicle and tyre parameters, named alike in both FMUs, are read once in
-        // vehicle-models; model B is the same car (track width, CoG height and roll-moment
-        // split keep the vehicle-models defaults, SPEC §4).
-        let source = ParameterSource::new(|name| v.real_by_name(name));
-        let chassis = source.chassis()?;
-        let single_track = SingleTrackParams {
-            chassis: chassis.clone(),
-            ..SingleTrackParams::default()
-        };
-        let two_track = TwoTrackParams {
-            chassis,
-            ..TwoTrackParams::default()
-        };
-        let hsri = source.hsri()?;
-        // Seed 001 gives no Magic Formula numbers: the tyre is matched to the HSRI tyre
-        // (same stiffnesses and peak friction), as in the vehicle-models crate.
-        let magic_formula = MagicFormulaParams::matching_hsri(&hsri);
-        let kind = match item::<VehicleModelItem>("model", v.model)? {
-            VehicleModelItem::SingleTrackHsri => ReferenceModelKind::SingleTrack,
-            VehicleModelItem::TwoTrackMagicFormula => ReferenceModelKind::TwoTrack,
-        };
-        let integrator = match item::<IntegratorItem>("integrator", v.integrator)? {
-            IntegratorItem::SemiImplicitEuler => Integrator::SemiImplicitEuler,
-            IntegratorItem::RungeKutta4 => Integrator::RungeKutta4,
-        };
-        let vehicle = VehicleModel::new(
-            &ReferenceVehicleParams {
-                model: kind,
-                integrator,
-                single_track,
-                hsri,
-                two_track,
-                magic_formula,
-            },
-            v.vx0,
-        );
-        let process_noise_std = process_noise_std(kind, v);
+        let vehicle = Vehicle::build(v)?;
+        let process_noise_std = process_noise_std(&vehicle, v);
         let integration_step = positive("integration_step", v.integration_step)?;
         let latency_steps = (v.sensor_latency / integration_step).round();
         if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&latency_steps) {
@@ -190,9 +170,17 @@ impl Simulation {
             finite_or(v.drive_torque, 0.0),
             finite_or(v.brake_torque, 0.0),
         );
-        let truth = vehicle.truth(&input);
+        let road = [
+            finite_or(v.road_friction, 1.0),
+            finite_or(v.road_bank_angle, 0.0),
+            finite_or(v.road_grade_angle, 0.0),
+        ];
+        let (truth, wheels) = vehicle.truth(&input);
+        let mut sensed = sensor_values(&truth);
+        let effects = SensorEffects::new(v, integration_step, [sensed[2], sensed[3]]);
+        effects.sense(&mut sensed, attitude(&wheels, &road));
         let initial = quantised_sensors(
-            &sensor_values(&truth),
+            &sensed,
             &[
                 v.quantum_yaw_rate_meas,
                 v.quantum_ay_meas,
@@ -205,6 +193,10 @@ impl Simulation {
         );
         Ok(Self {
             truth,
+            wheels,
+            road,
+            effects,
+            dropout: Dropout::new(v)?,
             vehicle,
             integration_step,
             noise_on: v.noise,
@@ -240,21 +232,22 @@ impl Simulation {
     fn integration_step(&mut self, dt: f64) -> Result<(), String> {
         // The input holds only finite values and brake_torque >= 0 (its min), so an error here
         // is a non-finite state; the step is then not applied.
-        self.vehicle.step(&self.input, dt).map_err(|error| {
-            format!(
-                "the vehicle step at t = {} failed: {error}; the model left its valid range",
-                self.time
-            )
-        })?;
-        if self.noise_on {
+        self.vehicle
+            .step(&self.input, self.road[0], dt)
+            .map_err(|error| {
+                format!(
+                    "the vehicle step at t = {} failed: {error}; the model left its valid range",
+                    self.time
+                )
+            })?;
+        if let (true, Some(planar)) = (self.noise_on, self.vehicle.planar_mut()) {
             // Process noise per T_ref step (000 ch. 7); a shorter step gets the Wiener scaling.
             let scale = if dt == self.integration_step {
                 1.0
             } else {
                 (dt / self.integration_step).sqrt()
             };
-            for (value, std) in self
-                .vehicle
+            for (value, std) in planar
                 .state_mut()
                 .iter_mut()
                 .zip(self.process_noise_std.iter())
@@ -263,16 +256,21 @@ impl Simulation {
                 *value += draw * std * scale;
             }
         }
-        if let Some(index) = self.vehicle.state().iter().position(|v| !v.is_finite()) {
+        if let Some(name) = self.vehicle.non_finite_state() {
             return Err(format!(
-                "the vehicle state {} became non-finite at t = {}; the model left its valid range",
-                self.vehicle.state_names()[index],
+                "the vehicle state {name} became non-finite at t = {}; the model left its valid range",
                 self.time + dt
             ));
         }
         self.time += dt;
-        self.truth = self.vehicle.truth(&self.input);
-        let truth = sensor_values(&self.truth);
+        (self.truth, self.wheels) = self.vehicle.truth(&self.input);
+        let mut truth = sensor_values(&self.truth);
+        self.effects.apply(
+            &mut truth,
+            attitude(&self.wheels, &self.road),
+            dt,
+            &mut self.rng,
+        );
         if !self.noise_on {
             self.held = truth;
             return Ok(());
@@ -302,11 +300,9 @@ impl Simulation {
     }
 
     fn write_state(&self, writer: &mut StateWriter) {
-        // The state length tells model A (5) from model B (7): a state of the other model is
-        // refused on reading instead of being misread.
-        writer.u64(self.vehicle.state_dim() as u64);
-        writer.f64s(self.vehicle.state());
+        self.vehicle.write_state(writer);
         writer.f64s(self.input.as_slice());
+        writer.f64s(&self.road);
         for byte in self.rng.get_seed() {
             writer.u8(byte);
         }
@@ -322,22 +318,13 @@ impl Simulation {
         writer.f64s(&self.held);
         writer.f64(self.next_sample_time);
         writer.f64(self.time);
+        self.effects.write_state(writer);
     }
 
     fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
-        let dimension = reader.u64("vehicle state length")?;
-        if dimension != self.vehicle.state_dim() as u64 {
-            return Err(StateError::new(format!(
-                "the serialized vehicle state has {dimension} entries; parameter model = {} needs {}",
-                match self.vehicle.kind() {
-                    ReferenceModelKind::SingleTrack => 1,
-                    ReferenceModelKind::TwoTrack => 2,
-                },
-                self.vehicle.state_dim()
-            )));
-        }
-        reader.f64s_into(self.vehicle.state_mut(), "vehicle state")?;
+        self.vehicle.read_state(reader)?;
         reader.f64s_into(self.input.as_mut_slice(), "driver input")?;
+        reader.f64s_into(&mut self.road, "road input")?;
         let mut seed = [0u8; 32];
         for byte in seed.iter_mut() {
             *byte = reader.u8("random generator seed")?;
@@ -369,8 +356,17 @@ impl Simulation {
         reader.f64s_into(&mut self.held, "held sensor values")?;
         self.next_sample_time = reader.f64("next sample time")?;
         self.time = reader.f64("simulation time")?;
-        self.truth = self.vehicle.truth(&self.input);
+        self.effects.read_state(reader)?;
+        (self.truth, self.wheels) = self.vehicle.truth(&self.input);
         Ok(())
+    }
+}
+
+/// Roll plus bank and the grade, for the accelerometers' gravity components.
+fn attitude(wheels: &WheelTruth, road: &[f64; ROAD_INPUTS]) -> Attitude {
+    Attitude {
+        roll_and_bank: wheels.roll_angle + road[1],
+        grade: road[2],
     }
 }
 
@@ -422,13 +418,33 @@ impl ReferenceVehicle {
         v.slip_angle_rear = truth.slip_angle_rear;
         v.slip_front = truth.slip_front;
         v.slip_rear = truth.slip_rear;
-        let [yaw_rate, ay, omega_front, omega_rear, ax, vx] = simulation.held;
-        v.yaw_rate_meas = yaw_rate;
-        v.ay_meas = ay;
-        v.omega_front_meas = omega_front;
-        v.omega_rear_meas = omega_rear;
-        v.ax_meas = ax;
-        v.vx_meas = vx;
+        let wheels = simulation.wheels;
+        v.roll_angle = wheels.roll_angle;
+        [
+            v.omega_front_left,
+            v.omega_front_right,
+            v.omega_rear_left,
+            v.omega_rear_right,
+        ] = wheels.wheel_speed;
+        [
+            v.wheel_load_front_left,
+            v.wheel_load_front_right,
+            v.wheel_load_rear_left,
+            v.wheel_load_rear_right,
+        ] = wheels.wheel_load;
+        let measured = [
+            &mut v.yaw_rate_meas,
+            &mut v.ay_meas,
+            &mut v.omega_front_meas,
+            &mut v.omega_rear_meas,
+            &mut v.ax_meas,
+            &mut v.vx_meas,
+        ];
+        for (i, output) in measured.into_iter().enumerate() {
+            *output = simulation
+                .dropout
+                .shown(i, simulation.time, simulation.held[i], *output);
+        }
     }
 
     /// The simulation's internal time (for tests).
@@ -467,19 +483,30 @@ impl CoSimulationModel for ReferenceVehicle {
 
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome {
         let v = &self.variables;
-        let requested = [v.steering_angle, v.drive_torque, v.brake_torque];
+        let requested = [
+            v.steering_angle,
+            v.drive_torque,
+            v.brake_torque,
+            v.road_friction,
+            v.road_bank_angle,
+            v.road_grade_angle,
+        ];
         let Some(simulation) = self.simulation.as_mut() else {
             return StepOutcome::Error(String::from("the simulation was not initialised"));
         };
         let mut warning = None;
         for (i, value) in requested.into_iter().enumerate() {
-            if value.is_finite() {
-                simulation.input[i] = value;
+            let held = if i < 3 {
+                &mut simulation.input[i]
             } else {
-                let name = ["steering_angle", "drive_torque", "brake_torque"][i];
+                &mut simulation.road[i - 3]
+            };
+            if value.is_finite() {
+                *held = value;
+            } else {
                 warning = Some(format!(
-                    "input {name} is {value}; the last finite value {} is held",
-                    simulation.input[i]
+                    "input {} is {value}; the last finite value {held} is held",
+                    INPUT_NAMES[i]
                 ));
             }
         }

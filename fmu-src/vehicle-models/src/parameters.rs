@@ -5,6 +5,7 @@
 //! models' parameters) and the HSRI tyre. An FMU passes a lookup of its Real
 //! variables by name (the generated `Variables::real_by_name`).
 
+use crate::full_vehicle::FullVehicleParams;
 use crate::single_track::Chassis;
 use crate::tyre::HsriParams;
 
@@ -73,5 +74,108 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
             reference_sliding_speed: self.positive("tyre_v_mu")?,
             ..HsriParams::default()
         })
+    }
+}
+
+/// Visits every Real parameter of the full vehicle (issue 13, `model = 3` of the
+/// ReferenceVehicle) with its FMU name, the factor from the model's field to the FMU's value,
+/// and the field. The names shared with models A and B mean the same there (`mass`, …,
+/// `wheel_inertia_*`, which the seed declares for both wheels of an axle, hence the factor 2);
+/// the car files' other fields get their own names. The table is written once, here: the FMU
+/// reads through it ([`ParameterSource::full_vehicle`]) and the car files' parameter-value
+/// files are written through it ([`full_vehicle_parameter_values`]). Not visited: `internal_step`
+/// (the FMU's `integration_step`) and `drivetrain.abs.enabled` (a Boolean,
+/// [`ABS_ENABLED_PARAMETER`]).
+pub fn visit_full_vehicle_parameters(
+    params: &mut FullVehicleParams,
+    mut visit: impl FnMut(&'static str, f64, &mut f64),
+) {
+    macro_rules! fields {
+        ($($name:literal, $factor:literal => $($field:ident).+;)*) => {
+            $(visit($name, $factor, &mut params.$($field).+);)*
+        };
+    }
+    macro_rules! tyre_fields {
+        ($tyre:ident, $prefix:literal: $($field:ident)*) => {
+            $(visit(concat!($prefix, stringify!($field)), 1.0, &mut params.$tyre.$field);)*
+        };
+    }
+    fields! {
+        "mass", 1.0 => body.mass;
+        "cog_to_front_axle", 1.0 => body.cog_to_front_axle;
+        "cog_to_rear_axle", 1.0 => body.cog_to_rear_axle;
+        "yaw_inertia", 1.0 => body.yaw_inertia;
+        "wheel_radius", 1.0 => wheels.radius;
+        "wheel_inertia_front", 2.0 => wheels.inertia_front;
+        "wheel_inertia_rear", 2.0 => wheels.inertia_rear;
+        "brake_distribution_front", 1.0 => drivetrain.brake_split_front;
+        "cog_height", 1.0 => body.cog_height;
+        "track_front", 1.0 => body.track_front;
+        "track_rear", 1.0 => body.track_rear;
+        "unsprung_mass_front", 1.0 => suspension.unsprung_mass_front;
+        "unsprung_mass_rear", 1.0 => suspension.unsprung_mass_rear;
+        "sprung_cog_height", 1.0 => suspension.sprung_cog_height;
+        "roll_axis_height", 1.0 => suspension.roll_axis_height;
+        "roll_inertia", 1.0 => suspension.roll_inertia;
+        "roll_stiffness_front", 1.0 => suspension.roll_stiffness_front;
+        "roll_stiffness_rear", 1.0 => suspension.roll_stiffness_rear;
+        "roll_damping_front", 1.0 => suspension.roll_damping_front;
+        "roll_damping_rear", 1.0 => suspension.roll_damping_rear;
+        "drive_distribution_front", 1.0 => drivetrain.drive_split_front;
+        "abs_slip_threshold", 1.0 => drivetrain.abs.slip_threshold;
+        "abs_min_speed", 1.0 => drivetrain.abs.min_speed;
+        "steering_ratio", 1.0 => steering.steering_ratio;
+        "steering_lag_time_constant", 1.0 => steering.lag_time_constant;
+        "steering_compliance", 1.0 => steering.compliance;
+        "low_speed_damping_speed", 1.0 => low_speed.damping_speed;
+        "low_speed_longitudinal_damping", 1.0 => low_speed.longitudinal_damping;
+        "low_speed_lateral_damping", 1.0 => low_speed.lateral_damping;
+        "low_speed_slip_limit", 1.0 => low_speed.slip_limit;
+        "low_speed_tan_slip_angle_limit", 1.0 => low_speed.tan_slip_angle_limit;
+    }
+    tyre_fields!(tyre_front, "tyre_front_": nominal_load p_cx1 p_dx1 p_dx2 p_ex1 p_ex2 p_kx1
+        p_kx2 p_kx3 p_cy1 p_dy1 p_dy2 p_ey1 p_ey2 p_ky1 p_ky2 r_bx1 r_bx2 r_cx1 r_ex1 r_by1 r_by2
+        r_cy1 r_ey1 relaxation_length_longitudinal relaxation_length_lateral);
+    tyre_fields!(tyre_rear, "tyre_rear_": nominal_load p_cx1 p_dx1 p_dx2 p_ex1 p_ex2 p_kx1
+        p_kx2 p_kx3 p_cy1 p_dy1 p_dy2 p_ey1 p_ey2 p_ky1 p_ky2 r_bx1 r_bx2 r_cx1 r_ex1 r_by1 r_by2
+        r_cy1 r_ey1 relaxation_length_longitudinal relaxation_length_lateral);
+}
+
+/// The FMU's Boolean parameter that switches the full vehicle's ABS on.
+pub const ABS_ENABLED_PARAMETER: &str = "abs_enabled";
+
+/// The full vehicle's Real parameters as the FMU declares them: `(name, value)` in the order of
+/// [`visit_full_vehicle_parameters`].
+pub fn full_vehicle_parameter_values(params: &FullVehicleParams) -> Vec<(&'static str, f64)> {
+    let mut values = Vec::new();
+    visit_full_vehicle_parameters(&mut params.clone(), |name, factor, field| {
+        values.push((name, *field * factor))
+    });
+    values
+}
+
+impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
+    /// The full vehicle from the FMU's parameters (the Boolean ABS switch and the internal step
+    /// come from the caller), validated.
+    pub fn full_vehicle(
+        &self,
+        abs_enabled: bool,
+        internal_step: f64,
+    ) -> Result<FullVehicleParams, String> {
+        let mut params = FullVehicleParams::default();
+        let mut missing = None;
+        visit_full_vehicle_parameters(&mut params, |name, factor, field| {
+            match (self.lookup)(name) {
+                Some(value) => *field = value / factor,
+                None => missing = missing.take().or(Some(name)),
+            }
+        });
+        if let Some(name) = missing {
+            return Err(format!("the FMU declares no parameter {name}"));
+        }
+        params.drivetrain.abs.enabled = abs_enabled;
+        params.internal_step = internal_step;
+        params.validate()?;
+        Ok(params)
     }
 }

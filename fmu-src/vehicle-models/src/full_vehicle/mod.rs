@@ -66,7 +66,7 @@ pub use params::{
     AbsParams, BodyParams, CarData, DrivetrainParams, FullVehicleParams, LowSpeedParams,
     SteeringParams, SuspensionParams, WheelParams,
 };
-pub use truth::{wheel_index, FullVehicleTruth};
+pub use truth::{wheel_index, FullVehicleTruth, TRUTH_VALUES};
 
 use crate::tyre::combined_slip::CombinedSlipTyre;
 use crate::tyre::TyreForce;
@@ -78,6 +78,8 @@ pub const GRAVITY: f64 = 9.81;
 pub const WHEELS: usize = 4;
 /// Number of states.
 pub const STATE_DIM: usize = 18;
+/// Number of values of [`FullVehicle::saved_values`]: the state, the step memory, the truth.
+pub const SAVED_VALUES: usize = STATE_DIM + 3 + TRUTH_VALUES;
 
 /// Positions in the state vector.
 pub mod state_index {
@@ -197,6 +199,37 @@ impl FullVehicle {
     /// Truth quantities after the last step.
     pub fn truth(&self) -> &FullVehicleTruth {
         &self.truth
+    }
+
+    /// Everything that evolves (state, what the last step left for the next, truth), so that a
+    /// restored vehicle ([`FullVehicle::restore_saved_values`]) continues bit-identically.
+    pub fn saved_values(&self) -> [f64; SAVED_VALUES] {
+        let memory = [
+            self.memory.longitudinal_acceleration,
+            self.memory.lateral_acceleration,
+            self.memory.front_lateral_force,
+        ];
+        let truth = self.truth.to_values();
+        let mut values = [0.0; SAVED_VALUES];
+        let sources = self.state.iter().chain(memory.iter()).chain(truth.iter());
+        for (value, source) in values.iter_mut().zip(sources) {
+            *value = *source;
+        }
+        values
+    }
+
+    /// Restores what [`FullVehicle::saved_values`] returned (the parameters stay).
+    pub fn restore_saved_values(&mut self, values: &[f64; SAVED_VALUES]) {
+        self.state.copy_from_slice(&values[..STATE_DIM]);
+        self.memory = StepMemory {
+            longitudinal_acceleration: values[STATE_DIM],
+            lateral_acceleration: values[STATE_DIM + 1],
+            front_lateral_force: values[STATE_DIM + 2],
+        };
+        let truth: &[f64; TRUTH_VALUES] = values[STATE_DIM + 3..]
+            .try_into()
+            .expect("SAVED_VALUES - STATE_DIM - 3 = TRUTH_VALUES by definition");
+        self.truth = FullVehicleTruth::from_values(truth);
     }
 
     /// Advances by `dt` (s) with the input held, in internal steps of at most

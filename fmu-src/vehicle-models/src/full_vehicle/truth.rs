@@ -50,6 +50,9 @@ pub struct FullVehicleTruth {
     pub tyre_force_lateral: [f64; WHEELS],
 }
 
+/// Number of values of [`FullVehicleTruth::to_values`].
+pub const TRUTH_VALUES: usize = 9 + 6 * WHEELS;
+
 /// Mean of the two wheels of an axle.
 fn axle_mean(values: &[f64; WHEELS], left: usize, right: usize) -> f64 {
     0.5 * (values[left] + values[right])
@@ -73,6 +76,59 @@ impl FullVehicleTruth {
             slip_angle_rear: axle_mean(&self.slip_angle, REAR_LEFT, REAR_RIGHT),
             slip_front: axle_mean(&self.slip, FRONT_LEFT, FRONT_RIGHT),
             slip_rear: axle_mean(&self.slip, REAR_LEFT, REAR_RIGHT),
+        }
+    }
+
+    /// Every field as one flat array (for saving a simulation's state), in declaration order.
+    pub fn to_values(&self) -> [f64; TRUTH_VALUES] {
+        let mut values = [0.0; TRUTH_VALUES];
+        let scalars = [
+            self.longitudinal_velocity,
+            self.lateral_velocity,
+            self.yaw_rate,
+            self.sideslip,
+            self.longitudinal_acceleration,
+            self.lateral_acceleration,
+            self.roll_angle,
+            self.roll_rate,
+            self.road_wheel_angle,
+        ];
+        let wheels = [
+            &self.wheel_speed,
+            &self.wheel_load,
+            &self.slip,
+            &self.slip_angle,
+            &self.tyre_force_longitudinal,
+            &self.tyre_force_lateral,
+        ];
+        let per_wheel = wheels.iter().flat_map(|array| array.iter());
+        for (value, source) in values.iter_mut().zip(scalars.iter().chain(per_wheel)) {
+            *value = *source;
+        }
+        values
+    }
+
+    /// The inverse of [`FullVehicleTruth::to_values`].
+    pub fn from_values(values: &[f64; TRUTH_VALUES]) -> Self {
+        let wheel = |block: usize| -> [f64; WHEELS] {
+            std::array::from_fn(|i| values[9 + block * WHEELS + i])
+        };
+        Self {
+            longitudinal_velocity: values[0],
+            lateral_velocity: values[1],
+            yaw_rate: values[2],
+            sideslip: values[3],
+            longitudinal_acceleration: values[4],
+            lateral_acceleration: values[5],
+            roll_angle: values[6],
+            roll_rate: values[7],
+            road_wheel_angle: values[8],
+            wheel_speed: wheel(0),
+            wheel_load: wheel(1),
+            slip: wheel(2),
+            slip_angle: wheel(3),
+            tyre_force_longitudinal: wheel(4),
+            tyre_force_lateral: wheel(5),
         }
     }
 }
