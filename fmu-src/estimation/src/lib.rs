@@ -7,7 +7,7 @@
 //!
 //! 1. **One new file** with the algorithm, e.g. `src/kalman/srukf.rs` (and its `mod` line in
 //!    `kalman/mod.rs`): the filter type, its [`Estimator`] implementation and its
-//!    [`registry::RunningEstimator`] implementation (`last_report`; a Kalman-type filter keeps
+//!    [`running::RunningEstimator`] implementation (`last_report`; a Kalman-type filter keeps
 //!    the default `save`/`restore` of `(x̂, P)`).
 //! 2. **One registry line** in the `registry!` invocation of [`registry`]: variant, name and how
 //!    it is built from the model, the [`registry::EstimatorSettings`] and the start (name the new
@@ -43,6 +43,7 @@ pub mod models;
 pub mod particle;
 
 pub mod registry;
+pub mod running;
 pub mod snapshot;
 
 /// Reweighting (marginal) particle smoother (003: 2.63-2.75, 3.1-3.2).

@@ -1023,9 +1023,9 @@ pub const SNAPSHOT_LAYOUT: u8 = 1;
 /// 100000 particles), the propagated means only while the optimal proposal's noise draw is
 /// pending (otherwise the filter never reads them before overwriting them).
 impl<Model, const N: usize, const M: usize, const U: usize>
-    crate::registry::RunningEstimator<N, M, U> for ParticleFilter<Model, N, M, U>
+    crate::running::RunningEstimator<N, M, U> for ParticleFilter<Model, N, M, U>
 where
-    Model: crate::registry::RegistryModel<N, M, U>,
+    Model: crate::running::RegistryModel<N, M, U>,
 {
     fn last_report(&self) -> UpdateReport<M> {
         UpdateReport::skipped()
@@ -1062,11 +1062,11 @@ where
     fn restore(
         &mut self,
         source: &mut dyn SnapshotSource,
-    ) -> Result<crate::registry::Restored<N>, SnapshotError> {
+    ) -> Result<crate::running::Restored<N>, SnapshotError> {
         let snapshot = read_snapshot(self, source)?;
         self.restore(&snapshot)
             .map_err(|e| SnapshotError(format!("particle filter state: {e}")))?;
-        Ok(crate::registry::Restored::InPlace)
+        Ok(crate::running::Restored::InPlace)
     }
 }
 

@@ -18,101 +18,11 @@ use crate::kalman::{
 };
 use crate::luenberger::{LuenbergerObserver, ObserverDesign};
 use crate::particle::{ParticleFilter, ParticleFilterConfig};
-use crate::snapshot::{read_gaussian, save_gaussian, SnapshotError, SnapshotSink, SnapshotSource};
-use crate::{Estimator, StateSpaceModel, UpdateReport};
+use crate::snapshot::{SnapshotError, SnapshotSource};
 
-/// A model the registry can build estimators on: any [`StateSpaceModel`] that can be cloned
-/// (a filter owns its model) and sent to another thread (an FMU instance may move).
-pub trait RegistryModel<const N: usize, const M: usize, const U: usize>:
-    StateSpaceModel<N, M, U> + Clone + Debug + Send + 'static
-{
-}
-
-impl<T, const N: usize, const M: usize, const U: usize> RegistryModel<N, M, U> for T where
-    T: StateSpaceModel<N, M, U> + Clone + Debug + Send + 'static
-{
-}
-
-/// What reading a stored state gave (see [`RunningEstimator::restore`]).
-#[derive(Debug, Clone, PartialEq)]
-pub enum Restored<const N: usize> {
-    /// The estimator continues from the stored state itself.
-    InPlace,
-    /// The estimator is fully described by this Gaussian and its settings: building it again
-    /// from them continues bit-identically.
-    Rebuild(InitialEstimate<N>),
-}
-
-/// An estimator as the registry hands it out.
-pub trait RunningEstimator<const N: usize, const M: usize, const U: usize>:
-    Estimator<N, M, U> + CloneEstimator<N, M, U> + Debug + Send
-{
-    /// The report of the last measurement update, also after an update that returned a
-    /// [`crate::FilterIssue`] but still corrected the estimate.
-    fn last_report(&self) -> UpdateReport<M>;
-
-    /// Writes what [`Self::restore`] needs to continue bit-identically. Kalman-type estimators
-    /// are fully described by `(x̂, P)` and their settings, which is the default.
-    fn save(&self, sink: &mut dyn SnapshotSink) {
-        save_gaussian(sink, self.state(), self.covariance());
-    }
-
-    /// Reads what [`Self::save`] wrote, into an estimator built with the same settings.
-    fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<Restored<N>, SnapshotError> {
-        let (state, covariance) = read_gaussian(source)?;
-        Ok(Restored::Rebuild(InitialEstimate { state, covariance }))
-    }
-}
-
-/// Cloning behind the box (implemented for every `Clone` estimator).
-pub trait CloneEstimator<const N: usize, const M: usize, const U: usize> {
-    fn clone_boxed(&self) -> BoxedEstimator<N, M, U>;
-}
-
-impl<T, const N: usize, const M: usize, const U: usize> CloneEstimator<N, M, U> for T
-where
-    T: RunningEstimator<N, M, U> + Clone + 'static,
-{
-    fn clone_boxed(&self) -> BoxedEstimator<N, M, U> {
-        Box::new(self.clone())
-    }
-}
-
-/// Any estimator of the registry.
-pub type BoxedEstimator<const N: usize, const M: usize, const U: usize> =
-    Box<dyn RunningEstimator<N, M, U>>;
-
-impl<const N: usize, const M: usize, const U: usize> Clone for BoxedEstimator<N, M, U> {
-    fn clone(&self) -> Self {
-        self.clone_boxed()
-    }
-}
-
-/// A boxed estimator is an estimator, so generic code (`impl Estimator`) takes it as it is.
-impl<const N: usize, const M: usize, const U: usize> Estimator<N, M, U>
-    for BoxedEstimator<N, M, U>
-{
-    fn predict(&mut self, input: &SVector<f64, U>) -> Result<(), crate::FilterIssue> {
-        (**self).predict(input)
-    }
-
-    fn update(
-        &mut self,
-        measurement: &SVector<f64, M>,
-        input: &SVector<f64, U>,
-        mask: &crate::MeasurementMask<M>,
-    ) -> Result<UpdateReport<M>, crate::FilterIssue> {
-        (**self).update(measurement, input, mask)
-    }
-
-    fn state(&self) -> &SVector<f64, N> {
-        (**self).state()
-    }
-
-    fn covariance(&self) -> &nalgebra::SMatrix<f64, N, N> {
-        (**self).covariance()
-    }
-}
+pub use crate::running::{
+    BoxedEstimator, CloneEstimator, RegistryModel, Restored, RunningEstimator,
+};
 
 /// The linearisation point of the linear estimators: `(x₀, u₀)`.
 pub type OperatingPoint<const N: usize, const U: usize> = (SVector<f64, N>, SVector<f64, U>);

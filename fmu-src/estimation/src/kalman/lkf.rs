@@ -118,9 +118,9 @@ where
 
 /// In the registry: fully described by `(x̂, P)` and its settings (the default snapshot).
 impl<Model, const N: usize, const M: usize, const U: usize>
-    crate::registry::RunningEstimator<N, M, U> for LinearKalmanFilter<Model, N, M, U>
+    crate::running::RunningEstimator<N, M, U> for LinearKalmanFilter<Model, N, M, U>
 where
-    Model: crate::registry::RegistryModel<N, M, U>,
+    Model: crate::running::RegistryModel<N, M, U>,
 {
     fn last_report(&self) -> UpdateReport<M> {
         self.last_report
