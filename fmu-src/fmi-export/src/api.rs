@@ -973,15 +973,8 @@ impl<M: CoSimulationModel> Snapshot<M> {
         instance.model = self.model.clone();
     }
 
-    const MAGIC: &'static [u8; 8] = b"RSFMI2ST";
-    const FORMAT_VERSION: u32 = 1;
-
     fn serialize(&self) -> Result<Vec<u8>, String> {
-        let mut writer = StateWriter::new();
-        for &byte in Self::MAGIC {
-            writer.u8(byte);
-        }
-        writer.u32(Self::FORMAT_VERSION);
+        let mut writer = StateWriter::framed();
         writer.bytes(M::GUID.as_bytes());
         writer.u8(self.state as u8);
         writer.f64(self.start_time);
@@ -992,25 +985,11 @@ impl<M: CoSimulationModel> Snapshot<M> {
         writer.bool(self.needs_initialization);
         self.model.variables().write_state(&mut writer);
         self.model.write_state(&mut writer)?;
-        Ok(writer.into_bytes())
+        Ok(writer.into_framed_bytes())
     }
 
     fn deserialize(bytes: &[u8], context: &InstantiationContext) -> Result<Self, String> {
-        let mut reader = StateReader::new(bytes);
-        for &expected in Self::MAGIC {
-            if reader.u8("header").map_err(|e| e.message)? != expected {
-                return Err(String::from(
-                    "the bytes are not a serialized FMU state of this implementation (wrong header)",
-                ));
-            }
-        }
-        let version = reader.u32("format version").map_err(|e| e.message)?;
-        if version != Self::FORMAT_VERSION {
-            return Err(format!(
-                "serialized state format version {version}; expected {}",
-                Self::FORMAT_VERSION
-            ));
-        }
+        let mut reader = StateReader::framed(bytes).map_err(|e| e.message)?;
         let guid = reader.bytes("GUID").map_err(|e| e.message)?;
         if guid != M::GUID.as_bytes() {
             return Err(format!(
@@ -1037,7 +1016,7 @@ impl<M: CoSimulationModel> Snapshot<M> {
         if !reader.is_at_end() {
             return Err(format!(
                 "{} bytes left over after the serialized state; expected none",
-                bytes.len() - reader.position()
+                reader.remaining()
             ));
         }
         Ok(Self {

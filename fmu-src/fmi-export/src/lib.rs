@@ -56,7 +56,7 @@ pub mod testing;
 mod variables;
 
 pub use instance::{Instance, MachineState};
-pub use state::{StateError, StateReader, StateWriter};
+pub use state::{fnv1a_64, StateError, StateReader, StateWriter, STATE_FORMAT_VERSION};
 pub use variables::{
     dense_row, Causality, ValueType, Variability, VariableInfo, VariableStore, NO_ROW,
 };

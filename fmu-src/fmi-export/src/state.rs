@@ -1,7 +1,36 @@
 //! A small, explicit binary format for FMU states: little-endian, f64 stored by its bit pattern
 //! so that a restored state continues bit-identically.
+//!
+//! A serialized state is framed (issue 15, point 4) so that a changed, truncated or foreign
+//! buffer is refused before any of it is read:
+//!
+//! | bytes | what |
+//! | --- | --- |
+//! | 8 | magic `RSFMI2ST` |
+//! | 4 | format version ([`STATE_FORMAT_VERSION`]) |
+//! | 8 | total length in bytes, frame included |
+//! | n | payload (what [`StateWriter`] wrote) |
+//! | 8 | FNV-1a 64 checksum of every byte before it |
+//!
+//! FNV-1a (Fowler, Noll, Vo; IETF draft-eastlake-fnv) detects every change of a single byte:
+//! each step `h = (h ^ byte) * prime` is a bijection of `h` for a fixed byte, and the xor
+//! differs for different bytes.
 
 use std::fmt;
+
+/// The magic bytes that open a serialized FMU state of this implementation.
+pub const STATE_MAGIC: &[u8; 8] = b"RSFMI2ST";
+/// The version of the framed format; 1 had no length and no checksum.
+pub const STATE_FORMAT_VERSION: u32 = 2;
+const HEADER_LENGTH: usize = 8 + 4 + 8;
+const CHECKSUM_LENGTH: usize = 8;
+
+/// FNV-1a, 64 bit (offset basis 0xcbf29ce484222325, prime 0x100000001b3).
+pub fn fnv1a_64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, &byte| {
+        (hash ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
 
 /// Appends values to a byte buffer.
 #[derive(Debug, Default)]
@@ -15,6 +44,25 @@ impl StateWriter {
     }
 
     pub fn into_bytes(self) -> Vec<u8> {
+        self.bytes
+    }
+
+    /// A writer whose buffer starts with the frame's header; finish with
+    /// [`StateWriter::into_framed_bytes`].
+    pub fn framed() -> Self {
+        let mut writer = Self::new();
+        writer.bytes.extend_from_slice(STATE_MAGIC);
+        writer.u32(STATE_FORMAT_VERSION);
+        writer.u64(0); // The length, filled in by into_framed_bytes.
+        writer
+    }
+
+    /// The framed bytes: the total length written into the header, the checksum appended.
+    pub fn into_framed_bytes(mut self) -> Vec<u8> {
+        let total = (self.bytes.len() + CHECKSUM_LENGTH) as u64;
+        self.bytes[HEADER_LENGTH - 8..HEADER_LENGTH].copy_from_slice(&total.to_le_bytes());
+        let checksum = fnv1a_64(&self.bytes);
+        self.bytes.extend_from_slice(&checksum.to_le_bytes());
         self.bytes
     }
 
@@ -90,8 +138,47 @@ impl<'a> StateReader<'a> {
         Self { bytes, position: 0 }
     }
 
+    /// A reader of the payload of a frame written by [`StateWriter::framed`], after checking
+    /// the magic, the version, the length and the checksum; anything else is refused with a
+    /// message saying what did not match.
+    pub fn framed(bytes: &'a [u8]) -> Result<Self, StateError> {
+        if bytes.len() < HEADER_LENGTH + CHECKSUM_LENGTH || &bytes[..8] != STATE_MAGIC {
+            return Err(StateError::new(
+                "the bytes are not a serialized FMU state of this implementation (wrong header)",
+            ));
+        }
+        let mut header = Self::new(&bytes[8..HEADER_LENGTH]);
+        let version = header.u32("format version")?;
+        if version != STATE_FORMAT_VERSION {
+            return Err(StateError::new(format!(
+                "serialized state format version {version}; expected {STATE_FORMAT_VERSION}"
+            )));
+        }
+        let length = header.u64("length")?;
+        if length != bytes.len() as u64 {
+            return Err(StateError::new(format!(
+                "the serialized state says it is {length} bytes long but {} bytes were given",
+                bytes.len()
+            )));
+        }
+        let (content, checksum) = bytes.split_at(bytes.len() - CHECKSUM_LENGTH);
+        let stored = u64::from_le_bytes(checksum.try_into().unwrap_or_default());
+        let computed = fnv1a_64(content);
+        if stored != computed {
+            return Err(StateError::new(format!(
+                "the serialized state's checksum is {stored:#018x} but its bytes give {computed:#018x}: it was changed or damaged"
+            )));
+        }
+        Ok(Self::new(&content[HEADER_LENGTH..]))
+    }
+
     pub fn position(&self) -> usize {
         self.position
+    }
+
+    /// How many bytes are left to read.
+    pub fn remaining(&self) -> usize {
+        self.bytes.len() - self.position
     }
 
     pub fn is_at_end(&self) -> bool {

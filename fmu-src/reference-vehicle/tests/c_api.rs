@@ -452,7 +452,7 @@ fn restored_and_deserialized_states_continue_bit_identically() {
     // A corrupted buffer is rejected with a message, not a crash.
     let mut third = slave();
     let (status, _) = third.deserialize(&bytes[..bytes.len() / 2]);
-    assert_error_logged(&third, status, Fmi2Status::Error, "ends at byte");
+    assert_error_logged(&third, status, Fmi2Status::Error, "bytes long");
     let mut fourth = slave();
     let mut foreign = bytes.clone();
     foreign[0] ^= 0xff;
