@@ -390,6 +390,9 @@ pub unsafe fn exit_initialization_mode<M: CoSimulationModel>(c: Fmi2Component) -
                 if let Err(message) = instance.model.initialize(start) {
                     return Outcome::Error(format!("fmi2ExitInitializationMode: {message}"));
                 }
+                if let Err(message) = check_internal_step_size(&instance.model) {
+                    return Outcome::Error(format!("fmi2ExitInitializationMode: {message}"));
+                }
                 instance.needs_initialization = false;
                 instance.time = start;
                 instance.last_successful_time = start;
@@ -1287,6 +1290,10 @@ pub unsafe fn do_step<M: CoSimulationModel>(
                     ));
                 }
             }
+            if let Err(message) = check_work_of_step(&instance.model, h) {
+                instance.state = MachineState::StepFailed;
+                return Outcome::Discard(format!("fmi2DoStep at t = {t}: {message}"));
+            }
             match instance.model.do_step(t, h) {
                 StepOutcome::Ok => {
                     instance.time = t + h;
@@ -1307,6 +1314,37 @@ pub unsafe fn do_step<M: CoSimulationModel>(
                 }
             }
         })
+    }
+}
+
+/// Refuses an internal step size that is not finite and positive or below the model's minimum
+/// (issue 15, point 2: a parameter that would make a step loop without bound).
+fn check_internal_step_size<M: CoSimulationModel>(model: &M) -> Result<(), String> {
+    match model.internal_step_size() {
+        Some(size) if !(size.is_finite() && size >= M::MIN_INTERNAL_STEP_SIZE) => Err(format!(
+            "the parameters give an internal step of {size:e} s; expected a finite step of at least {:e} s",
+            M::MIN_INTERNAL_STEP_SIZE
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Refuses a communication step that would take more than `M::MAX_INTERNAL_STEPS` internal
+/// steps (issue 15, point 5), before the model runs.
+fn check_work_of_step<M: CoSimulationModel>(model: &M, step_size: f64) -> Result<(), String> {
+    let Some(size) = model.internal_step_size() else {
+        return Ok(());
+    };
+    check_internal_step_size(model)?;
+    let steps = (step_size / size).ceil();
+    if steps <= M::MAX_INTERNAL_STEPS as f64 {
+        Ok(())
+    } else {
+        Err(format!(
+            "a communication step of {step_size} s takes {steps:e} internal steps of {size:e} s, more than the {} one call may take; take communication steps of at most {:e} s",
+            M::MAX_INTERNAL_STEPS,
+            size * M::MAX_INTERNAL_STEPS as f64
+        ))
     }
 }
 

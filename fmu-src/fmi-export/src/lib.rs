@@ -43,9 +43,16 @@
 //! - **No panic crosses `extern "C"`**: every entry is wrapped in `catch_unwind`; a panic is
 //!   logged with its message and answered with `fmi2Error` (Error state). The crate has no
 //!   thread-local with a destructor; the one thread-local flag is a `Cell<bool>`.
+//! - **Work per call.** A model that steps internally names its internal step size
+//!   ([`CoSimulationModel::internal_step_size`]); a size that is not finite, not positive or
+//!   below [`CoSimulationModel::MIN_INTERNAL_STEP_SIZE`] is refused at initialisation
+//!   (`fmi2Error`), and a communication step that would take more than
+//!   [`CoSimulationModel::MAX_INTERNAL_STEPS`] internal steps answers `fmi2Discard` before the
+//!   model runs (checked again on every call, so a restored state cannot bypass it).
 //! - **FMU state.** Get/Set/Free copy the whole model (Clone); serialisation writes the
 //!   variables and the model's internal state with [`StateWriter`] (f64 by bit pattern), so a
-//!   restored or deserialized state continues bit-identically.
+//!   restored or deserialized state continues bit-identically; the bytes are framed with a
+//!   format version, their length and a checksum, and anything that does not match is refused.
 
 pub mod api;
 pub mod ffi;
@@ -99,6 +106,26 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     const VARIABLES: &'static [VariableInfo];
     /// The LogCategories of the model description (generated `LOG_CATEGORIES`).
     const LOG_CATEGORIES: &'static [&'static str];
+
+    /// The most internal steps one `fmi2DoStep` may take (issue 15, point 5): a call whose
+    /// communication step would take more, `ceil(step_size / internal_step_size)`, answers
+    /// `fmi2Discard` with a message before the model runs, so that no call blocks a master for
+    /// minutes. 100 000 internal steps of a Kalman filter take well under a second.
+    const MAX_INTERNAL_STEPS: u64 = 100_000;
+
+    /// The shortest internal step a model may be configured with; an internal step size
+    /// below it (or not finite and positive) is refused at initialisation with a message.
+    /// No vehicle signal needs a sampling faster than 1 GHz.
+    const MIN_INTERNAL_STEP_SIZE: f64 = 1e-9;
+
+    /// The length of the model's internal steps with the current parameters (e.g. a sensor
+    /// sample period), checked at initialisation and before every `do_step` against
+    /// [`CoSimulationModel::MIN_INTERNAL_STEP_SIZE`] and
+    /// [`CoSimulationModel::MAX_INTERNAL_STEPS`]; `None` (the default) for a model that takes
+    /// one internal step per communication step.
+    fn internal_step_size(&self) -> Option<f64> {
+        None
+    }
 
     /// A fresh instance holding the start values (fmi2Instantiate, fmi2Reset).
     fn instantiate(context: &InstantiationContext) -> Self;

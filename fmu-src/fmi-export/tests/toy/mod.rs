@@ -160,6 +160,7 @@ impl CoSimulationModel for Toy {
         "logStatusFatal",
         "logAll",
     ];
+    const MAX_INTERNAL_STEPS: u64 = 1000;
 
     fn instantiate(_: &InstantiationContext) -> Self {
         Self {
@@ -179,6 +180,9 @@ impl CoSimulationModel for Toy {
     fn initialize(&mut self, _: f64) -> Result<(), String> {
         self.variables.reals[vr::Y as usize] = 0.0;
         Ok(())
+    }
+    fn internal_step_size(&self) -> Option<f64> {
+        Some(self.variables.reals[vr::INTERNAL_STEP as usize])
     }
     fn do_step(&mut self, _: f64, step_size: f64) -> StepOutcome {
         let [internal_step, gain, u, _] = self.variables.reals;
