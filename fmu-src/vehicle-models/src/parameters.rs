@@ -5,7 +5,7 @@
 //! models' parameters) and the HSRI tyre. An FMU passes a lookup of its Real
 //! variables by name (the generated `Variables::real_by_name`).
 
-use crate::full_vehicle::FullVehicleParams;
+use crate::full_vehicle::{CarData, FullVehicleParams};
 use crate::single_track::Chassis;
 use crate::tyre::HsriParams;
 
@@ -178,4 +178,38 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
         params.validate()?;
         Ok(params)
     }
+}
+
+/// The item of the ReferenceVehicle's `model` enumeration that runs the full vehicle.
+pub const FULL_VEHICLE_MODEL_ITEM: &str = "full_vehicle";
+
+/// A car file as an SSP 1.0 parameter-value file (`.ssv`, SSP 1.0 Sect. 6, namespace
+/// `ssv`): `model = full_vehicle`, `abs_enabled` and every Real parameter of
+/// [`visit_full_vehicle_parameters`] under the ReferenceVehicle's names, so a master or an SSP
+/// applies a car to the FMU as it is. Numbers are written in Rust's shortest round-trip form.
+pub fn parameter_value_file(car: &CarData) -> String {
+    let escape = |text: &str| {
+        text.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('"', "&quot;")
+    };
+    let mut parameters = format!(
+        "    <ssv:Parameter name=\"model\"><ssv:Enumeration value=\"{FULL_VEHICLE_MODEL_ITEM}\"/></ssv:Parameter>\n    \
+         <ssv:Parameter name=\"{ABS_ENABLED_PARAMETER}\"><ssv:Boolean value=\"{}\"/></ssv:Parameter>\n",
+        car.vehicle.drivetrain.abs.enabled
+    );
+    for (name, value) in full_vehicle_parameter_values(&car.vehicle) {
+        parameters.push_str(&format!(
+            "    <ssv:Parameter name=\"{name}\"><ssv:Real value=\"{value:?}\"/></ssv:Parameter>\n"
+        ));
+    }
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n\
+         <ssv:ParameterSet xmlns:ssc=\"http://ssp-standard.org/SSP1/SystemStructureCommon\" \
+         xmlns:ssv=\"http://ssp-standard.org/SSP1/SystemStructureParameterValues\" version=\"1.0\" \
+         name=\"{}\" description=\"{}\" generationTool=\"vehicle_models::parameters::parameter_value_file\">\n  \
+         <ssv:Parameters>\n{parameters}  </ssv:Parameters>\n</ssv:ParameterSet>\n",
+        escape(&car.name),
+        escape(&format!("ReferenceVehicle model 3 parameters; source: {}", car.source)),
+    )
 }
