@@ -679,15 +679,37 @@ fn model_b_runs_and_differs_from_model_a_on_the_high_ramp() {
 
 #[test]
 fn model_b_is_deterministic_and_its_states_continue_bit_identically() {
+    deterministic_with_states_that_continue_bit_identically(2, |_| {});
+}
+
+/// Model 3 with every evolving sensor effect on (drift, tooth counting, sampling, latency): the
+/// FMU state carries the full vehicle, the drift and the tooth counters.
+#[test]
+fn model_3_is_deterministic_and_its_states_continue_bit_identically() {
+    deterministic_with_states_that_continue_bit_identically(3, |s| {
+        assert_eq!(s.set_real(vr::DRIFT_YAW_RATE_MEAS, 1e-3), Fmi2Status::Ok);
+        assert_eq!(s.set_real(vr::DRIFT_AY_MEAS, 1e-2), Fmi2Status::Ok);
+        assert_eq!(s.set_integer(vr::WHEEL_SPEED_TEETH, 48), Fmi2Status::Ok);
+        assert_eq!(s.set_real(vr::SENSOR_SAMPLE_PERIOD, 0.01), Fmi2Status::Ok);
+        assert_eq!(s.set_real(vr::SENSOR_LATENCY, 0.02), Fmi2Status::Ok);
+        assert_eq!(
+            s.set_boolean(vr::GRAVITY_IN_ACCELEROMETERS, true),
+            Fmi2Status::Ok
+        );
+    });
+}
+
+fn deterministic_with_states_that_continue_bit_identically(model: i32, set_up: fn(&mut Slave)) {
     let start = |model: i32| {
         let mut s = slave();
         assert_eq!(s.set_integer(vr::MODEL, model), Fmi2Status::Ok);
         assert_eq!(s.set_integer(vr::SEED, 11), Fmi2Status::Ok);
-        assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+        set_up(&mut s);
+        assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
         s
     };
-    let mut first = start(2);
-    let mut second = start(2);
+    let mut first = start(model);
+    let mut second = start(model);
     let trace = run(&mut first, 0.0, 0.01, 500);
     assert_eq!(
         run(&mut second, 0.0, 0.01, 500),
@@ -707,7 +729,7 @@ fn model_b_is_deterministic_and_its_states_continue_bit_identically() {
     let bytes = first.serialize(&state).expect("serialize");
     first.free_state(&mut state);
 
-    let mut fresh = start(2);
+    let mut fresh = start(model);
     let (status, mut restored) = fresh.deserialize(&bytes);
     assert_eq!(status, Fmi2Status::Ok, "{:?}", fresh.log.last());
     assert_eq!(fresh.set_state(&restored), Fmi2Status::Ok);
@@ -715,12 +737,59 @@ fn model_b_is_deterministic_and_its_states_continue_bit_identically() {
     fresh.free_state(&mut restored);
 
     // The FMU state carries the parameters: restored into an instance that was set up as
-    // model A, it continues as model B.
+    // model A, it continues as the saved model.
     let mut model_a = start(1);
     let (status, mut restored) = model_a.deserialize(&bytes);
     assert_eq!(status, Fmi2Status::Ok, "{:?}", model_a.log.last());
     assert_eq!(model_a.set_state(&restored), Fmi2Status::Ok);
-    assert_eq!(model_a.get_integer(vr::MODEL), (Fmi2Status::Ok, 2));
+    assert_eq!(model_a.get_integer(vr::MODEL), (Fmi2Status::Ok, model));
     assert_eq!(run(&mut model_a, 5.0, 0.01, 100), reference, "into model A");
     model_a.free_state(&mut restored);
+}
+
+#[test]
+fn model_3_turns_rolls_and_differs_from_model_b_on_the_high_ramp() {
+    let model_b = high_ramp_truth(2);
+    let model_3 = high_ramp_truth(3);
+    let index = |reference: u32| TRUTH.iter().position(|&r| r == reference).unwrap();
+    let (ay, yaw_rate) = (index(vr::AY), index(vr::YAW_RATE));
+    assert!(model_3[350][ay].abs() < 1e-9, "straight before the ramp");
+    let end = model_3[1199];
+    assert!(end[yaw_rate] > 0.1 && end[ay] > 3.0, "{end:?}");
+    let largest_ay_difference = model_b
+        .iter()
+        .zip(&model_3)
+        .map(|(b, full)| (b[ay] - full[ay]).abs())
+        .fold(0.0, f64::max);
+    assert!(largest_ay_difference > 0.05, "{largest_ay_difference}");
+}
+
+#[test]
+fn model_3_refuses_an_invalid_car_and_a_saved_state_brings_its_own_model() {
+    let mut s = slave();
+    assert_eq!(s.set_integer(vr::MODEL, 3), Fmi2Status::Ok);
+    // a roll stiffness the body would fall over with (allowed by the XML's min of 0)
+    assert_eq!(s.set_real(vr::ROLL_STIFFNESS_FRONT, 0.0), Fmi2Status::Ok);
+    assert_eq!(s.set_real(vr::ROLL_STIFFNESS_REAR, 0.0), Fmi2Status::Ok);
+    let status = s.initialize(0.0);
+    assert_error_logged(&s, status, Fmi2Status::Error, "roll stiffness");
+
+    let mut model_a = slave();
+    assert_eq!(model_a.initialize(0.0), Fmi2Status::Ok);
+    let (_, mut state) = model_a.get_state();
+    let bytes = model_a.serialize(&state).expect("serialize");
+    model_a.free_state(&mut state);
+    let mut full = slave();
+    assert_eq!(full.set_integer(vr::MODEL, 3), Fmi2Status::Ok);
+    assert_eq!(full.initialize(0.0), Fmi2Status::Ok);
+    let (status, mut restored) = full.deserialize(&bytes);
+    assert_eq!(
+        status,
+        Fmi2Status::Ok,
+        "the parameters in the state say model 1"
+    );
+    assert_eq!(full.set_state(&restored), Fmi2Status::Ok);
+    assert_eq!(full.get_integer(vr::MODEL), (Fmi2Status::Ok, 1));
+    run(&mut full, 0.0, 0.01, 10);
+    full.free_state(&mut restored);
 }
