@@ -9,13 +9,15 @@
 //! `fmi2_do_step` − `model_do_step` is what the FMI layer (state machine, argument and time
 //! checks, catch_unwind) adds; `model_do_step` − `bare_vehicle_step` is the FMU's own work
 //! around the equations (process noise, sensor chain, outputs). The `*_model_b` entries are the
-//! same for model B (two-track, Magic Formula, 7 states). `fmi2_get_outputs` and
-//! `fmi2_set_inputs` are one batched fmi2GetReal of every real output and fmi2SetReal of the
-//! three driver inputs: a master's per-step traffic with this FMU.
+//! same for model B (two-track, Magic Formula, 7 states), the `*_model_3` entries for model 3
+//! (the full vehicle of issue 13, 18 states; issue 13 asks for one 1 ms step within 10 µs).
+//! `fmi2_get_outputs` and `fmi2_set_inputs` are one batched fmi2GetReal of every real output and
+//! fmi2SetReal of the real inputs (driver and road): a master's per-step traffic with this FMU.
 
 use divan::Bencher;
 use fmi_export::testing::{references_of, stepping, DoStepOverhead, Slave};
 use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
+use vehicle_models::full_vehicle::{FullVehicle, FullVehicleInput, FullVehicleParams};
 use vehicle_models::{
     DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
     ReferenceVehicleParams, SingleTrackHsri,
@@ -39,9 +41,14 @@ fn summary() {
             "model B (Magic Formula)",
             vehicle_model::TWO_TRACK_MAGIC_FORMULA,
         ),
+        ("model 3 (full vehicle)", vehicle_model::FULL_VEHICLE),
     ] {
         let (mut fmu, mut slave) = (model_struct(model), slave(model));
-        let mut bare = bare_step(model);
+        let mut bare: Box<dyn FnMut()> = if model == vehicle_model::FULL_VEHICLE {
+            Box::new(bare_full_vehicle_step())
+        } else {
+            Box::new(bare_step(model))
+        };
         table.row(
             label,
             256,
@@ -74,6 +81,16 @@ fn bare_step(model: i32) -> impl FnMut() {
             vehicle.step(divan::black_box(&input), STEP),
         ))
     }
+}
+
+/// The bare full-vehicle step (the seed car, steering 0.05 rad from 18 m/s).
+fn bare_full_vehicle_step() -> impl FnMut() {
+    let mut vehicle = FullVehicle::rolling(FullVehicleParams::default(), 18.0);
+    let input = FullVehicleInput {
+        steering_angle: 0.05,
+        ..FullVehicleInput::default()
+    };
+    move || vehicle.step(divan::black_box(&input), STEP)
 }
 
 const STEP: f64 = 0.001;
@@ -149,6 +166,26 @@ fn fmi2_do_step_model_b(bencher: Bencher) {
     bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
+// ---- Model 3 ----
+
+/// The bare full-vehicle step (vehicle-models' `FullVehicle`).
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn bare_vehicle_step_model_3(bencher: Bencher) {
+    bencher.bench_local(bare_full_vehicle_step());
+}
+
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn model_do_step_model_3(bencher: Bencher) {
+    let mut fmu = model_struct(vehicle_model::FULL_VEHICLE);
+    bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
+}
+
+#[divan::bench(sample_count = 1000, sample_size = 200)]
+fn fmi2_do_step_model_3(bencher: Bencher) {
+    let mut slave = slave(vehicle_model::FULL_VEHICLE);
+    bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
+}
+
 // ---- The batched get / set of a master step ----
 
 fn reals(causality: Causality) -> Vec<u32> {
@@ -167,7 +204,7 @@ fn fmi2_get_outputs(bencher: Bencher) {
     });
 }
 
-/// fmi2SetReal of the three driver inputs in one call (0, within their ranges).
+/// fmi2SetReal of the real inputs in one call (0, within their ranges).
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_set_inputs(bencher: Bencher) {
     let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
