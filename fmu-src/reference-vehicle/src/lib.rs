@@ -10,22 +10,31 @@
 //!   Magic Formula tyre is matched to the HSRI `tyre_*` parameters). Both come from the
 //!   `vehicle-models` crate's switchable reference vehicle, discretised with the seed-000 scheme
 //!   (000: 6.1-6.5) or RK4 (`integrator`), and report the same truth (model B: axle values are
-//!   the mean of left and right wheel). The car starts driving straight at `vx0` with freely
-//!   rolling wheels.
+//!   the mean of left and right wheel). Model 3 (`model = 3`, issue 13): the full vehicle of
+//!   `vehicle_models::full_vehicle` (roll, load transfer, four wheel spins, combined-slip MF 5.2
+//!   tyres, drivetrains, standstill), parameterised by the shared vehicle parameters and its own
+//!   (`cog_height` … `tyre_rear_*`, mapped once in `vehicle_models::parameters`), driven also by
+//!   the `road_friction` input; it reports roll and the four wheels' speeds and loads (module
+//!   `vehicle`). The car starts driving straight at `vx0` with freely rolling wheels. The cars
+//!   of `vehicle-models/cars/*.toml` ship as SSP parameter-value files, `cars/*.ssv`.
 //! - **Sub-stepping.** A doStep of length `h` runs `n = ceil(h / integration_step)` equal steps
 //!   of `h / n`, holding the driver inputs (a non-finite input keeps its last finite value and
 //!   the step answers fmi2Warning).
-//! - **Process noise** (seed 000, ch. 7): after every integration step, Gaussian noise with the
+//! - **Process noise** (seed 000, ch. 7; models 1 and 2 only): after every integration step, Gaussian noise with the
 //!   standard deviations `process_noise_std_*` (scaled by `sqrt(dt / integration_step)` when a
 //!   step is shorter) is added to `[vx, vy, r, ωF, ωR]` (model B: `[vx, vy, r, ωFL, ωFR, ωRL,
 //!   ωRR]`, each wheel with its axle's standard deviation).
-//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption), per integration
-//!   step and per signal, in this order: true value → + white Gaussian noise → quantisation
+//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption; issue 13 effects),
+//!   per integration step and per signal, in this order: true value → what the sensor senses
+//!   (gravity through roll, bank and grade; bias and its random-walk drift; wheel speed from
+//!   counted teeth; module `sensors`) → + white Gaussian noise → quantisation
 //!   (rounding to a multiple of `quantum_*`) → transport delay of `sensor_latency` (whole
 //!   integration steps) → sample-and-hold every `sensor_sample_period` (sample instants
-//!   `t0 + k·period`). The chain starts primed with the noise-free initial values.
-//! - `noise = false` switches off all of it: no process noise, and the `*_meas` outputs equal
-//!   the truth exactly.
+//!   `t0 + k·period`) → dropout of chosen channels for a time (NaN or stale). The chain starts
+//!   primed with the noise-free initial values. The issue-13 effects are all off by default.
+//! - `noise = false` switches off process noise, noise, quantisation, sampling and latency; the
+//!   `*_meas` outputs then equal what the sensors sense (the truth, unless an issue-13 effect is
+//!   on).
 //! - **Randomness** comes from one ChaCha20 generator seeded with `seed`; its position is part
 //!   of the FMU state, so the same parameters and seed give bit-identical outputs in any master
 //!   and thread, and a restored state continues bit-identically.
