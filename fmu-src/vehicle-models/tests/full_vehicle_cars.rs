@@ -78,3 +78,23 @@ fn validation_names_the_parameter_that_would_break_the_model() {
     p.suspension.roll_stiffness_rear = 1000.0;
     assert!(p.validate().unwrap_err().contains("roll stiffness"));
 }
+
+/// The FMU's parameter names (vehicle_models::parameters) cover every car exactly: each name once,
+/// and reading a car's values back by name gives the car again, bit for bit.
+#[test]
+fn every_car_round_trips_through_the_fmu_parameter_names() {
+    use vehicle_models::parameters::{full_vehicle_parameter_values, ParameterSource};
+    for (file, params) in every_car() {
+        let values = full_vehicle_parameter_values(&params);
+        let names: std::collections::HashSet<&str> = values.iter().map(|(name, _)| *name).collect();
+        assert_eq!(names.len(), values.len(), "{file}: a name twice");
+        let source = ParameterSource::new(|name| {
+            values
+                .iter()
+                .find(|(candidate, _)| *candidate == name)
+                .map(|(_, value)| *value)
+        });
+        let read = source.full_vehicle(params.drivetrain.abs.enabled, params.internal_step);
+        assert_eq!(read, Ok(params), "{file}");
+    }
+}
