@@ -51,6 +51,9 @@ pub struct Plan {
     fmus: Vec<LoadedFmu>,
 }
 
+/// The most values (rows times columns) one run may record: 800 MB of f64 (issue 15, point 6).
+pub const MAX_RECORDED_VALUES: u64 = 100_000_000;
+
 struct Feedback {
     instance: usize,
     value_references: [u32; 3],
@@ -171,7 +174,7 @@ impl Columns {
     /// `columns` columns of `rows` values in the memory of `block`. Old values are left in
     /// place: a run overwrites every cell (one that fails returns no table), so zeroing the
     /// megabytes again would be wasted.
-    fn reusing(mut block: Vec<f64>, columns: usize, rows: usize) -> Self {
+    pub(crate) fn reusing(mut block: Vec<f64>, columns: usize, rows: usize) -> Self {
         assert!(rows > 0, "a table of recorded columns has at least one row");
         block.truncate(columns * rows);
         block.resize(columns * rows, 0.0);
@@ -816,6 +819,12 @@ impl Plan {
         &self.fmus
     }
 
+    /// The variable `r` names, `None` when there is no such instance or variable.
+    pub fn variable_of(&self, r: &VarRef) -> Option<&VariableInfo> {
+        let instance = self.instances.iter().find(|p| p.name == r.instance)?;
+        self.fmus[instance.fmu].variable(&r.variable)
+    }
+
     /// Run the scenario once on the calling thread. `progress` gets the fraction done.
     pub fn run(&self, options: &RunOptions, mut progress: impl FnMut(f64)) -> Result<RunResult> {
         fmu_log::install();
@@ -823,6 +832,16 @@ impl Plan {
         let scenario = &self.scenario;
         let steps = scenario.step_count()?;
         let stop_time = scenario.time_of(steps);
+        // The recording is allocated once per run: bound it before anything is allocated.
+        let values = (steps + 1).saturating_mul(self.columns.len().max(1) as u64);
+        if values > MAX_RECORDED_VALUES {
+            bail!(
+                "scenario {}: {} steps of {} recorded columns are {values} values, more than the {MAX_RECORDED_VALUES} a run may record; record fewer variables or take longer steps",
+                scenario.source.display(),
+                steps,
+                self.columns.len()
+            );
+        }
 
         // Overrides: resolve before instantiating anything.
         let mut overrides: Vec<Vec<(VariableInfo, ParameterValue)>> =

@@ -36,6 +36,10 @@ pub enum FmuError {
     EscapingEntry { path: PathBuf, entry: String },
     #[error("FMU {path}: archive entry {entry:?} is a symbolic link; refusing the archive")]
     SymlinkEntry { path: PathBuf, entry: String },
+    #[error("FMU {path}: not a regular file ({kind}); an .fmu must be a zip file")]
+    NotAFile { path: PathBuf, kind: String },
+    #[error("FMU {path}: {what}; refusing the archive (it may be a zip bomb)")]
+    TooLarge { path: PathBuf, what: String },
     #[error("FMU {path}: modelDescription.xml is not valid FMI 2.0: {reason}")]
     BadModelDescription { path: PathBuf, reason: String },
     #[error("FMU {path}: fmiVersion is {found:?}; this master runs FMI 2.0 FMUs only")]
@@ -59,6 +63,21 @@ pub enum FmuError {
     },
     #[error("FMU {path}: the fmi crate refused the extracted FMU: {reason}")]
     Import { path: PathBuf, reason: String },
+}
+
+/// Limits of what an archive may unpack to (issue 15, point 6); the FMUs of this project are
+/// about 3 MB in 10 entries, compressed 3:1.
+pub mod limits {
+    /// Entries of one archive.
+    pub const MAX_ENTRIES: usize = 10_000;
+    /// Uncompressed bytes of all entries together (2 GiB would fill a small disk).
+    pub const MAX_TOTAL_BYTES: u64 = 1 << 30;
+    /// Uncompressed bytes of modelDescription.xml.
+    pub const MAX_MODEL_DESCRIPTION_BYTES: u64 = 64 << 20;
+    /// Uncompressed / compressed size of one entry, for entries above [`RATIO_FREE_BYTES`].
+    pub const MAX_RATIO: u64 = 200;
+    /// Entries up to this size may compress arbitrarily well (a text file of zeros).
+    pub const RATIO_FREE_BYTES: u64 = 1 << 20;
 }
 
 /// FMI 2.0 platform folder of this machine (FMI 2.0 standard, section 2.1).
@@ -137,6 +156,22 @@ impl LoadedFmu {
     /// (created when missing). The folder is removed when the `LoadedFmu` is dropped.
     pub fn load(fmu_path: &Path, extract_root: &Path) -> Result<LoadedFmu, FmuError> {
         let path = fmu_path.to_path_buf();
+        // A FIFO or a device would block or never end; only a regular file is opened.
+        let metadata = fs::metadata(fmu_path).map_err(|cause| FmuError::Unreadable {
+            path: path.clone(),
+            cause,
+        })?;
+        if !metadata.is_file() {
+            let kind = if metadata.is_dir() {
+                "a folder"
+            } else {
+                "a FIFO, socket or device"
+            };
+            return Err(FmuError::NotAFile {
+                path,
+                kind: kind.into(),
+            });
+        }
         let file = fs::File::open(fmu_path).map_err(|cause| FmuError::Unreadable {
             path: path.clone(),
             cause,
@@ -146,8 +181,21 @@ impl LoadedFmu {
             reason: e.to_string(),
         })?;
 
-        // Pass 1: every entry must stay inside the extraction folder, and none may be a link.
+        // Pass 1: every entry must stay inside the extraction folder, none may be a link, and
+        // what the entries declare must stay within the limits (pass 2 enforces them on the
+        // bytes actually written, as declared sizes can lie).
+        if archive.len() > limits::MAX_ENTRIES {
+            return Err(FmuError::TooLarge {
+                path,
+                what: format!(
+                    "{} entries, more than {}",
+                    archive.len(),
+                    limits::MAX_ENTRIES
+                ),
+            });
+        }
         let mut entry_names = Vec::with_capacity(archive.len());
+        let mut declared_total = 0u64;
         for index in 0..archive.len() {
             let entry = archive.by_index(index).map_err(|e| FmuError::NotZip {
                 path: path.clone(),
@@ -168,6 +216,12 @@ impl LoadedFmu {
             if entry.is_symlink() {
                 return Err(FmuError::SymlinkEntry { path, entry: name });
             }
+            declared_total = declared_total.saturating_add(entry.size());
+            if let Err(what) = check_entry_size(&name, entry.size(), entry.compressed_size())
+                .and_then(|()| check_total(declared_total))
+            {
+                return Err(FmuError::TooLarge { path, what });
+            }
             entry_names.push(name);
         }
 
@@ -177,11 +231,22 @@ impl LoadedFmu {
                 .map_err(|_| FmuError::NoModelDescription { path: path.clone() })?;
             let mut xml = String::new();
             entry
+                .by_ref()
+                .take(limits::MAX_MODEL_DESCRIPTION_BYTES + 1)
                 .read_to_string(&mut xml)
                 .map_err(|e| FmuError::BadModelDescription {
                     path: path.clone(),
                     reason: format!("cannot read it as UTF-8 text: {e}"),
                 })?;
+            if xml.len() as u64 > limits::MAX_MODEL_DESCRIPTION_BYTES {
+                return Err(FmuError::TooLarge {
+                    path,
+                    what: format!(
+                        "modelDescription.xml is larger than {} bytes",
+                        limits::MAX_MODEL_DESCRIPTION_BYTES
+                    ),
+                });
+            }
             xml
         };
         let description = Fmi2ModelDescription::from_str(&xml).map_err(|e| {
@@ -251,14 +316,16 @@ impl LoadedFmu {
             folder: temp_dir.path().to_path_buf(),
             cause,
         };
+        let mut written_total = 0u64;
         for index in 0..archive.len() {
             let mut entry = archive
                 .by_index(index)
                 .map_err(|e| extract_error(std::io::Error::other(e)))?;
+            let declared = entry.size();
             let Some(relative) = entry.enclosed_name() else {
                 unreachable!("checked in pass 1")
             };
-            let target = temp_dir.path().join(relative);
+            let target = temp_dir.path().join(&relative);
             if entry.is_dir() {
                 fs::create_dir_all(&target).map_err(extract_error)?;
                 continue;
@@ -267,8 +334,21 @@ impl LoadedFmu {
                 fs::create_dir_all(parent).map_err(extract_error)?;
             }
             let mut out = fs::File::create(&target).map_err(extract_error)?;
-            std::io::copy(&mut entry, &mut out).map_err(extract_error)?;
+            // Never more than the entry declared (checked against the limits in pass 1): one
+            // byte more is read only to detect an entry that lied about its size.
+            let written = std::io::copy(&mut (&mut entry).take(declared + 1), &mut out)
+                .map_err(extract_error)?;
             out.flush().map_err(extract_error)?;
+            written_total = written_total.saturating_add(written);
+            if written > declared || written_total > limits::MAX_TOTAL_BYTES {
+                return Err(FmuError::TooLarge {
+                    path,
+                    what: format!(
+                        "entry {:?} unpacks to more than the {declared} bytes it declares",
+                        relative.display()
+                    ),
+                });
+            }
         }
 
         let import = Fmi2Import::new(temp_dir, &xml).map_err(|e| FmuError::Import {
@@ -297,6 +377,27 @@ impl LoadedFmu {
     pub fn model_description(&self) -> &Fmi2ModelDescription {
         self.import.model_description()
     }
+}
+
+/// One entry's declared size against [`limits::MAX_TOTAL_BYTES`] and [`limits::MAX_RATIO`].
+fn check_entry_size(name: &str, size: u64, compressed: u64) -> Result<(), String> {
+    if size > limits::RATIO_FREE_BYTES && size / compressed.max(1) > limits::MAX_RATIO {
+        return Err(format!(
+            "entry {name:?} unpacks {compressed} bytes to {size}, a ratio above {}",
+            limits::MAX_RATIO
+        ));
+    }
+    Ok(())
+}
+
+fn check_total(total: u64) -> Result<(), String> {
+    if total > limits::MAX_TOTAL_BYTES {
+        return Err(format!(
+            "the entries unpack to more than {} bytes",
+            limits::MAX_TOTAL_BYTES
+        ));
+    }
+    Ok(())
 }
 
 fn fmi_version_attribute(xml: &str) -> Option<String> {

@@ -12,6 +12,7 @@ use anyhow::{bail, Result};
 use rayon::prelude::*;
 
 use crate::cosim::{ParameterValue, Plan, RunOptions, RunResult};
+use crate::fmu::VariableType;
 use crate::scenario::VarRef;
 use crate::scoring::{self, chi_square_quantile, matching_columns, RunScores};
 
@@ -109,6 +110,25 @@ fn nees_series(plan: &Plan, result: &RunResult) -> NeesSeries {
     out
 }
 
+/// The most runs of one campaign (the scores of every run are kept in memory).
+pub const MAX_RUNS: usize = 100_000;
+
+/// A seed is an Integer parameter: a Real or an enumeration (e.g. the estimator kind) would
+/// change what is run, not only its noise (issue 15, point 6).
+fn check_seed_variable(plan: &Plan, r: &VarRef) -> Result<()> {
+    let Some(variable) = plan.variable_of(r) else {
+        bail!("seed variable {r}: no such instance or variable in the scenario");
+    };
+    if variable.var_type != VariableType::Integer || !variable.is_parameter() {
+        bail!(
+            "seed variable {r} is a {:?} {}; a seed must be an Integer parameter",
+            variable.var_type,
+            variable.causality
+        );
+    }
+    Ok(())
+}
+
 /// Run `runs` seeds of `plan` in parallel; run i sets every `montecarlo.seeds` parameter (and
 /// `extra_seeds`) to `first_seed + i`. `on_done` is called after each finished run.
 pub fn run(
@@ -118,8 +138,12 @@ pub fn run(
     extra_seeds: &[VarRef],
     on_done: &(dyn Fn() + Sync),
 ) -> Result<MonteCarloSummary> {
-    if runs < 2 {
-        bail!("--runs must be at least 2 for a spread, got {runs}");
+    if !(2..=MAX_RUNS).contains(&runs) {
+        bail!("--runs must be 2 to {MAX_RUNS} (at least 2 for a spread), got {runs}");
+    }
+    let last_seed = i64::from(first_seed) + runs as i64 - 1;
+    if i32::try_from(last_seed).is_err() {
+        bail!("--first-seed {first_seed} with {runs} runs gives seeds beyond the 32-bit Integer range");
     }
     let mut seed_vars: Vec<VarRef> = plan
         .scenario
@@ -129,6 +153,9 @@ pub fn run(
         .filter_map(|s| VarRef::parse(s))
         .collect();
     seed_vars.extend(extra_seeds.iter().cloned());
+    for r in &seed_vars {
+        check_seed_variable(plan, r)?;
+    }
     if seed_vars.is_empty() {
         bail!(
             "scenario {}: no seed parameter to vary: add [montecarlo] seeds = [\"inst.seed\"] or pass --seed-var",
@@ -139,7 +166,7 @@ pub fn run(
     let outcomes: Vec<Result<(RunScores, NeesSeries)>> = (0..runs)
         .into_par_iter()
         .map(|i| {
-            let seed = first_seed + i as i32;
+            let seed = first_seed.wrapping_add(i as i32); // In range: checked above.
             let options = RunOptions {
                 instance_suffix: format!("#run{i}"),
                 overrides: seed_vars

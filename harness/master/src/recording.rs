@@ -1,13 +1,35 @@
 //! CSV output of a run: `time` then every recorded column, values printed with Rust's shortest
 //! round-trip formatting (parsing them back gives the identical f64).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
 use crate::cosim::RunResult;
 
+/// Writes the CSV under a temporary name next to `path` and renames it to `path` only when every
+/// row is written and flushed (issue 15, point 6): a full disk or a failed write never leaves a
+/// truncated file under the final name.
 pub fn write_csv(result: &RunResult, path: &Path) -> Result<()> {
+    let partial = partial_name(path);
+    let written = write_rows(result, &partial).and_then(|()| {
+        std::fs::rename(&partial, path)
+            .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
+    });
+    if written.is_err() {
+        let _ = std::fs::remove_file(&partial);
+    }
+    written
+}
+
+/// `<path>.partial`, where a file is written before it is complete.
+pub fn partial_name(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".partial");
+    PathBuf::from(name)
+}
+
+fn write_rows(result: &RunResult, path: &Path) -> Result<()> {
     let mut writer =
         csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
     let mut header = vec!["time".to_string()];
@@ -26,8 +48,48 @@ pub fn write_csv(result: &RunResult, path: &Path) -> Result<()> {
             .write_record(&row)
             .with_context(|| format!("writing {}", path.display()))?;
     }
-    writer
-        .flush()
+    let file = writer
+        .into_inner()
+        .map_err(|e| anyhow::anyhow!("writing {}: {}", path.display(), e.error()))?;
+    file.sync_all()
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cosim::Columns;
+
+    fn result() -> RunResult {
+        let data = Columns::reusing(vec![0.5; 2], 1, 2);
+        RunResult {
+            scenario: "t".into(),
+            times: vec![0.0, 0.1],
+            columns: vec!["a.x".into()],
+            data,
+            step_wall_time: Vec::new(),
+            total_wall_time: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_csv_appears_under_its_name_only_when_complete() {
+        let dir = std::env::temp_dir().join(format!("recording-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.csv");
+        write_csv(&result(), &path).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            "time,a.x\n0,0.5\n0.1,0.5\n"
+        );
+        assert!(!partial_name(&path).exists());
+        // The final name is taken by a folder: the rename fails, nothing is left behind.
+        let blocked = dir.join("blocked.csv");
+        std::fs::create_dir_all(blocked.join("inside")).unwrap();
+        assert!(write_csv(&result(), &blocked).is_err());
+        assert!(!partial_name(&blocked).exists());
+        assert!(blocked.join("inside").is_dir());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

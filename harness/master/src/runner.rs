@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, bail, Context, Result};
 
 use crate::cosim::{ParameterValue, Plan, RunOptions, RunResult};
+use crate::fmu::LoadedFmu;
 use crate::plot;
 use crate::recording;
 use crate::scenario::{Scenario, VarRef};
@@ -25,6 +26,32 @@ impl Environment {
     /// Folder the FMU archives are extracted into (removed when the runs are done).
     pub fn work_dir(&self) -> PathBuf {
         self.out_dir.join(".fmu-work")
+    }
+
+    /// The work folder, removed when the guard drops: on success, on error and on a panic
+    /// that unwinds (issue 15, point 6).
+    pub fn work_folder(&self) -> WorkFolder {
+        WorkFolder(self.work_dir())
+    }
+}
+
+/// Removes its folder (and everything in it) when dropped.
+#[derive(Debug)]
+pub struct WorkFolder(PathBuf);
+
+impl WorkFolder {
+    pub fn new(path: PathBuf) -> Self {
+        Self(path)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for WorkFolder {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
     }
 }
 
@@ -49,6 +76,60 @@ pub fn workspace_root() -> PathBuf {
 /// Folder of the shipped scenario files, `<workspace>/harness/scenarios`.
 pub fn scenario_dir() -> PathBuf {
     workspace_root().join("harness").join("scenarios")
+}
+
+/// `harness inspect`: loads the FMU, instantiates it once (so that a binary that cannot be
+/// loaded or a GUID the binary does not know fails here, issue 15 point 6) and writes its
+/// variables to `out`. A closed `out` (e.g. `| head`) ends the listing with an `io::Error` of
+/// kind BrokenPipe, which [`is_broken_pipe`] recognises.
+pub fn inspect(fmu_path: &Path, work_dir: &Path, out: &mut dyn std::io::Write) -> Result<()> {
+    let loaded = LoadedFmu::load(fmu_path, work_dir)?;
+    let instance = loaded
+        .import()
+        .instantiate_cs("inspect", false, false)
+        .map_err(|e| {
+            anyhow!(
+                "FMU {}: fmi2Instantiate failed ({e}); the binary cannot be loaded or does not accept the GUID {}",
+                fmu_path.display(),
+                loaded.guid
+            )
+        })?;
+    drop(instance);
+    writeln!(
+        out,
+        "{}: model {:?}, modelIdentifier {}, GUID {} (instantiated)",
+        fmu_path.display(),
+        loaded.model_name,
+        loaded.model_identifier,
+        loaded.guid
+    )?;
+    writeln!(
+        out,
+        "{:<34} {:>6} {:<12} {:<12} {:<10}",
+        "variable", "vr", "causality", "variability", "type"
+    )?;
+    for v in &loaded.variables {
+        writeln!(
+            out,
+            "{:<34} {:>6} {:<12} {:<12} {:<10?}",
+            v.name,
+            v.value_reference,
+            v.causality.to_string(),
+            v.variability.to_string(),
+            v.var_type
+        )?;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// Whether `error` comes from writing to a closed pipe (the reader went away: not a failure).
+pub fn is_broken_pipe(error: &anyhow::Error) -> bool {
+    error.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// Parse "inst.variable=value" (value: true/false, integer, or float).
@@ -163,6 +244,14 @@ pub fn run_scenario(
 ) -> Result<RunOutput> {
     std::fs::create_dir_all(&env.out_dir)
         .with_context(|| format!("creating output folder {}", env.out_dir.display()))?;
+    // A failed run must not leave the previous run's CSV looking current.
+    let stale = env.out_dir.join(format!("{}.csv", scenario.name));
+    match std::fs::remove_file(&stale) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(e).with_context(|| format!("removing the previous {}", stale.display()))
+        }
+        _ => {}
+    }
     let derived_amplitude = resolve_sine_with_dwell(&mut scenario, env)?;
     let plan = Plan::new(scenario, &env.fmu_dir, &env.work_dir())?;
     let options = RunOptions {

@@ -53,6 +53,23 @@ pub enum ScenarioError {
     },
 }
 
+/// The most communication steps a scenario may take (issue 15, point 6): ten million, i.e.
+/// about three hours of simulated time at 1 ms, which keeps the recording's allocation bounded.
+pub const MAX_STEPS: u64 = 10_000_000;
+
+/// Checks a name that becomes a file or folder name (the scenario name names the run's output
+/// folder and CSV): 1 to 100 ASCII letters, digits, `_`, `-`, `.`, not starting with `.`, so
+/// that it can never leave the output folder or hide in it.
+pub fn check_file_name(name: &str) -> Result<(), String> {
+    let allowed = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.');
+    if name.is_empty() || name.len() > 100 || name.starts_with('.') || !name.chars().all(allowed) {
+        return Err(format!(
+            "{name:?} is used as a file name: expected 1 to 100 letters, digits, '_', '-' or '.', not starting with '.'"
+        ));
+    }
+    Ok(())
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
@@ -279,8 +296,8 @@ impl Scenario {
 
     /// Checks that need no FMU: numbers, names, references.
     pub fn validate(&self) -> Result<(), ScenarioError> {
-        if self.name.trim().is_empty() {
-            return Err(self.field_error("name", "must not be empty"));
+        if let Err(message) = check_file_name(&self.name) {
+            return Err(self.field_error("name", message));
         }
         if !(self.step.is_finite() && self.step > 0.0) {
             return Err(self.field_error(
@@ -517,10 +534,20 @@ impl Scenario {
     }
 
     /// Number of communication steps N: the points are t0 + n h, n = 0..=N, and t0 + N h must be
-    /// the stop time (to 1e-9 relative), so the run ends exactly there.
+    /// the stop time (to 1e-9 relative), so the run ends exactly there. At most [`MAX_STEPS`],
+    /// checked here, before anything is allocated for the recording.
     pub fn step_count(&self) -> Result<u64, ScenarioError> {
         let span = self.stop_time()? - self.start_time;
         let steps = span / self.step;
+        if !(steps.is_finite() && steps <= MAX_STEPS as f64) {
+            return Err(self.field_error(
+                "step",
+                format!(
+                    "stop_time - start_time = {span} s in communication steps of {} s is {steps:e} steps; at most {MAX_STEPS} are allowed",
+                    self.step
+                ),
+            ));
+        }
         let rounded = steps.round();
         if (steps - rounded).abs() > 1e-9 * steps.max(1.0) || rounded < 1.0 {
             return Err(self.field_error(

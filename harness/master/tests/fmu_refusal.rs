@@ -1,11 +1,12 @@
 //! Malformed .fmu archives are refused with a clear message, and nothing is written outside the
 //! extraction folder.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use fmi_master::fmu::{platform_folder, FmuError, LoadedFmu};
-use zip::write::SimpleFileOptions;
+
+mod common;
+use common::{write_zip, Scratch};
 
 const DESCRIPTION: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="Tiny" guid="{00000000-0000-0000-0000-000000000001}" variableNamingConvention="flat" numberOfEventIndicators="0">
@@ -19,40 +20,12 @@ const DESCRIPTION: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 </fmiModelDescription>
 "#;
 
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Scratch {
-        let dir =
-            std::env::temp_dir().join(format!("harness-fmu-test-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Scratch(dir)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 fn binary_entry() -> String {
     format!(
         "binaries/{}/Tiny{}",
         platform_folder().unwrap(),
         std::env::consts::DLL_SUFFIX
     )
-}
-
-fn write_zip(path: &Path, entries: &[(&str, &[u8])]) {
-    let file = std::fs::File::create(path).unwrap();
-    let mut zip = zip::ZipWriter::new(file);
-    for (name, data) in entries {
-        zip.start_file(*name, SimpleFileOptions::default()).unwrap();
-        zip.write_all(data).unwrap();
-    }
-    zip.finish().unwrap();
 }
 
 fn load(scratch: &Scratch, entries: &[(&str, &[u8])]) -> (FmuError, PathBuf) {

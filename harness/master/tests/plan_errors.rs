@@ -11,30 +11,8 @@ use fmi_master::cosim::Plan;
 use fmi_master::runner::default_fmu_dir;
 use fmi_master::scenario::Scenario;
 
-const GOOD: &str = r#"
-name = "t"
-step = 0.001
-stop_time = 0.01
-[manoeuvre]
-library = "seed000_ramp_high_ay"
-[[fmu]]
-name = "vehicle"
-path = "{fmu_dir}/ReferenceVehicle.fmu"
-[[fmu]]
-name = "ekf"
-path = "{fmu_dir}/VehicleStateEstimator.fmu"
-parameters = { sample_time = 0.001 }
-[[connection]]
-from = "vehicle"
-to = "ekf"
-[[input]]
-signal = "steering_angle"
-to = ["vehicle.steering_angle"]
-[[score]]
-label = "vy"
-truth = "vehicle.vy"
-estimate = "*.vy_est"
-"#;
+mod common;
+use common::GOOD;
 
 fn plan_error(text: &str) -> String {
     let fmu_dir = default_fmu_dir();

@@ -8,7 +8,6 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use fmi_master::cosim::Plan;
-use fmi_master::fmu::LoadedFmu;
 use fmi_master::montecarlo;
 use fmi_master::runner::{self, Environment};
 use fmi_master::scenario::{Scenario, VarRef};
@@ -188,13 +187,14 @@ fn execute(cli: Cli) -> Result<()> {
                 fmu_dir: absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir),
                 out_dir: out.join(&parsed.name),
             };
+            let work = env.work_folder();
             let bar = progress_bar(1000);
             bar.set_message(parsed.name.clone());
             let output = runner::run_scenario(parsed, &env, &overrides, !no_plots, |f| {
                 bar.set_position((f * 1000.0) as u64)
             });
             bar.finish_and_clear();
-            let _ = std::fs::remove_dir_all(env.work_dir());
+            drop(work);
             let output = output?;
             println!(
                 "scenario {} ({} steps)",
@@ -231,6 +231,7 @@ fn execute(cli: Cli) -> Result<()> {
             };
             std::fs::create_dir_all(&env.out_dir)
                 .with_context(|| format!("creating {}", env.out_dir.display()))?;
+            let work = env.work_folder();
             let plan = Plan::new(parsed, &env.fmu_dir, &env.work_dir())?;
             let bar = progress_bar(runs as u64);
             bar.set_message(format!("{} runs", runs));
@@ -245,7 +246,7 @@ fn execute(cli: Cli) -> Result<()> {
                 pool.install(|| montecarlo::run(&plan, runs, first_seed, &extra, &|| bar.inc(1)));
             bar.finish_and_clear();
             drop(plan);
-            let _ = std::fs::remove_dir_all(env.work_dir());
+            drop(work);
             let summary = summary?;
             let md = montecarlo::to_markdown(&summary);
             let path = env.out_dir.join("summary.md");
@@ -310,32 +311,12 @@ fn execute(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Inspect { fmu, out } => {
-            let work = out.join(".fmu-work");
-            let loaded = LoadedFmu::load(&fmu, &work)?;
-            println!(
-                "{}: model {:?}, modelIdentifier {}, GUID {}",
-                fmu.display(),
-                loaded.model_name,
-                loaded.model_identifier,
-                loaded.guid
-            );
-            println!(
-                "{:<34} {:>6} {:<12} {:<12} {:<10}",
-                "variable", "vr", "causality", "variability", "type"
-            );
-            for v in &loaded.variables {
-                println!(
-                    "{:<34} {:>6} {:<12} {:<12} {:<10?}",
-                    v.name,
-                    v.value_reference,
-                    v.causality.to_string(),
-                    v.variability.to_string(),
-                    v.var_type
-                );
+            let work = runner::WorkFolder::new(out.join(".fmu-work"));
+            let mut stdout = std::io::stdout().lock();
+            match runner::inspect(&fmu, work.path(), &mut stdout) {
+                Err(e) if runner::is_broken_pipe(&e) => Ok(()),
+                other => other,
             }
-            drop(loaded);
-            let _ = std::fs::remove_dir_all(&work);
-            Ok(())
         }
         Command::Manoeuvres => {
             for name in manoeuvres::LIBRARY {
