@@ -128,9 +128,10 @@ impl SensorEffects {
     /// Gravity and bias, without advancing anything (also for the initial outputs).
     pub fn sense(&self, values: &mut [f64; SENSORS], attitude: Attitude) {
         if self.gravity {
-            // A body-fixed accelerometer measures the specific force a − g; its y axis is tilted
-            // by roll and bank, its x axis by the grade (rigid-body kinematics, e.g. Jazar,
-            // Vehicle Dynamics, 2nd ed., Sect. 9.1).
+            // A body-fixed accelerometer measures the specific force a − g (Groves, Principles of
+            // GNSS, Inertial, and Multisensor Integrated Navigation Systems, 2nd ed., 2013,
+            // ch. 4); its y axis is tilted by roll and bank, its x axis by the grade, so gravity
+            // (0, 0, −g) adds g sin(tilt) and the planar acceleration is seen scaled by cos(tilt).
             let (sin_roll, cos_roll) = attitude.roll_and_bank.sin_cos();
             let (sin_grade, cos_grade) = attitude.grade.sin_cos();
             values[channel::AY] = values[channel::AY] * cos_roll + GRAVITY * sin_roll;
