@@ -211,6 +211,11 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
         "yaw_rate_initial": 0.0,
         "omega_front_initial": wheel_speed,
         "omega_rear_initial": wheel_speed,
+        # The seed's filter: no speed rows, start from the parameters, no gate (issue 12's
+        # robustness is off; tests/fmpy/test_fmpy_robustness.py tests it).
+        "use_speed_measurements": False,
+        "start_from_measurements": False,
+        "gate_measurements": False,
     }
     for state in ("vx", "vy", "yaw_rate", "omega_front", "omega_rear"):
         parameters[f"process_noise_std_{state}"] = vehicle.start(f"process_noise_std_{state}")

@@ -108,11 +108,14 @@ fn bare_step_a(name: &str) -> impl FnMut() -> (bool, bool) {
         estimator: estimator(name),
         ..Variables::default()
     };
-    let mut filter = bare_filter::<ModelA, 5, 4, 3>(&variables);
-    let input = SVector::<f64, 3>::new(0.05, 0.0, 0.0);
-    let measurement = SVector::<f64, 4>::from(MEASUREMENT);
+    let mut filter = bare_filter::<ModelA, 5, 5, 5>(&variables);
+    // The seed's four rows; no speed measurement (ax_valid = 0, vx row masked out).
+    let input = ModelA::extend_input(&SVector::<f64, 3>::new(0.05, 0.0, 0.0), None);
+    let [r, ay, front, rear] = MEASUREMENT;
+    let measurement = SVector::<f64, 5>::from([r, ay, front, rear, f64::NAN]);
     move || {
-        let report = filter.update(divan::black_box(&measurement), &input, &[true; 4]);
+        let mask = [true, true, true, true, false];
+        let report = filter.update(divan::black_box(&measurement), &input, &mask);
         let predicted = filter.predict(&input);
         divan::black_box((report.is_ok(), predicted.is_ok()))
     }

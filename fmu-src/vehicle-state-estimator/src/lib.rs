@@ -63,6 +63,14 @@ pub mod status {
     pub const WEIGHTS_RESET: i32 = 16;
     pub const BELOW_MIN_SPEED: i32 = 32;
     pub const INPUT_HELD: i32 = 64;
+    /// A row failed the gate (issue 12, point 3).
+    pub const ROW_GATED: i32 = 128;
+    /// A row was locked out for `readmit_time` and the filter re-seeded from the sensors.
+    pub const SENSOR_READMITTED: i32 = 256;
+    /// `start_from_measurements` waits for (or started from) the first measured speed.
+    pub const INITIALISING: i32 = 512;
+    /// Reserved for the FMI layer: an input outside its declared range was clamped.
+    pub const INPUT_CLAMPED: i32 = 1024;
 }
 
 /// The runner of the selected estimation model.

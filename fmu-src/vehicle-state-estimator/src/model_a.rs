@@ -1,15 +1,19 @@
 //! Model A (the 5-state single-track model with HSRI tyres of seed 000,
-//! `SingleTrackEstimationModel`) as the FMU runs it: `y = [yaw_rate, ay, omega_front,
-//! omega_rear]` from the sensors, `u` = the driver input, outputs from the state and one model
-//! evaluation; re-seeded from the wheel speeds when the speed estimate falls below `min_speed`.
+//! `SingleTrackEstimationModel`, with the speed anchor of issue 12 `SpeedAnchoredModel`) as the
+//! FMU runs it: `y = [yaw_rate, ay, omega_front, omega_rear, vx]` from the sensors (the `vx` row
+//! and the `ax` kinematics only with `use_speed_measurements`), `u` = the driver input and the
+//! measured `ax`, outputs from the state and one model evaluation; re-seeded from the measured
+//! speed when the speed estimate falls below `min_speed`.
 
 use estimation::kalman::InitialEstimate;
-use estimation::models::single_track::SingleTrackEstimationModel;
-use estimation::registry::EstimatorSettings;
+use estimation::models::single_track::{
+    SingleTrackEstimationModel, SpeedAnchoredModel, ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM,
+    VX_ROW,
+};
+use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::SVector;
-use vehicle_models::driver_input::INPUT_DIM;
-use vehicle_models::single_track::{state_index, SingleTrackParams, MEASUREMENT_DIM, STATE_DIM};
+use vehicle_models::single_track::{measurement_index, state_index, SingleTrackParams, STATE_DIM};
 use vehicle_models::{HsriTyre, SingleTrackModel};
 
 use crate::model_description::{RealOutputs, Variables};
@@ -18,13 +22,34 @@ use crate::runner::{finite_or, EstimationModel, OutputSample, Runner, Sample, Se
 use crate::status;
 
 /// Model A as the filters see it.
-pub type ModelA = SingleTrackEstimationModel<HsriTyre>;
+pub type ModelA = SpeedAnchoredModel<HsriTyre>;
 type StateA = SVector<f64, STATE_DIM>;
 
 /// The running estimator on model A.
-pub type RunnerA = Runner<ModelA, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>;
+pub type RunnerA = Runner<ModelA, STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>;
 
-impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
+/// Above this |ay| no passenger car's tyres transmit the force (1.5 g, road friction at most
+/// about 1.2): the sample is a glitch (issue 12, point 3).
+pub const MAX_PLAUSIBLE_AY: f64 = 15.0;
+
+/// Above this a wheel speed is a glitch (1000 rad/s is 1080 km/h on a 0.3 m wheel).
+pub const MAX_PLAUSIBLE_WHEEL_SPEED: f64 = 1e3;
+
+/// Above this |vx_meas| is a glitch, m/s (360 km/h).
+pub const MAX_PLAUSIBLE_SPEED: f64 = 100.0;
+
+/// `vx_meas` and `ax_meas` as model A takes them: only with `use_speed_measurements`, only
+/// finite and plausible, and not in an all-zero sensor row.
+fn speed_measurements(v: &Variables, sensors: &Sensors) -> (Option<f64>, Option<f64>) {
+    if !v.use_speed_measurements || sensors.all_zero() {
+        return (None, None);
+    }
+    let vx = Some(sensors.vx).filter(|vx| vx.is_finite() && vx.abs() <= MAX_PLAUSIBLE_SPEED);
+    let ax = Some(sensors.ax).filter(|ax| ax.is_finite() && ax.abs() <= MAX_PLAUSIBLE_AY);
+    (vx, ax)
+}
+
+impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelA {
     type Extra = ();
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
@@ -73,6 +98,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
                 v.measurement_noise_std_omega_rear,
             ),
         ])?;
+        let speed_std = positive("measurement_noise_std_vx", v.measurement_noise_std_vx)?;
         SingleTrackEstimationModel::new(
             SingleTrackModel::new(vehicle, tyre),
             positive("sample_time", v.sample_time)?,
@@ -80,6 +106,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
             process,
             measurement,
         )
+        .and_then(|inner| SpeedAnchoredModel::new(inner, speed_std * speed_std))
         .map_err(|error| format!("estimator set-up: {}", error.0))
     }
 
@@ -103,7 +130,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
         ))
     }
 
-    fn registry_settings(&self, v: &Variables) -> EstimatorSettings<STATE_DIM, INPUT_DIM> {
+    fn registry_settings(&self, v: &Variables) -> EstimatorSettings<STATE_DIM, ANCHORED_INPUT_DIM> {
         // The LKF/Luenberger operating point: straight driving, zero inputs (000: 5.58-5.62).
         let operating_state = StateA::from([
             v.lkf_vx,
@@ -112,8 +139,16 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
             v.lkf_omega_front,
             v.lkf_omega_rear,
         ]);
+        // The LKF predicts vx by the kinematics when the speed is measured. The Luenberger
+        // observer keeps seed 000's linearisation: its design observes (vx, ωF, ωR) through the
+        // front wheel speed alone, which the kinematic vx row would decouple (ωR unobservable).
+        let luenberger = matches!(
+            parameters::estimator_choice(v),
+            Ok((_, EstimatorChoice::Luenberger))
+        );
         self.estimator_settings(
             (operating_state, SVector::zeros()),
+            v.use_speed_measurements && !luenberger,
             parameters::scaled_sigma_points(v),
             parameters::particle_config(v),
         )
@@ -122,9 +157,9 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
     fn start_extra(_: &Variables, _: f64) -> Self::Extra {}
 
     fn sample(
-        runner: &mut Runner<Self, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>,
+        runner: &mut RunnerA,
         sensors: &Sensors,
-    ) -> Result<Sample<MEASUREMENT_DIM, INPUT_DIM>, i32> {
+    ) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32> {
         let mut bits = 0;
         if runner.filter.state()[state_index::VX] < runner.min_speed {
             if !reseed(runner, sensors) {
@@ -134,16 +169,54 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
             }
             bits |= status::BELOW_MIN_SPEED | status::STATE_RESET;
         }
+        let (vx, ax) = speed_measurements(&runner.parameters, sensors);
+        let mut offered = [true; ANCHORED_MEASUREMENT_DIM];
+        offered[VX_ROW] = vx.is_some();
         Ok(Sample {
             measurement: SVector::from([
                 sensors.yaw_rate,
                 sensors.ay,
                 sensors.omega_front,
                 sensors.omega_rear,
+                vx.unwrap_or(f64::NAN),
             ]),
-            input: runner.input,
+            input: ModelA::extend_input(&runner.input, ax),
+            offered,
             bits,
         })
+    }
+
+    /// `|ay| <= 1.5 g`, wheel speeds up to 1000 rad/s, `|vx| <= 100 m/s`, and no row of an
+    /// all-zero sample while the estimate moves.
+    fn plausible(
+        &self,
+        sensors: &Sensors,
+        state: &StateA,
+        min_speed: f64,
+    ) -> [bool; ANCHORED_MEASUREMENT_DIM] {
+        if sensors.all_zero() && state[state_index::VX].abs() >= min_speed {
+            return [false; ANCHORED_MEASUREMENT_DIM];
+        }
+        let mut plausible = [true; ANCHORED_MEASUREMENT_DIM];
+        plausible[measurement_index::LATERAL_ACCELERATION] = sensors.ay.abs() <= MAX_PLAUSIBLE_AY;
+        plausible[measurement_index::OMEGA_FRONT] =
+            sensors.omega_front.abs() <= MAX_PLAUSIBLE_WHEEL_SPEED;
+        plausible[measurement_index::OMEGA_REAR] =
+            sensors.omega_rear.abs() <= MAX_PLAUSIBLE_WHEEL_SPEED;
+        plausible
+    }
+
+    fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
+        measured_start(runner, sensors)
+    }
+
+    /// Straight driving at the start's speed, the wheels free rolling (the form of the seed's
+    /// operating point, 000: 5.58-5.62).
+    fn operating_state_at(&self, start: &StateA) -> Option<StateA> {
+        Some(
+            self.vehicle()
+                .straight_rolling_state(start[state_index::VX]),
+        )
     }
 
     fn outputs(&self, sample: &OutputSample<STATE_DIM, ()>, _: &Variables) -> RealOutputs {
@@ -193,29 +266,47 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelA {
 }
 
 /// Re-seeds the filter from the measurements when its speed estimate fell below `min_speed`
-/// but the wheel-speed sensors report a speed above it: the estimate is lost (e.g. after zero
-/// sensor signals before the bus delivered data) and waiting for the filter to find back is
-/// hopeless, because the model is singular near standstill. The new start is
-/// `vx = r_w · mean(ωF, ωR)`, `vy = 0`, `r` = measured yaw rate, wheel speeds as measured, with
-/// the initial covariance of the parameters. Returns whether it re-seeded.
+/// but the sensors report a speed above it: the estimate is lost (e.g. after zero sensor
+/// signals before the bus delivered data) and waiting for the filter to find back is hopeless,
+/// because the model is singular near standstill. Returns whether it re-seeded.
 fn reseed(runner: &mut RunnerA, sensors: &Sensors) -> bool {
+    match measured_start(runner, sensors) {
+        Some(initial) => runner.rebuild(&initial),
+        None => false,
+    }
+}
+
+/// The start from one sample's sensors: `vx` = `vx_meas` (with `use_speed_measurements`), else
+/// `r_w · mean(ωF, ωR)` over the plausible wheel speeds; `vy = 0`; `r` = measured yaw rate;
+/// wheel speeds as measured (free rolling where missing); the initial covariance of the
+/// parameters. `None` unless that speed is at least `min_speed`.
+fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
     let wheel_radius = runner.parameters.wheel_radius;
-    let Some(speed) = sensors.wheel_speed(wheel_radius) else {
-        return false;
+    let plausible_wheel = |omega: f64| {
+        if omega.abs() <= MAX_PLAUSIBLE_WHEEL_SPEED {
+            omega
+        } else {
+            f64::NAN
+        }
     };
+    let wheels = Sensors {
+        omega_front: plausible_wheel(sensors.omega_front),
+        omega_rear: plausible_wheel(sensors.omega_rear),
+        ..*sensors
+    };
+    let (measured_vx, _) = speed_measurements(&runner.parameters, sensors);
+    let speed = measured_vx.or_else(|| wheels.wheel_speed(wheel_radius))?;
     if !(speed >= runner.min_speed && speed.is_finite()) {
-        return false;
+        return None;
     }
     let free_rolling = speed / wheel_radius;
-    let Ok(mut initial) = ModelA::initial_estimate(&runner.parameters) else {
-        return false;
-    };
+    let mut initial = ModelA::initial_estimate(&runner.parameters).ok()?;
     initial.state = StateA::from([
         speed,
         0.0,
         finite_or(sensors.yaw_rate, 0.0),
-        finite_or(sensors.omega_front, free_rolling),
-        finite_or(sensors.omega_rear, free_rolling),
+        finite_or(wheels.omega_front, free_rolling),
+        finite_or(wheels.omega_rear, free_rolling),
     ]);
-    runner.rebuild(&initial)
+    Some(initial)
 }

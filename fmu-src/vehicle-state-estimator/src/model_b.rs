@@ -13,6 +13,7 @@ use vehicle_models::two_track_lateral::{state_index, INPUT_DIM, MEASUREMENT_DIM,
 use vehicle_models::tyre::MagicFormulaParams;
 use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 
+use crate::model_a::MAX_PLAUSIBLE_AY;
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors};
@@ -131,8 +132,29 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         Ok(Sample {
             measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
             input: SVector::from([runner.input[0], speed]),
+            offered: [true; MEASUREMENT_DIM],
             bits,
         })
+    }
+
+    /// `|ay| <= 1.5 g` (as model A); an all-zero sample has no speed, so model B holds anyway.
+    fn plausible(&self, sensors: &Sensors, _: &StateB, _: f64) -> [bool; MEASUREMENT_DIM] {
+        [sensors.ay.abs() <= MAX_PLAUSIBLE_AY, true]
+    }
+
+    /// Sideslip 0, yaw rate and ay as measured (0 where missing), with the initial covariance of
+    /// the parameters, once a speed is measured.
+    fn measured_start(runner: &RunnerB, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
+        let v = &runner.parameters;
+        sensors.speed(v.wheel_radius, runner.min_speed)?;
+        let mut initial = Self::initial_estimate(v).ok()?;
+        let ay = Some(sensors.ay).filter(|ay| ay.abs() <= MAX_PLAUSIBLE_AY);
+        initial.state = StateB::from([
+            0.0,
+            finite_or(sensors.yaw_rate, 0.0),
+            ay.map_or(0.0, |ay| finite_or(ay, 0.0)),
+        ]);
+        Some(initial)
     }
 
     /// The outputs as the XML descriptions state them for model B.

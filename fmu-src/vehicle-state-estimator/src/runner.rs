@@ -30,6 +30,7 @@ pub struct Sensors {
     pub omega_front: f64,
     pub omega_rear: f64,
     pub vx: f64,
+    pub ax: f64,
 }
 
 impl Sensors {
@@ -40,7 +41,18 @@ impl Sensors {
             omega_front: v.omega_front_meas,
             omega_rear: v.omega_rear_meas,
             vx: v.vx_meas,
+            ax: v.ax_meas,
         }
+    }
+
+    /// Every lateral and wheel sensor reads exactly 0 (and `vx_meas` too, or it is missing):
+    /// what a master sends before its first values and what a CAN dropout reads. Implausible
+    /// while the estimate moves (issue 12, point 3).
+    pub fn all_zero(&self) -> bool {
+        [self.yaw_rate, self.ay, self.omega_front, self.omega_rear]
+            .into_iter()
+            .all(|value| value == 0.0)
+            && !(self.vx.is_finite() && self.vx != 0.0)
     }
 
     /// `r_w` times the mean of the finite wheel speeds, if any.
@@ -68,6 +80,9 @@ impl Sensors {
 pub struct Sample<const M: usize, const U: usize> {
     pub measurement: SVector<f64, M>,
     pub input: SVector<f64, U>,
+    /// The rows the model offers in this sample; a row left out (model A's `vx` row without
+    /// `use_speed_measurements` or without `vx_meas`) is neither used nor reported as skipped.
+    pub offered: [bool; M],
     pub bits: i32,
 }
 
@@ -94,6 +109,24 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// The measurement and input of one sample, or the status bits of a sample on which the
     /// filter holds. May re-seed the filter (`runner.rebuild`).
     fn sample(runner: &mut Runner<Self, N, M, U>, sensors: &Sensors) -> Result<Sample<M, U>, i32>;
+
+    /// Where each measurement row is physically plausible (issue 12, point 3), for the gate;
+    /// `state` is the predicted estimate.
+    fn plausible(&self, sensors: &Sensors, state: &SVector<f64, N>, min_speed: f64) -> [bool; M];
+
+    /// The start from the sensors of one sample (`start_from_measurements`, and the re-seed
+    /// after a lock-out), or `None` while they show no speed of at least `min_speed`.
+    fn measured_start(
+        runner: &Runner<Self, N, M, U>,
+        sensors: &Sensors,
+    ) -> Option<InitialEstimate<N>>;
+
+    /// The operating point's state for the linear estimators (LKF, Luenberger) when the filter
+    /// starts at `start` from the measurements: straight driving at the measured speed, instead
+    /// of a parameter's guess. `None` keeps the parameters' operating point.
+    fn operating_state_at(&self, _start: &SVector<f64, N>) -> Option<SVector<f64, N>> {
+        None
+    }
 
     /// The outputs of one sample's result.
     fn outputs(&self, sample: &OutputSample<N, Self::Extra>, v: &Variables) -> RealOutputs;
@@ -133,6 +166,21 @@ pub struct OutputSample<const N: usize, Extra> {
     pub rows_used: i32,
 }
 
+/// The measurement gate of issue 12, point 3 (`gate_measurements`), applied by the runner before
+/// each update so that it works alike for every estimator of the registry: per row, the
+/// physical plausibility of the model and the chi-square test `nu² <= threshold · S` with
+/// `S = H P Hᵀ + R` of that row at the predicted estimate (for the UKF and the particle filter
+/// too: it is their Gaussian approximation's linearisation). A missing row is not a rejection.
+#[derive(Clone, Copy, Debug)]
+struct Gate {
+    /// `gate_threshold`: 10.83 is the 99.9 % quantile of chi-square with one degree of freedom.
+    threshold: f64,
+    /// `readmit_time` in samples: a plausible row gated for this many samples in a row is a
+    /// real change (the filter lost the truth, e.g. started from a wrong speed without
+    /// `start_from_measurements`), and the filter is re-seeded from the measurements.
+    readmit_samples: u64,
+}
+
 /// How many doSteps with a sample may pass without an output read before the outputs are
 /// computed anyway (bounds the memory; one evaluation per this many doSteps).
 const PENDING_CAPACITY: usize = 8;
@@ -156,6 +204,12 @@ where
     pub(crate) min_speed: f64,
     pub(crate) nis: f64,
     pub(crate) rows_used: i32,
+    gate: Option<Gate>,
+    /// Samples in a row for which each plausible row was gated (FMU state).
+    gated_samples: [u64; M],
+    /// The filter has started: from the parameters, or with `start_from_measurements` from the
+    /// first sample that showed a speed (FMU state).
+    started: bool,
     /// The parameters, to rebuild the filter when it has to be re-seeded and for the outputs.
     pub(crate) parameters: Box<Variables>,
     /// The derived outputs (slip quantities, ay, standard deviations, sideslip) cost about as
@@ -187,13 +241,29 @@ where
             )
         })?;
         let min_speed = positive("min_speed", v.min_speed)?;
+        let sample_time = positive("sample_time", v.sample_time)?;
+        let gate = if v.gate_measurements {
+            let readmit_time = finite_or(v.readmit_time, -1.0);
+            if readmit_time < 0.0 {
+                return Err(format!(
+                    "parameter readmit_time = {}; expected a time >= 0 s",
+                    v.readmit_time
+                ));
+            }
+            Some(Gate {
+                threshold: positive("gate_threshold", v.gate_threshold)?,
+                readmit_samples: (readmit_time / sample_time).ceil().max(1.0) as u64,
+            })
+        } else {
+            None
+        };
         Ok(Self {
             extra: Model::start_extra(v, min_speed),
             model,
             filter,
             choice,
             settings,
-            sample_time: positive("sample_time", v.sample_time)?,
+            sample_time,
             start_time,
             next_sample: 0,
             input: InputVector::new(
@@ -204,6 +274,9 @@ where
             min_speed,
             nis: 0.0,
             rows_used: 0,
+            gate,
+            gated_samples: [0; M],
+            started: !v.start_from_measurements,
             parameters: Box::new(v.clone()),
             pending: Vec::with_capacity(PENDING_CAPACITY),
         })
@@ -226,25 +299,53 @@ where
         }
     }
 
+    /// [`Self::rebuild`] from a start taken from the measurements, the linear estimators
+    /// linearised about straight driving at the measured speed
+    /// ([`EstimationModel::operating_state_at`]).
+    fn rebuild_at_measured(&mut self, initial: &InitialEstimate<N>) -> bool {
+        if let (Some(state), Ok((_, input))) = (
+            self.model.operating_state_at(&initial.state),
+            &self.settings.operating_point,
+        ) {
+            self.settings.operating_point = Ok((state, *input));
+        }
+        self.rebuild(initial)
+    }
+
     /// One sample: measurement update with the sensors, then time update to the next sample.
     /// Returns the status bits of the sample.
     pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
+        let mut bits = 0;
+        if !self.started {
+            match Model::measured_start(self, sensors) {
+                Some(initial) if self.rebuild_at_measured(&initial) => {
+                    self.started = true;
+                    bits |= status::INITIALISING;
+                }
+                _ => return self.hold(status::INITIALISING),
+            }
+        }
         let sample = match Model::sample(self, sensors) {
             Ok(sample) => sample,
-            Err(bits) => {
-                self.nis = 0.0;
-                self.rows_used = 0;
-                return bits;
-            }
+            Err(hold_bits) => return self.hold(bits | hold_bits),
         };
-        let mut bits = sample.bits;
-        if sample.measurement.iter().any(|value| !value.is_finite()) {
+        bits |= sample.bits;
+        let offered_rows = sample.offered.iter().zip(sample.measurement.iter());
+        if offered_rows
+            .into_iter()
+            .any(|(&offered, value)| offered && !value.is_finite())
+        {
             bits |= status::ROW_SKIPPED;
+        }
+        let (mut mask, gate_bits) = self.gate(sensors, &sample);
+        bits |= gate_bits;
+        for (used, offered) in mask.iter_mut().zip(sample.offered) {
+            *used &= offered;
         }
         // Non-finite rows are skipped by the filters themselves (SPEC §6).
         let report = self
             .filter
-            .update(&sample.measurement, &sample.input, &[true; M]);
+            .update(&sample.measurement, &sample.input, &mask);
         let report = report.unwrap_or_else(|issue| {
             bits |= issue_bit(issue);
             self.filter.last_report()
@@ -255,6 +356,62 @@ where
             bits |= issue_bit(issue);
         }
         bits
+    }
+
+    /// A sample on which the filter holds its estimate.
+    fn hold(&mut self, bits: i32) -> i32 {
+        self.nis = 0.0;
+        self.rows_used = 0;
+        bits
+    }
+
+    /// The rows that pass the gate (all rows without `gate_measurements`) and the status bits;
+    /// re-seeds the filter when a plausible row has been gated for `readmit_time`.
+    fn gate(&mut self, sensors: &Sensors, sample: &Sample<M, U>) -> ([bool; M], i32) {
+        let Some(gate) = self.gate else {
+            return ([true; M], 0);
+        };
+        let state = *self.filter.state();
+        let covariance = self.filter.covariance();
+        let plausible = self.model.plausible(sensors, &state, self.min_speed);
+        let (predicted, jacobian) = self.model.measurement_and_jacobian(&state, &sample.input);
+        let noise = self.model.measurement_noise();
+        let mut passed = [true; M];
+        let mut bits = 0;
+        let mut readmit = false;
+        for row in 0..M {
+            let value = sample.measurement[row];
+            if !(value.is_finite() && sample.offered[row]) {
+                self.gated_samples[row] = 0;
+                continue;
+            }
+            let h = jacobian.row(row);
+            let innovation_variance = (h * covariance * h.transpose())[(0, 0)] + noise[(row, row)];
+            let innovation = value - predicted[row];
+            let consistent = innovation * innovation <= gate.threshold * innovation_variance;
+            if plausible[row] && consistent {
+                self.gated_samples[row] = 0;
+                continue;
+            }
+            passed[row] = false;
+            bits |= status::ROW_GATED;
+            // An implausible value is a broken sample, never a reason to re-seed.
+            self.gated_samples[row] = if plausible[row] {
+                self.gated_samples[row] + 1
+            } else {
+                0
+            };
+            readmit |= self.gated_samples[row] >= gate.readmit_samples;
+        }
+        if readmit {
+            if let Some(initial) = Model::measured_start(self, sensors) {
+                if self.rebuild_at_measured(&initial) {
+                    self.gated_samples = [0; M];
+                    return (plausible, bits | status::SENSOR_READMITTED);
+                }
+            }
+        }
+        (passed, bits)
     }
 
     /// Processes every sample in `[t, t + h)`; returns the status bits and whether any ran.
@@ -329,6 +486,10 @@ where
         writer.f64s(self.input.as_slice());
         writer.f64(self.nis);
         writer.i32(self.rows_used);
+        writer.bool(self.started);
+        for count in self.gated_samples {
+            writer.u64(count);
+        }
     }
 
     pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
@@ -350,6 +511,10 @@ where
         reader.f64s_into(runner.input.as_mut_slice(), "driver input")?;
         runner.nis = reader.f64("nis")?;
         runner.rows_used = reader.i32("rows used")?;
+        runner.started = reader.bool("started")?;
+        for count in &mut runner.gated_samples {
+            *count = reader.u64("gated samples")?;
+        }
         Ok(runner)
     }
 }

@@ -424,6 +424,272 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
     }
 }
 
+/// Measurements of the speed-anchored model A: `y = [yaw_rate, ay, omega_front, omega_rear, vx]`.
+pub const ANCHORED_MEASUREMENT_DIM: usize = MEASUREMENT_DIM + 1;
+
+/// Inputs of the speed-anchored model A: `u = [steering_angle, drive_torque, brake_torque, ax,
+/// ax_valid]`, `ax_valid` 1 when `ax` is a measured longitudinal acceleration, else 0.
+pub const ANCHORED_INPUT_DIM: usize = INPUT_DIM + 2;
+
+/// Row of the measured speed `vx` in `y` of [`SpeedAnchoredModel`].
+pub const VX_ROW: usize = MEASUREMENT_DIM;
+
+/// Index of the measured longitudinal acceleration in `u` of [`SpeedAnchoredModel`].
+pub const AX_INPUT: usize = INPUT_DIM;
+
+/// Index of the flag that says whether [`AX_INPUT`] holds a measurement.
+pub const AX_VALID_INPUT: usize = INPUT_DIM + 1;
+
+/// Model A with a speed anchor (issue 12, point 1): series cars rarely report the drive and
+/// brake torques, and without them model A's `vx` follows the tyre forces of guessed torques
+/// and runs away once the tyres slide. Two measurements fix the speed independently of the
+/// torques:
+///
+/// - a measurement row `vx` (`h = vx`, from `vx_meas`: a GNSS or the ABS unit's reference speed);
+/// - when `ax_valid = 1`, the longitudinal kinematics of a rigid body in the body frame,
+///   `dvx/dt = ax + r vy` (ISO 8855; the same relation as `ay = dvy/dt + r vx`, 000: 5.40), replace
+///   the force balance of the `vx` row in the transition: `vx(k+1) = vx + T (ax + r vy)` (explicit
+///   Euler with the state at the start of the sample).
+///
+/// The wheel speeds keep their own dynamics (000: 5.6-5.7), so the wheels still carry the speed
+/// when neither measurement is there. With `ax_valid = 0` and the `vx` row missing (not finite) the
+/// model is the plain [`SingleTrackEstimationModel`] to the bit: the extra input column and row
+/// only add exact zeros. The linear filters (LKF, Luenberger) are linearised once: at
+/// `ax_valid = 1` they predict `vx` by the kinematics, taking `ax = 0` when none is measured
+/// (see [`Self::estimator_settings`]); at `ax_valid = 0` they are seed 000's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedAnchoredModel<T: TyreModel = HsriTyre> {
+    inner: SingleTrackEstimationModel<T>,
+    /// `R` of the `vx` row, (m/s)².
+    speed_noise_variance: f64,
+}
+
+impl<T: TyreModel> SpeedAnchoredModel<T> {
+    /// `inner` with a `vx` row of variance `speed_noise_variance`.
+    pub fn new(
+        inner: SingleTrackEstimationModel<T>,
+        speed_noise_variance: f64,
+    ) -> Result<Self, SettingsError> {
+        if !(speed_noise_variance.is_finite() && speed_noise_variance > 0.0) {
+            return Err(SettingsError(format!(
+                "the speed measurement variance must be positive, got {speed_noise_variance}"
+            )));
+        }
+        Ok(Self {
+            inner,
+            speed_noise_variance,
+        })
+    }
+
+    /// Model A without the anchor.
+    pub fn inner(&self) -> &SingleTrackEstimationModel<T> {
+        &self.inner
+    }
+
+    /// The vehicle model.
+    pub fn vehicle(&self) -> &SingleTrackModel<T> {
+        self.inner.vehicle()
+    }
+
+    /// The registry's settings (see [`SingleTrackEstimationModel::estimator_settings`]), the
+    /// operating point's input extended by `ax = 0` and `ax_valid = 1` if `kinematics` (the
+    /// linear estimators then predict `vx` by the kinematics too, with `ax = 0` when no `ax` is
+    /// measured), else `ax_valid = 0` (seed 000's linearisation).
+    pub fn estimator_settings(
+        &self,
+        operating_point: OperatingPoint<STATE_DIM, INPUT_DIM>,
+        kinematics: bool,
+        scaled_sigma_points: SigmaPoints,
+        particles: Result<ParticleFilterConfig, SettingsError>,
+    ) -> EstimatorSettings<STATE_DIM, ANCHORED_INPUT_DIM> {
+        let (state, input) = operating_point;
+        let ax = kinematics.then_some(0.0);
+        EstimatorSettings {
+            operating_point: Ok((state, Self::extend_input(&input, ax))),
+            scaled_sigma_points,
+            observer_design: Ok(self.inner.default_observer_design()),
+            particles,
+        }
+    }
+
+    /// The anchored input from the driver input and the measured `ax`, if any.
+    pub fn extend_input(
+        driver: &SVector<f64, INPUT_DIM>,
+        ax: Option<f64>,
+    ) -> SVector<f64, ANCHORED_INPUT_DIM> {
+        let (ax, valid) = match ax {
+            Some(ax) if ax.is_finite() => (ax, 1.0),
+            _ => (0.0, 0.0),
+        };
+        SVector::from([driver[0], driver[1], driver[2], ax, valid])
+    }
+
+    fn driver(input: &SVector<f64, ANCHORED_INPUT_DIM>) -> SVector<f64, INPUT_DIM> {
+        input.fixed_rows::<INPUT_DIM>(0).into_owned()
+    }
+
+    fn ax(input: &SVector<f64, ANCHORED_INPUT_DIM>) -> Option<f64> {
+        (input[AX_VALID_INPUT] == 1.0).then_some(input[AX_INPUT])
+    }
+
+    /// `vx + T (ax + r vy)` (the kinematics above).
+    fn kinematic_speed(&self, state: &SVector<f64, STATE_DIM>, ax: f64) -> f64 {
+        let (vx, vy, r) = (
+            state[state_index::VX],
+            state[state_index::VY],
+            state[state_index::YAW_RATE],
+        );
+        vx + self.inner.sample_time() * (ax + r * vy)
+    }
+
+    /// The `vx` row of `∂f/∂x` under the kinematics.
+    fn kinematic_row(&self, state: &SVector<f64, STATE_DIM>) -> [f64; STATE_DIM] {
+        let t = self.inner.sample_time();
+        let mut row = [0.0; STATE_DIM];
+        row[state_index::VX] = 1.0;
+        row[state_index::VY] = t * state[state_index::YAW_RATE];
+        row[state_index::YAW_RATE] = t * state[state_index::VY];
+        row
+    }
+}
+
+impl<T: TyreModel> StateSpaceModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>
+    for SpeedAnchoredModel<T>
+{
+    fn state_names(&self) -> [&'static str; STATE_DIM] {
+        self.inner.state_names()
+    }
+
+    fn measurement_names(&self) -> [&'static str; ANCHORED_MEASUREMENT_DIM] {
+        let [r, ay, front, rear] = self.inner.measurement_names();
+        [r, ay, front, rear, "longitudinal_velocity"]
+    }
+
+    fn transition(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SVector<f64, STATE_DIM> {
+        let mut next = self.inner.transition(state, &Self::driver(input));
+        if let Some(ax) = Self::ax(input) {
+            next[state_index::VX] = self.kinematic_speed(state, ax);
+        }
+        next
+    }
+
+    fn transition_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
+        self.transition_and_jacobian(state, input).1
+    }
+
+    fn transition_and_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> (SVector<f64, STATE_DIM>, SMatrix<f64, STATE_DIM, STATE_DIM>) {
+        let (mut next, mut jacobian) = self
+            .inner
+            .transition_and_jacobian(state, &Self::driver(input));
+        if let Some(ax) = Self::ax(input) {
+            next[state_index::VX] = self.kinematic_speed(state, ax);
+            for (j, value) in self.kinematic_row(state).into_iter().enumerate() {
+                jacobian[(state_index::VX, j)] = value;
+            }
+        }
+        (next, jacobian)
+    }
+
+    /// `∂f/∂u`; the `ax_valid` switch has no derivative (column 0).
+    fn transition_input_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, STATE_DIM, ANCHORED_INPUT_DIM> {
+        let driver = self
+            .inner
+            .transition_input_jacobian(state, &Self::driver(input));
+        let mut jacobian = SMatrix::<f64, STATE_DIM, ANCHORED_INPUT_DIM>::zeros();
+        jacobian
+            .fixed_columns_mut::<INPUT_DIM>(0)
+            .copy_from(&driver);
+        if Self::ax(input).is_some() {
+            jacobian.row_mut(state_index::VX).fill(0.0);
+            jacobian[(state_index::VX, AX_INPUT)] = self.inner.sample_time();
+        }
+        jacobian
+    }
+
+    fn measurement(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SVector<f64, ANCHORED_MEASUREMENT_DIM> {
+        let y = self.inner.measurement(state, &Self::driver(input));
+        SVector::from([y[0], y[1], y[2], y[3], state[state_index::VX]])
+    }
+
+    fn measurement_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, STATE_DIM> {
+        self.measurement_and_jacobian(state, input).1
+    }
+
+    fn measurement_and_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> (
+        SVector<f64, ANCHORED_MEASUREMENT_DIM>,
+        SMatrix<f64, ANCHORED_MEASUREMENT_DIM, STATE_DIM>,
+    ) {
+        let (y, h) = self
+            .inner
+            .measurement_and_jacobian(state, &Self::driver(input));
+        let mut jacobian = SMatrix::<f64, ANCHORED_MEASUREMENT_DIM, STATE_DIM>::zeros();
+        jacobian.fixed_rows_mut::<MEASUREMENT_DIM>(0).copy_from(&h);
+        jacobian[(VX_ROW, state_index::VX)] = 1.0;
+        (
+            SVector::from([y[0], y[1], y[2], y[3], state[state_index::VX]]),
+            jacobian,
+        )
+    }
+
+    fn measurement_input_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> {
+        let driver = self
+            .inner
+            .measurement_input_jacobian(state, &Self::driver(input));
+        let mut jacobian = SMatrix::<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>::zeros();
+        jacobian
+            .fixed_view_mut::<MEASUREMENT_DIM, INPUT_DIM>(0, 0)
+            .copy_from(&driver);
+        jacobian
+    }
+
+    fn process_noise(&self) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
+        self.inner.process_noise()
+    }
+
+    fn measurement_noise(
+        &self,
+    ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_MEASUREMENT_DIM> {
+        let mut noise = SMatrix::<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_MEASUREMENT_DIM>::zeros();
+        noise
+            .fixed_view_mut::<MEASUREMENT_DIM, MEASUREMENT_DIM>(0, 0)
+            .copy_from(&self.inner.measurement_noise());
+        noise[(VX_ROW, VX_ROW)] = self.speed_noise_variance;
+        noise
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -493,6 +759,42 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_anchor_without_measurements_is_model_a_and_its_jacobians_match() {
+        let inner = SingleTrackEstimationModel::seed_000(0.01).unwrap();
+        let anchored = SpeedAnchoredModel::new(inner.clone(), 0.01).unwrap();
+        let x = SVector::<f64, 5>::from([17.0, -0.4, 0.3, 55.5, 56.0]);
+        let driver = SVector::<f64, 3>::from([0.06, 50.0, 800.0]);
+        let off = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, None);
+        assert_eq!(anchored.transition(&x, &off), inner.transition(&x, &driver));
+        let y = anchored.measurement(&x, &off);
+        assert_eq!(y.fixed_rows::<4>(0), inner.measurement(&x, &driver));
+        assert_eq!(y[VX_ROW], 17.0);
+        let on = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, Some(-2.0));
+        // vx(k+1) = vx + T (ax + r vy) = 17 + 0.01 (-2 + 0.3 * -0.4).
+        assert_eq!(
+            anchored.transition(&x, &on)[0],
+            17.0 + 0.01 * (-2.0 + 0.3 * -0.4)
+        );
+        for u in [off, on] {
+            let numeric = central_difference(|x| anchored.transition(x, &u), &x);
+            let analytic = anchored.transition_jacobian(&x, &u);
+            assert!((analytic - numeric).amax() < 1e-5 * numeric.amax());
+            let numeric = central_difference(|x| anchored.measurement(x, &u), &x);
+            assert!(
+                (anchored.measurement_jacobian(&x, &u) - numeric).amax() < 1e-5 * numeric.amax()
+            );
+        }
+        let numeric = central_difference(|u| anchored.transition(&x, u), &on);
+        let analytic = anchored.transition_input_jacobian(&x, &on);
+        // The ax_valid switch (last column) has no derivative.
+        let difference = (analytic - numeric).columns(0, 4).amax();
+        assert!(
+            difference < 1e-5 * numeric.amax(),
+            "{analytic} vs {numeric}"
+        );
     }
 
     #[test]

@@ -1,0 +1,418 @@
+//! Issue 12 through the C ABI, with the FMU's defaults (speed rows, start from the measurements,
+//! gate): a car that is not the seed car, torques unknown to the estimator, a wrong start speed,
+//! glitches, an outage, a zero row, standstill and restart, and the status bits of each.
+//!
+//! The car: the Ford Escort of fmu-src/vehicle-models/cars/ford_escort.toml (CommonRoad
+//! "vehicle 1": mass, yaw inertia, axle distances, wheel radius and inertia; static wheel loads
+//! from the axle split), as model A with the seed's HSRI tyre. The truth is model A with that car,
+//! driven with a drive torque the estimator is not told, and series-production sensor noise.
+
+use fmi_export::ffi::Fmi2Status;
+use fmi_export::fmi2_api_of;
+use fmi_export::testing::{Fmi2Api, Slave};
+use rand::SeedableRng;
+use rand_chacha::ChaCha20Rng;
+use rand_distr::{Distribution, StandardNormal};
+use vehicle_models::single_track::{Chassis, SingleTrackParams, SingleTrackState};
+use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri};
+use VehicleStateEstimator::model_description::{estimator_kind, vr, GUID};
+use VehicleStateEstimator::status;
+
+const STEP: f64 = 0.01;
+const GRAVITY: f64 = 9.81;
+
+/// The Ford Escort's model-A parameters (see the module documentation).
+fn escort() -> Chassis {
+    let (mass, front, rear) = (1225.9, 0.88392, 1.50876);
+    let axle_load = |distance_to_other_axle: f64| {
+        mass * GRAVITY * distance_to_other_axle / (front + rear) / 2.0
+    };
+    Chassis {
+        mass,
+        cog_to_front_axle: front,
+        cog_to_rear_axle: rear,
+        yaw_inertia: 1538.9,
+        front_wheel_inertia: 3.4,
+        rear_wheel_inertia: 3.4,
+        brake_split_front: 0.76,
+        wheel_radius: 0.344,
+        front_wheel_load: axle_load(rear),
+        rear_wheel_load: axle_load(front),
+        ..Chassis::default()
+    }
+}
+
+/// Sensor noise of a series car: yaw rate 0.2 °/s, ay and ax 0.1 m/s², wheel speeds 0.1 rad/s,
+/// reference speed 0.05 m/s.
+const SENSOR_STD: [f64; 6] = [0.0035, 0.1, 0.1, 0.1, 0.1, 0.05];
+
+/// `[yaw_rate, ay, omega_front, omega_rear, ax, vx]` measured.
+type Sensors = [f64; 6];
+
+const SENSORS: [u32; 6] = [
+    vr::YAW_RATE_MEAS,
+    vr::AY_MEAS,
+    vr::OMEGA_FRONT_MEAS,
+    vr::OMEGA_REAR_MEAS,
+    vr::AX_MEAS,
+    vr::VX_MEAS,
+];
+
+struct Truth {
+    model: SingleTrackHsri,
+    state: SingleTrackState,
+    rng: ChaCha20Rng,
+}
+
+impl Truth {
+    fn new(speed: f64, seed: u64) -> Self {
+        let vehicle = SingleTrackParams {
+            chassis: escort(),
+            ..SingleTrackParams::default()
+        };
+        let model = SingleTrackHsri::new(vehicle, HsriTyre::default());
+        Self {
+            state: model.straight_rolling_state(speed),
+            model,
+            rng: ChaCha20Rng::seed_from_u64(seed),
+        }
+    }
+
+    fn sensors(&mut self, input: &DriverInputVector) -> Sensors {
+        let y = self.model.measurement(&self.state, input);
+        let outputs = self.model.outputs(&self.state, input);
+        let clean = [
+            y[0],
+            y[1],
+            y[2],
+            y[3],
+            outputs.longitudinal_acceleration,
+            self.state[0],
+        ];
+        let mut noisy = [0.0; 6];
+        for ((value, clean), std) in noisy.iter_mut().zip(clean).zip(SENSOR_STD) {
+            let draw: f64 = StandardNormal.sample(&mut self.rng);
+            *value = clean + std * draw;
+        }
+        noisy
+    }
+
+    fn step(&mut self, input: &DriverInputVector) {
+        // Internal steps of 1 ms, as the reference vehicle runs model A.
+        for _ in 0..10 {
+            self.state = self
+                .model
+                .step(&self.state, input, 0.001, Integrator::SemiImplicitEuler);
+        }
+    }
+}
+
+fn api() -> Fmi2Api {
+    fmi2_api_of!(VehicleStateEstimator)
+}
+
+/// An estimator with only the car's parameters set (issue 12, point 6), at 10 ms.
+fn estimator(kind: i32) -> Slave {
+    estimator_with(kind, |_| {})
+}
+
+/// [`estimator`] with more settings before initialisation.
+fn estimator_with(kind: i32, settings: impl FnOnce(&mut Slave)) -> Slave {
+    let mut s = Slave::instantiate(api(), "robust", GUID).expect("instantiate");
+    let car = escort();
+    let parameters = [
+        (vr::MASS, car.mass),
+        (vr::YAW_INERTIA, car.yaw_inertia),
+        (vr::COG_TO_FRONT_AXLE, car.cog_to_front_axle),
+        (vr::COG_TO_REAR_AXLE, car.cog_to_rear_axle),
+        (vr::WHEEL_INERTIA_FRONT, car.front_wheel_inertia),
+        (vr::WHEEL_INERTIA_REAR, car.rear_wheel_inertia),
+        (vr::WHEEL_RADIUS, car.wheel_radius),
+        (vr::WHEEL_LOAD_FRONT, car.front_wheel_load),
+        (vr::WHEEL_LOAD_REAR, car.rear_wheel_load),
+        (vr::BRAKE_DISTRIBUTION_FRONT, car.brake_split_front),
+        (vr::SAMPLE_TIME, STEP),
+    ];
+    for (reference, value) in parameters {
+        assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
+    }
+    assert_eq!(s.set_integer(vr::ESTIMATOR, kind), Fmi2Status::Ok);
+    assert_eq!(s.set_integer(vr::PARTICLE_COUNT, 200), Fmi2Status::Ok);
+    settings(&mut s);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    s
+}
+
+/// A sine steer at 0.5 Hz while the engine pulls with 150 N·m; the amplitude keeps the lateral
+/// acceleration at about 4 m/s² or below (0.04 rad up to 15 m/s, less above), so that the car
+/// does not spin at high speed.
+fn driver(t: f64, start_speed: f64) -> DriverInputVector {
+    let amplitude = (0.04 * (15.0 / start_speed).powi(2)).min(0.04);
+    DriverInputVector::new(amplitude * (std::f64::consts::PI * t).sin(), 150.0, 0.0)
+}
+
+/// One sample of a run: time, truth `[vx, vy]`, estimate `[vx, vy]`, status.
+#[derive(Clone, Copy, Debug)]
+struct Record {
+    t: f64,
+    truth: [f64; 2],
+    estimate: [f64; 2],
+    status: i32,
+}
+
+/// Runs `duration` seconds; `corrupt` may change the sensors of a sample (time, sensors). The
+/// estimator is never told the drive torque.
+fn run(
+    s: &mut Slave,
+    start_speed: f64,
+    duration: f64,
+    mut corrupt: impl FnMut(f64, &mut Sensors),
+) -> Vec<Record> {
+    let mut truth = Truth::new(start_speed, 7);
+    let steps = (duration / STEP).round() as usize;
+    let mut records = Vec::with_capacity(steps);
+    for k in 0..steps {
+        let t = k as f64 * STEP;
+        let input = driver(t, start_speed);
+        let mut sensors = truth.sensors(&input);
+        corrupt(t, &mut sensors);
+        assert_eq!(s.set_real(vr::STEERING_ANGLE, input[0]), Fmi2Status::Ok);
+        assert_eq!(s.set_reals(&SENSORS, &sensors), Fmi2Status::Ok);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok, "{:?}", s.log.last());
+        truth.step(&input);
+        let estimate = s.reals(&[vr::VX_EST, vr::VY_EST]);
+        assert!(estimate.iter().all(|v| v.is_finite()), "t = {t}");
+        records.push(Record {
+            t: t + STEP,
+            truth: [truth.state[0], truth.state[1]],
+            estimate: [estimate[0], estimate[1]],
+            status: s.get_integer(vr::STATUS).1,
+        });
+    }
+    records
+}
+
+/// The largest relative speed error after `from` seconds.
+fn worst_speed_error(records: &[Record], from: f64) -> f64 {
+    records
+        .iter()
+        .filter(|r| r.t >= from)
+        .map(|r| ((r.estimate[0] - r.truth[0]) / r.truth[0]).abs())
+        .fold(0.0, f64::max)
+}
+
+const KALMAN_KINDS: [i32; 3] = [
+    estimator_kind::EKF,
+    estimator_kind::UKF,
+    estimator_kind::UKF_SCALED,
+];
+
+#[test]
+fn torques_unknown_the_speed_stays_within_two_percent_with_and_without_wheel_speeds() {
+    for kind in KALMAN_KINDS {
+        for wheels in [true, false] {
+            let mut s = estimator(kind);
+            let records = run(&mut s, 20.0, 8.0, |_, sensors| {
+                if !wheels {
+                    sensors[2] = f64::NAN;
+                    sensors[3] = f64::NAN;
+                }
+            });
+            let error = worst_speed_error(&records, 0.0);
+            assert!(error < 0.02, "kind {kind} wheels {wheels}: {error}");
+        }
+    }
+}
+
+#[test]
+fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
+    let kinds = [
+        estimator_kind::LKF,
+        estimator_kind::EKF,
+        estimator_kind::UKF,
+        estimator_kind::UKF_SCALED,
+        estimator_kind::PARTICLE_FILTER,
+        estimator_kind::LUENBERGER,
+    ];
+    let mut failures = Vec::new();
+    for kind in kinds {
+        for speed in [3.0, 10.0, 30.0, 55.0] {
+            let mut s = estimator(kind);
+            let records = run(&mut s, speed, 2.0, |_, _| {});
+            assert_ne!(records[0].status & status::INITIALISING, 0);
+            let error = worst_speed_error(&records, 1.0);
+            // The particle filter's 200 particles (a debug-build test) scatter vx more. The
+            // Luenberger observer has seed 002's fixed gains without the speed anchor (see
+            // model_a.rs): at walking pace, far from any tuning, it keeps within 10 % only.
+            let bound = match kind {
+                estimator_kind::PARTICLE_FILTER => 0.03,
+                estimator_kind::LUENBERGER if speed < 5.0 => 0.1,
+                _ => 0.02,
+            };
+            if error >= bound {
+                failures.push(format!("kind {kind} start {speed} m/s: {error:.3}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The largest |vy| difference between a corrupted run and the same run without corruption.
+fn largest_change(kind: i32, corrupt: impl FnMut(f64, &mut Sensors)) -> (f64, i32) {
+    let clean = run(&mut estimator(kind), 20.0, 4.0, |_, _| {});
+    let corrupted = run(&mut estimator(kind), 20.0, 4.0, corrupt);
+    let change = clean
+        .iter()
+        .zip(&corrupted)
+        .map(|(a, b)| (a.estimate[1] - b.estimate[1]).abs())
+        .fold(0.0, f64::max);
+    let bits = corrupted.iter().fold(0, |bits, r| bits | r.status);
+    (change, bits)
+}
+
+#[test]
+fn one_glitch_on_any_sensor_or_a_zero_row_is_gated() {
+    // vy's own noise: its standard deviation at the end of a clean run is about 0.05 m/s.
+    let glitches: [(usize, f64); 4] = [(0, 3.0), (1, 100.0), (2, 1e4), (3, 1e4)];
+    for kind in KALMAN_KINDS {
+        for (row, value) in glitches {
+            let (change, bits) = largest_change(kind, |t, sensors| {
+                if (t - 2.0).abs() < 1e-9 {
+                    sensors[row] = value;
+                }
+            });
+            assert!(
+                change < 0.02,
+                "kind {kind} row {row}: vy changed by {change}"
+            );
+            assert_ne!(bits & status::ROW_GATED, 0);
+        }
+        let (change, bits) = largest_change(kind, |t, sensors| {
+            if (t - 2.0).abs() < 1e-9 {
+                *sensors = [0.0; 6];
+            }
+        });
+        assert!(
+            change < 0.02,
+            "kind {kind} zero row: vy changed by {change}"
+        );
+        assert_ne!(bits & status::ROW_GATED, 0);
+    }
+}
+
+#[test]
+fn after_half_a_second_without_a_sensor_the_estimate_is_back_within_a_second() {
+    for kind in KALMAN_KINDS {
+        for row in 0..6 {
+            let clean = run(&mut estimator(kind), 20.0, 4.0, |_, _| {});
+            let outage = run(&mut estimator(kind), 20.0, 4.0, |t, sensors| {
+                if (1.5..2.0).contains(&t) {
+                    sensors[row] = f64::NAN;
+                }
+            });
+            for (a, b) in clean.iter().zip(&outage).filter(|(a, _)| a.t >= 3.0) {
+                let vy_change = (a.estimate[1] - b.estimate[1]).abs();
+                let vx_change = (a.estimate[0] - b.estimate[0]).abs();
+                assert!(
+                    vy_change < 0.02 && vx_change < 0.01 * a.truth[0],
+                    "kind {kind} row {row} at {}: {vx_change} {vy_change}",
+                    a.t
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_filter_started_far_off_is_readmitted_instead_of_locking_itself_out() {
+    // Without the start from the measurements and without vx_meas, the EKF starts at the
+    // default 18 m/s against a true 35 m/s: the gate rejects the wheel speeds, and after
+    // readmit_time the filter is re-seeded from them.
+    let mut s = estimator_with(estimator_kind::EKF, |s| {
+        assert_eq!(
+            s.set_boolean(vr::START_FROM_MEASUREMENTS, false),
+            Fmi2Status::Ok
+        );
+    });
+    let mut truth = Truth::new(35.0, 3);
+    let mut bits = 0;
+    let mut last = 0.0;
+    for k in 0..300 {
+        let t = k as f64 * STEP;
+        let input = DriverInputVector::new(0.0, 0.0, 0.0);
+        let mut sensors = truth.sensors(&input);
+        sensors[5] = f64::NAN;
+        s.set_reals(&SENSORS, &sensors);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok);
+        truth.step(&input);
+        bits |= s.get_integer(vr::STATUS).1;
+        last = s.get_real(vr::VX_EST).1;
+    }
+    assert_ne!(bits & status::ROW_GATED, 0);
+    assert_ne!(bits & status::SENSOR_READMITTED, 0);
+    assert!(
+        (last - truth.state[0]).abs() < 0.05 * truth.state[0],
+        "{last}"
+    );
+}
+
+#[test]
+fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
+    // Sensors of a car that decelerates from 10 m/s to a stop in 5 s, stands 10 s, pulls away
+    // to 5 m/s in 5 s and then reverses at -1 m/s (speed sensors only: the estimator has no
+    // torques, and model A is not simulated through standstill).
+    let radius = escort().wheel_radius;
+    let speed = |t: f64| match t {
+        t if t < 5.0 => 10.0 - 2.0 * t,
+        t if t < 15.0 => 0.0,
+        t if t < 20.0 => t - 15.0,
+        t if t < 22.0 => 5.0 - 3.0 * (t - 20.0),
+        _ => -1.0,
+    };
+    let mut s = estimator(estimator_kind::EKF);
+    let mut picked_up = false;
+    for k in 0..2400 {
+        let t = k as f64 * STEP;
+        let v = speed(t);
+        let ax = (speed(t + STEP) - v) / STEP;
+        let sensors = [0.0, 0.0, v / radius, v / radius, ax, v];
+        s.set_reals(&SENSORS, &sensors);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok);
+        let outputs = s.reals(&[vr::VX_EST, vr::SIDESLIP_EST, vr::SIDESLIP_STD]);
+        assert!(
+            outputs.iter().all(|v| v.is_finite()),
+            "t = {t}: {outputs:?}"
+        );
+        assert!(outputs[1].abs() < 0.2, "t = {t}: sideslip {}", outputs[1]);
+        let status = s.get_integer(vr::STATUS).1;
+        if (8.0..14.0).contains(&t) {
+            assert_ne!(status & status::BELOW_MIN_SPEED, 0, "t = {t}");
+        }
+        if (17.5..20.0).contains(&t) {
+            // Moving again: never frozen, the estimate follows.
+            assert_eq!(status & status::BELOW_MIN_SPEED, 0, "t = {t}");
+            assert!(
+                (outputs[0] - v).abs() < 0.1 * v,
+                "t = {t}: {} vs {v}",
+                outputs[0]
+            );
+            picked_up = true;
+        }
+    }
+    assert!(picked_up);
+}
+
+#[test]
+fn the_fmu_waits_for_a_measured_speed_before_it_starts() {
+    let mut s = estimator(estimator_kind::EKF);
+    // The all-zero row a master sends before its first values.
+    s.set_reals(&SENSORS, &[0.0; 6]);
+    assert_eq!(s.do_step(0.0, STEP), Fmi2Status::Ok);
+    assert_ne!(s.get_integer(vr::STATUS).1 & status::INITIALISING, 0);
+    s.set_reals(&SENSORS, &[0.0, 0.0, 80.0, 80.0, 0.0, 27.5]);
+    assert_eq!(s.do_step(STEP, STEP), Fmi2Status::Ok);
+    assert_ne!(s.get_integer(vr::STATUS).1 & status::INITIALISING, 0);
+    // Started from vx_meas = 27.5 m/s and predicted one sample on.
+    let vx = s.get_real(vr::VX_EST).1;
+    assert!((vx - 27.5).abs() < 0.1, "{vx}");
+}
