@@ -2,7 +2,9 @@
 # Installs, where missing, what building and testing need on a fresh machine. Idempotent and quiet
 # when there is nothing to do; both README commands call it first.
 #  - libclang: the `fmi` crate (the harness's FMI importer) runs bindgen at build time.
-#  - .venv: the pinned Python packages of tests/requirements.txt (fmpy, filterpy, pytest, ...).
+#  - .venv: the pinned Python packages of tests/requirements.txt (fmpy, filterpy, pytest, ...),
+#    and of packaging/requirements-zig.txt (zig and cargo-zigbuild, for the Linux libraries that
+#    load on glibc 2.17 and newer).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
@@ -28,4 +30,11 @@ if [ ! -x "$venv/bin/python" ] || ! cmp -s "$root/tests/requirements.txt" "$stam
     python3 -m venv "$venv"
     "$venv/bin/pip" install -q --disable-pip-version-check -r "$root/tests/requirements.txt"
     cp "$root/tests/requirements.txt" "$stamp"
+fi
+
+zig_stamp="$venv/.requirements-zig"
+if ! cmp -s "$root/packaging/requirements-zig.txt" "$zig_stamp"; then
+    echo "setup: installing zig and cargo-zigbuild into $venv (packaging/requirements-zig.txt)" >&2
+    "$venv/bin/pip" install -q --disable-pip-version-check -r "$root/packaging/requirements-zig.txt"
+    cp "$root/packaging/requirements-zig.txt" "$zig_stamp"
 fi

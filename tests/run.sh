@@ -5,7 +5,9 @@
 #
 # Built once: after clippy (check mode, which cargo cannot share with a build), everything is
 # compiled in one release build of every workspace target that `cargo test --workspace --release`
-# needs. Packaging takes its FMU libraries from that build (--with-workspace-targets), the Rust
+# needs. Packaging builds the shipped Linux libraries for glibc 2.17 with cargo zigbuild (another
+# target, so a second release build of the two FMU packages, about two minutes; issue 15); with
+# --host-glibc it would take them from that build (--with-workspace-targets). The Rust
 # tests run in it, and the Python tests use its binaries (tests/conftest.py asks cargo for the
 # same selection, which then compiles nothing). Cargo unifies dependency features per invocation,
 # so a different selection (`-p packaging`, `-p harness`, a dev-profile example) would compile the
@@ -23,7 +25,7 @@ phase() {
     local started=$SECONDS
     echo "== $*" >&2
     "$@"
-    echo "== $1 ... done in $((SECONDS - started)) s" >&2
+    echo "== $((SECONDS - started)) s: $*" >&2
 }
 
 phase cargo fmt --all --check

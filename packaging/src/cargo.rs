@@ -11,6 +11,8 @@ use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context, Result};
 
+use crate::binaries::{zigbuild_command, LinuxBuild, GLIBC_2_17_TARGET};
+
 /// The cargo that runs us (`cargo run` sets CARGO), else the one on PATH.
 fn cargo() -> Command {
     Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
@@ -122,6 +124,11 @@ pub struct Workspace {
     pub manifest: PathBuf,
     /// What the release build of the FMU libraries compiles (see [`BuildScope`]).
     pub build_scope: BuildScope,
+    /// How the Linux x86-64 libraries are built (see [`LinuxBuild`]).
+    pub linux_build: LinuxBuild,
+    /// A folder of libraries for other platforms built elsewhere
+    /// ([`crate::binaries::prebuilt_entries`]).
+    pub prebuilt_binaries: Option<PathBuf>,
 }
 
 impl Workspace {
@@ -156,6 +163,8 @@ impl Workspace {
             target_directory: field("target_directory")?,
             manifest: manifest.to_path_buf(),
             build_scope: BuildScope::default(),
+            linux_build: LinuxBuild::default(),
+            prebuilt_binaries: None,
         })
     }
 
@@ -172,21 +181,42 @@ pub fn build_release_libraries(
     packages: &[&str],
     library_names: &[&str],
 ) -> Result<Vec<PathBuf>> {
-    let selection = workspace.build_scope.arguments(packages);
-    let shown = format!("cargo build --release {}", selection.join(" "));
+    let (mut command, selection, shown) = match workspace.linux_build {
+        LinuxBuild::Host => {
+            let selection = workspace.build_scope.arguments(packages);
+            let shown = format!("cargo build --release {}", selection.join(" "));
+            let mut command = cargo();
+            command.arg("build");
+            (command, selection, shown)
+        }
+        // The portable build is of another target, so the workspace build cannot provide it:
+        // only the FMU packages are built.
+        LinuxBuild::Glibc217 => {
+            let selection = BuildScope::FmuPackages.arguments(packages);
+            let shown = format!(
+                "cargo zigbuild --release --target {GLIBC_2_17_TARGET} {}",
+                selection.join(" ")
+            );
+            let (tool, path) = zigbuild_command(&workspace.root);
+            let mut command = Command::new(tool);
+            command.args(["zigbuild", "--target", GLIBC_2_17_TARGET]);
+            if let Some(path) = path {
+                command.env("PATH", path);
+            }
+            (command, selection, shown)
+        }
+    };
     eprintln!("packaging: {shown}");
-    let output = cargo()
-        .args([
-            "build",
-            "--release",
-            "--message-format=json-render-diagnostics",
-        ])
+    let output = command
+        .args(["--release", "--message-format=json-render-diagnostics"])
         .arg("--manifest-path")
         .arg(&workspace.manifest)
         .args(&selection)
         .stderr(Stdio::inherit())
         .output()
-        .context("running `cargo build`")?;
+        .with_context(|| {
+            format!("running `{shown}` (for cargo zigbuild: run packaging/setup.sh, or pass --host-glibc)")
+        })?;
     if !output.status.success() {
         bail!("`{shown}` failed (see the compiler output above)");
     }

@@ -9,6 +9,7 @@
 //!    replacement atomic; a failure while writing replaces nothing); unchanged archives stay.
 
 pub mod archive;
+pub mod binaries;
 pub mod cargo;
 pub mod description;
 pub mod documentation;
@@ -207,7 +208,13 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
         let library = std::fs::read(library_path)
             .with_context(|| format!("reading {}", library_path.display()))?;
         let third_party = cargo::linked_crates(workspace, checked.spec.package)?;
-        let entries = fmu_entries(checked, library, prose, &licenses, &third_party);
+        let mut entries = fmu_entries(checked, library, prose, &licenses, &third_party);
+        if let Some(folder) = &workspace.prebuilt_binaries {
+            let prebuilt = binaries::prebuilt_entries(folder, checked.spec.model_identifier)?;
+            // A prebuilt linux64 library replaces the one built here.
+            entries.retain(|entry| !prebuilt.iter().any(|p| p.path == entry.path));
+            entries.extend(prebuilt);
+        }
         let bytes = archive::zip_bytes(&entries)
             .with_context(|| format!("assembling {}.fmu", checked.spec.model_identifier))?;
         archives.push((

@@ -1,5 +1,6 @@
 //! `cargo run --release -p packaging [-- --check]`: writes `<target dir>/fmu/ReferenceVehicle.fmu`,
-//! `VehicleStateEstimator.fmu` and `VehicleWithEstimator.ssp`.
+//! `VehicleStateEstimator.fmu` and `VehicleWithEstimator.ssp`; the Linux libraries are built for
+//! glibc 2.17 with cargo zigbuild unless `--host-glibc` (see `packaging::binaries`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -7,6 +8,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 use packaging::archive::WriteOutcome;
+use packaging::binaries::LinuxBuild;
 use packaging::cargo::{BuildScope, Workspace};
 
 #[derive(Parser, Debug)]
@@ -23,6 +25,15 @@ struct Arguments {
     /// default builds only the two FMU packages).
     #[arg(long)]
     with_workspace_targets: bool,
+    /// Build the Linux libraries with a plain `cargo build` for this machine's glibc instead of
+    /// `cargo zigbuild` for glibc 2.17 (the default, which needs packaging/setup.sh's zig).
+    #[arg(long)]
+    host_glibc: bool,
+    /// Also place libraries for other platforms, built elsewhere, found as
+    /// `<DIR>/<platform>/<modelIdentifier>.<dll|dylib|so>` (platform: win64, win32, darwin64,
+    /// linux32, aarch64-linux, or linux64 to replace the one built here).
+    #[arg(long, value_name = "DIR")]
+    binaries_from: Option<PathBuf>,
 }
 
 fn run(arguments: Arguments) -> anyhow::Result<()> {
@@ -35,6 +46,10 @@ fn run(arguments: Arguments) -> anyhow::Result<()> {
     if arguments.with_workspace_targets {
         workspace.build_scope = BuildScope::Workspace;
     }
+    if arguments.host_glibc {
+        workspace.linux_build = LinuxBuild::Host;
+    }
+    workspace.prebuilt_binaries = arguments.binaries_from;
     if arguments.check {
         let checked = packaging::check_descriptions(&workspace.root)?;
         for c in &checked {
