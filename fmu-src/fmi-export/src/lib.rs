@@ -56,6 +56,8 @@
 
 pub mod api;
 pub mod ffi;
+#[cfg(feature = "testing")]
+pub mod fuzzing;
 mod instance;
 mod state;
 #[cfg(feature = "testing")]
