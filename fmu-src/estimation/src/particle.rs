@@ -691,7 +691,9 @@ where
         }
         let nis = masked_covariance(&innovation_covariance, &used)
             .cholesky()
-            .map(|cholesky| innovation.dot(&cholesky.solve(&innovation)))
+            .map(|cholesky| {
+                crate::kalman::masked_dot(&innovation, &cholesky.solve(&innovation), &used)
+            })
             .filter(|value| value.is_finite())
             .unwrap_or(0.0);
 

@@ -19,9 +19,23 @@
 //!
 //! **Robustness.** A non-finite sensor input skips that measurement row (status bit 1); a
 //! non-finite driver input keeps its last finite value (bit 64); when the speed estimate is
-//! below `min_speed` the filter is re-seeded from the wheel speeds if they show a higher speed
-//! (bits 32 + 8), else it holds (bit 32); filter repairs are reported in bits 2, 4, 8, 16; no
-//! output is ever NaN.
+//! below `min_speed` the filter is re-seeded from the measured speed if it is higher
+//! (bits 32 + 8), else it holds (bit 32, low-speed mode); filter repairs are reported in bits 2,
+//! 4, 8, 16; no output is ever NaN.
+//!
+//! **Issue 12** (each a Boolean parameter, on by default; the seed scenarios and the tests of
+//! the seeds' behaviour switch them off):
+//! - `use_speed_measurements` (model A): `vx_meas` is a fifth row and a finite `ax_meas` drives
+//!   `vx` by the kinematics `dvx/dt = ax + r vy` (`SpeedAnchoredModel` of the estimation crate),
+//!   so the speed needs no torques.
+//! - `start_from_measurements`: the filter holds (bit 512) until a sample shows a speed of at
+//!   least `min_speed` and starts from it ([`runner::EstimationModel::measured_start`]); the LKF
+//!   is linearised about straight driving at that speed.
+//! - `gate_measurements`: the **runner** gates each row before the update, the same for every
+//!   estimator: physical plausibility and the chi-square test `nu² <= gate_threshold · S`
+//!   (bit 128); a plausible row gated for `readmit_time` re-seeds the filter from the
+//!   measurements (bit 256), so it cannot lock itself out. Bit 1024 is reserved for the FMI
+//!   layer's clamping of out-of-range inputs.
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
 //! `u = [steering_angle, vx]` and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,

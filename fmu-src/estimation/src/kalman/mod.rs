@@ -180,11 +180,33 @@ pub(crate) fn masked_gain<const N: usize, const M: usize>(
         whitened_innovation,
         report: UpdateReport {
             innovation,
-            nis: whitened_innovation.norm_squared(),
+            nis: masked_dot(&whitened_innovation, &whitened_innovation, &used),
             rows_used,
             used,
         },
     }))
+}
+
+/// `aᵀ b` over a masked update's rows (its skipped rows are 0 in `a` or `b`): summed over the
+/// rows up to the last used one, but at least the first four, in the order nalgebra's `dot`
+/// uses for a vector of that length. A model with extra trailing rows that are not used this
+/// time (model A's optional `vx` row, issue 12) then gives the NIS of the model without them bit
+/// for bit, the seeds' four rows included (nalgebra sums four products as `(a + c) + (b + d)`,
+/// more in order).
+pub(crate) fn masked_dot<const M: usize>(
+    a: &SVector<f64, M>,
+    b: &SVector<f64, M>,
+    used: &MeasurementMask<M>,
+) -> f64 {
+    let last_used = used.iter().rposition(|&u| u).unwrap_or(0);
+    let length = (last_used + 1).max(M.min(4));
+    match length {
+        4 => a.fixed_rows::<4>(0).dot(&b.fixed_rows::<4>(0)),
+        3 => a.fixed_rows::<3>(0).dot(&b.fixed_rows::<3>(0)),
+        2 => a.fixed_rows::<2>(0).dot(&b.fixed_rows::<2>(0)),
+        _ if length == M => a.dot(b),
+        _ => a.rows(0, length).dot(&b.rows(0, length)),
+    }
 }
 
 /// Keeps a posterior covariance symmetric positive definite. A Joseph-form or `P - K S Kᵀ`

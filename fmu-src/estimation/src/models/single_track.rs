@@ -797,6 +797,52 @@ mod tests {
         );
     }
 
+    /// The seeds' runs stay bit-identical: every estimator on the anchored model, with the
+    /// `vx` row masked out and no `ax`, gives the plain model A's estimate, covariance and NIS.
+    #[test]
+    fn every_estimator_on_the_unused_anchor_is_bit_identical_to_model_a() {
+        use crate::kalman::InitialEstimate;
+        use crate::registry::{self, EstimatorChoice};
+        let inner = SingleTrackEstimationModel::seed_000(0.01).unwrap();
+        let anchored = SpeedAnchoredModel::new(inner.clone(), 0.01).unwrap();
+        let (state, input) = seed_operating_point();
+        let plain_settings = inner.seed_settings();
+        let anchored_settings = anchored.estimator_settings(
+            (state, input),
+            false,
+            SigmaPoints::scaled(0.5, 2.0, 0.0),
+            Ok(ParticleFilterConfig::default()),
+        );
+        let initial = InitialEstimate::diagonal(
+            SVector::from([17.5, 0.1, 0.0, 59.0, 59.5]),
+            SVector::from([0.5, 0.1, 0.01, 1.0, 1.0]),
+        );
+        for choice in EstimatorChoice::ALL.iter().copied() {
+            let mut plain =
+                registry::build(inner.clone(), choice, &plain_settings, &initial).unwrap();
+            let mut extended =
+                registry::build(anchored.clone(), choice, &anchored_settings, &initial).unwrap();
+            for k in 0..50 {
+                let steering = 0.002 * k as f64;
+                let driver = SVector::<f64, 3>::from([steering, 20.0, 0.0]);
+                let y = SVector::<f64, 4>::from([0.02 * k as f64, 0.3 * k as f64, 60.1, 60.0]);
+                let [r, ay, front, rear] = y.data.0[0];
+                let y5 = SVector::<f64, 5>::from([r, ay, front, rear, f64::NAN]);
+                let u5 = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, None);
+                let a = plain.update(&y, &driver, &[true; 4]).map(|r| r.nis);
+                let b = extended.update(&y5, &u5, &[true; 5]).map(|r| r.nis);
+                assert_eq!(a, b, "{choice:?} k = {k}");
+                assert_eq!(plain.predict(&driver), extended.predict(&u5));
+                assert_eq!(plain.state(), extended.state(), "{choice:?} k = {k}");
+                assert_eq!(
+                    plain.covariance(),
+                    extended.covariance(),
+                    "{choice:?} k = {k}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn bad_settings_are_named() {
         let err = SingleTrackEstimationModel::new(
