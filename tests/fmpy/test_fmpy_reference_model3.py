@@ -181,8 +181,17 @@ def test_gravity_enters_the_accelerometers_through_bank_grade_and_roll(vehicle, 
     assert np.array_equal(off["ay_meas"], off["ay"]) and np.array_equal(off["ax_meas"], off["ax"])
     on = sensed(vehicle, vehicle_dir, {"gravity_in_accelerometers": True}, road)
     end = -1
-    assert on["ay_meas"][end] == pytest.approx(on["ay"][end] * math.cos(0.05) + GRAVITY * math.sin(0.05))
-    assert on["ax_meas"][end] == pytest.approx(on["ax"][end] * math.cos(-0.1) + GRAVITY * math.sin(-0.1))
+    # model 1 does not feel the slope in its motion, its accelerometers do
+    assert on["ay_meas"][end] == pytest.approx(on["ay"][end] + GRAVITY * math.sin(0.05))
+    assert on["ax_meas"][end] == pytest.approx(on["ax"][end] + GRAVITY * math.sin(-0.1))
+    # model 3 feels the grade: braked to a stop and held on a 10 % uphill grade it stands still,
+    # and the longitudinal accelerometer reads the slope, g sin(grade)
+    grade = math.atan(0.1)
+    held = sensed(vehicle, vehicle_dir, {"gravity_in_accelerometers": True},
+                  lambda t: {"road_grade_angle": grade, "brake_torque": 3000.0},
+                  duration=4.0, item="full_vehicle", vx0=2.0)
+    assert abs(held["vx"][end]) < 1e-3 and abs(held["ax"][end]) < 1e-2
+    assert held["ax_meas"][end] == pytest.approx(held["ax"][end] + GRAVITY * math.sin(grade))
     # model 3 in a left turn: the roll adds g sin(roll) to the lateral reading
     turn = sensed(vehicle, vehicle_dir, {"gravity_in_accelerometers": True}, step_steer(0.03),
                   duration=3.0, item="full_vehicle", vx0=20.0)

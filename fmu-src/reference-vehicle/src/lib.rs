@@ -242,7 +242,7 @@ impl Simulation {
         // The input holds only finite values and brake_torque >= 0 (its min), so an error here
         // is a non-finite state; the step is then not applied.
         self.vehicle
-            .step(&self.input, self.road[0], dt)
+            .step(&self.input, &self.road, dt)
             .map_err(|error| {
                 format!(
                     "the vehicle step at t = {} failed: {error}; the model left its valid range",
@@ -371,10 +371,11 @@ impl Simulation {
     }
 }
 
-/// Roll plus bank and the grade, for the accelerometers' gravity components.
+/// Roll, bank and grade, for the accelerometers' gravity components.
 fn attitude(wheels: &WheelTruth, road: &[f64; ROAD_INPUTS]) -> Attitude {
     Attitude {
-        roll_and_bank: wheels.roll_angle + road[1],
+        roll: wheels.roll_angle,
+        bank: road[1],
         grade: road[2],
     }
 }

@@ -28,8 +28,10 @@ const WHEEL_CHANNELS: [usize; 2] = [channel::OMEGA_FRONT, channel::OMEGA_REAR];
 /// The road and body attitude the accelerometers feel gravity through, rad.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Attitude {
-    /// Body roll plus road bank (both positive right side down).
-    pub roll_and_bank: f64,
+    /// Body roll relative to the road, positive right side down.
+    pub roll: f64,
+    /// Road bank, positive when the right edge is lower.
+    pub bank: f64,
     /// Road grade, positive uphill.
     pub grade: f64,
 }
@@ -130,12 +132,14 @@ impl SensorEffects {
         if self.gravity {
             // A body-fixed accelerometer measures the specific force a − g (Groves, Principles of
             // GNSS, Inertial, and Multisensor Integrated Navigation Systems, 2nd ed., 2013,
-            // ch. 4); its y axis is tilted by roll and bank, its x axis by the grade, so gravity
-            // (0, 0, −g) adds g sin(tilt) and the planar acceleration is seen scaled by cos(tilt).
-            let (sin_roll, cos_roll) = attitude.roll_and_bank.sin_cos();
-            let (sin_grade, cos_grade) = attitude.grade.sin_cos();
-            values[channel::AY] = values[channel::AY] * cos_roll + GRAVITY * sin_roll;
-            values[channel::AX] = values[channel::AX] * cos_grade + GRAVITY * sin_grade;
+            // ch. 4). In the road plane (where ax, ay are the accelerations) gravity
+            // contributes g sin(grade) along x, g sin(bank) along y and g cos(bank) normal to the
+            // road; the body's roll turns the sensor's y axis towards that normal.
+            let (sin_roll, cos_roll) = attitude.roll.sin_cos();
+            let (sin_bank, cos_bank) = attitude.bank.sin_cos();
+            let lateral = values[channel::AY] + GRAVITY * sin_bank;
+            values[channel::AY] = lateral * cos_roll + GRAVITY * cos_bank * sin_roll;
+            values[channel::AX] += GRAVITY * attitude.grade.sin();
         }
         for (k, i) in BIASED.into_iter().enumerate() {
             if self.bias[k] != 0.0 || self.drift[k] != 0.0 {

@@ -109,10 +109,11 @@ impl Vehicle {
     }
 
     /// One step of `dt` with the input held; on error (a non-finite state) the message.
+    /// `road` is `[road_friction, road_bank_angle, road_grade_angle]` (model 3 only).
     pub fn step(
         &mut self,
         input: &DriverInputVector,
-        road_friction: f64,
+        road: &[f64; 3],
         dt: f64,
     ) -> Result<(), String> {
         match self {
@@ -123,7 +124,9 @@ impl Vehicle {
                         steering_angle: input[0],
                         drive_torque: input[1],
                         brake_torque: input[2],
-                        road_friction,
+                        road_friction: road[0],
+                        road_bank_angle: road[1],
+                        road_grade_angle: road[2],
                     },
                     dt,
                 );

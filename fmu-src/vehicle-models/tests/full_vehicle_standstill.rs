@@ -306,6 +306,7 @@ fn random_abuse_never_produces_nan_or_a_negative_load() {
                             0.0
                         },
                         road_friction: 0.05 + 1.1 * random.next(),
+                        ..FullVehicleInput::default()
                     };
                 }
                 input
@@ -322,4 +323,49 @@ fn random_abuse_never_produces_nan_or_a_negative_load() {
             },
         );
     }
+}
+
+/// On a grade or a bank gravity pulls the car along the road plane: rolling freely up a 5 %
+/// grade it slows at g sin γ m / (m + ΣI_w/r²) (the wheels' spin is slowed too), the brake holds
+/// it on a 10 % grade, and on a bank it drifts to the lower side.
+#[test]
+fn gravity_pulls_along_a_graded_or_banked_road() {
+    let grade = 0.05_f64.atan();
+    let p = FullVehicleParams::default();
+    let wheel_inertia = 2.0 * (p.wheels.inertia_front + p.wheels.inertia_rear);
+    let effective_mass = p.body.mass + wheel_inertia / p.wheels.radius.powi(2);
+    let expected = 9.81 * grade.sin() * p.body.mass / effective_mass;
+    let mut vehicle = FullVehicle::rolling(p, 15.0);
+    let uphill = FullVehicleInput {
+        road_grade_angle: grade,
+        ..FullVehicleInput::default()
+    };
+    drive(&mut vehicle, 2.0, |_, _| uphill, |_, _| {});
+    let slowing = (15.0 - vehicle.truth().longitudinal_velocity) / 2.0;
+    assert!(
+        (slowing / expected - 1.0).abs() < 0.02,
+        "slows at {slowing} m/s², expected {expected}"
+    );
+    assert!((vehicle.truth().longitudinal_acceleration + slowing).abs() < 0.05);
+
+    let mut parked = FullVehicle::new(FullVehicleParams::default());
+    let held = FullVehicleInput {
+        road_grade_angle: 0.1_f64.atan(),
+        brake_torque: 3000.0,
+        ..FullVehicleInput::default()
+    };
+    drive(&mut parked, 5.0, |_, _| held, |_, _| {});
+    assert!(parked.truth().longitudinal_velocity.abs() < 1e-3);
+
+    let mut banked = FullVehicle::rolling(FullVehicleParams::default(), 15.0);
+    let bank = FullVehicleInput {
+        road_bank_angle: 0.05,
+        ..FullVehicleInput::default()
+    };
+    drive(&mut banked, 2.0, |_, _| bank, |_, _| {});
+    assert!(
+        banked.truth().lateral_velocity < -0.01,
+        "{:?}",
+        banked.truth()
+    );
 }

@@ -9,12 +9,15 @@
 //! longitudinal and four lateral tyre deflections `u_i, v_i` (the relaxation states).
 //!
 //! **Input** ([`FullVehicleInput`]): road-wheel angle, total drive torque at the wheels (signed;
-//! negative reverses), total brake torque (magnitude ≥ 0), road friction `λ_μ` (1 = dry).
+//! negative reverses), total brake torque (magnitude ≥ 0), road friction `λ_μ` (1 = dry), road
+//! bank `θ` and grade `γ`.
 //!
 //! **Equations** (wheel `i` at `(x_i, y_i)` from the CoG, steered by `δ_i`, tyre force
 //! `(F_x,i, F_y,i)` in its wheel frame rotated into the body frame):
-//! - planar motion: `m (v̇x − vy r) = ΣF_x`, `m (v̇y + vx r) = ΣF_y`,
-//!   `I_z ṙ = Σ(x_i F_y,i − y_i F_x,i)`; the sprung mass's roll does not feed back into the
+//! - planar motion in the road plane: `m (v̇x − vy r) = ΣF_x − m g sin γ`,
+//!   `m (v̇y + vx r) = ΣF_y − m g sin θ`, `I_z ṙ = Σ(x_i F_y,i − y_i F_x,i)` (the truth's
+//!   accelerations are these kinematic ones; the load transfer and the roll take the tyres'
+//!   specific force `ΣF/m`); the sprung mass's roll does not feed back into the
 //!   lateral balance (the `m_s h' φ̈` term, small for small roll);
 //! - roll of the sprung mass about the roll axis:
 //!   `I_x,s φ̈ = m_s h' (a_y cos φ + g sin φ) − K_φ φ − D_φ φ̇`, `K_φ = K_φf + K_φr`,
@@ -118,6 +121,11 @@ pub struct FullVehicleInput {
     pub brake_torque: f64,
     /// Road friction `λ_μ`, the scale of the tyres' peak friction (1 dry, ~0.5 wet, ~0.1 ice).
     pub road_friction: f64,
+    /// Bank (cross slope) of the road, rad, positive when its right edge is lower (the sense of
+    /// a positive ISO 8855 roll).
+    pub road_bank_angle: f64,
+    /// Grade of the road, rad, positive uphill.
+    pub road_grade_angle: f64,
 }
 
 impl Default for FullVehicleInput {
@@ -127,8 +135,21 @@ impl Default for FullVehicleInput {
             drive_torque: 0.0,
             brake_torque: 0.0,
             road_friction: 1.0,
+            road_bank_angle: 0.0,
+            road_grade_angle: 0.0,
         }
     }
+}
+
+/// Gravity's component in the road plane, per unit mass, `(−g sin γ, −g sin θ)` for grade `γ`
+/// and bank `θ` (the body moves in the road plane; a car on a right-lower bank is pulled to the
+/// right). The wheel loads keep their level-road values (`cos θ cos γ ≈ 1` for the slopes of
+/// roads, under 1 % at 8°).
+fn road_gravity(input: &FullVehicleInput) -> (f64, f64) {
+    (
+        -GRAVITY * input.road_grade_angle.sin(),
+        -GRAVITY * input.road_bank_angle.sin(),
+    )
 }
 
 /// What one internal step leaves for the next: the accelerations of the load transfer and the
@@ -393,8 +414,10 @@ impl FullVehicle {
         self.update_steering(input, dt);
         let forces = self.forces(input);
         let p = &self.params;
+        // the tyres' specific force: what loads the suspension and what an accelerometer reads
         let ax = forces.force_x / p.body.mass;
         let ay = forces.force_y / p.body.mass;
+        let (gravity_x, gravity_y) = road_gravity(input);
         let (vx, vy, yaw_rate) = (self.state[VX], self.state[VY], self.state[YAW_RATE]);
         let roll = self.state[ROLL];
         let roll_moment =
@@ -402,8 +425,8 @@ impl FullVehicle {
                 - p.roll_stiffness() * roll
                 - (p.suspension.roll_damping_front + p.suspension.roll_damping_rear)
                     * self.state[ROLL_RATE];
-        self.state[VX] = vx + dt * (ax + vy * yaw_rate);
-        self.state[VY] = vy + dt * (ay - vx * yaw_rate);
+        self.state[VX] = vx + dt * (ax + gravity_x + vy * yaw_rate);
+        self.state[VY] = vy + dt * (ay + gravity_y - vx * yaw_rate);
         self.state[YAW_RATE] = yaw_rate + dt * forces.yaw_moment / p.body.yaw_inertia;
         self.state[ROLL_RATE] += dt * roll_moment / p.suspension.roll_inertia;
         self.state[ROLL] += dt * self.state[ROLL_RATE];
@@ -414,7 +437,7 @@ impl FullVehicle {
             lateral_acceleration: ay,
             front_lateral_force: forces.front_lateral_force,
         };
-        self.record_truth(&forces, ax, ay);
+        self.record_truth(&forces, ax + gravity_x, ay + gravity_y);
     }
 
     /// Wheel spin: drive and tyre torque, then the brake as Coulomb friction.
