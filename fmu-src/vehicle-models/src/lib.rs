@@ -26,7 +26,7 @@ pub mod driver_input;
 pub mod full_vehicle;
 pub mod integrator;
 /// The seed-000 manoeuvres, defined once in the `manoeuvres` crate (also the operating point's
-/// initial speeds, [`single_track::seed_operating_point`]).
+/// initial speeds, [`single_track::SingleTrackModel::seed_operating_point`]).
 pub use manoeuvres::seed000 as manoeuvre;
 pub mod parameters;
 pub mod rear_axle;
