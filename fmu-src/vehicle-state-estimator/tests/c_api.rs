@@ -27,6 +27,8 @@ fn slave() -> Slave {
     s
 }
 
+/// Seed 000's filter: its Q and R (SPEC §7, the truth's noise below) and none of issue 12's
+/// robustness.
 fn seed_settings(s: &mut Slave) {
     for flag in [
         vr::USE_SPEED_MEASUREMENTS,
@@ -34,6 +36,24 @@ fn seed_settings(s: &mut Slave) {
         vr::GATE_MEASUREMENTS,
     ] {
         assert_eq!(s.set_boolean(flag, false), Fmi2Status::Ok);
+    }
+    let process = [
+        vr::PROCESS_NOISE_STD_VX,
+        vr::PROCESS_NOISE_STD_VY,
+        vr::PROCESS_NOISE_STD_YAW_RATE,
+        vr::PROCESS_NOISE_STD_OMEGA_FRONT,
+        vr::PROCESS_NOISE_STD_OMEGA_REAR,
+    ];
+    for (reference, std) in process.into_iter().zip(Truth::PROCESS_STD) {
+        assert_eq!(s.set_real(reference, std), Fmi2Status::Ok);
+    }
+    for reference in [
+        vr::MEASUREMENT_NOISE_STD_YAW_RATE,
+        vr::MEASUREMENT_NOISE_STD_AY,
+        vr::MEASUREMENT_NOISE_STD_OMEGA_FRONT,
+        vr::MEASUREMENT_NOISE_STD_OMEGA_REAR,
+    ] {
+        assert_eq!(s.set_real(reference, Truth::SENSOR_STD), Fmi2Status::Ok);
     }
 }
 
