@@ -72,8 +72,10 @@ def check_run(identifier, result, expectations):
             problems.append(f"{label}: returned {call['status']}, expected one of {sorted(allowed, key=str)}; "
                             f"log: {[line['message'] for line in call['logs']]}")
         if needs_log:
+            # A warning (a clamped or ignored value) is explained by a warning line.
             matching = [line for line in call["logs"]
-                        if line["status"] in (DISCARD, ERROR, 4) and line["message"]]
+                        if (line["status"] in (DISCARD, ERROR, 4) or line["status"] == call["status"] == WARNING)
+                        and line["message"]]
             if not matching:
                 problems.append(f"{label}: no error/discard log line through the logger "
                                 f"(got {call['logs']})")
