@@ -215,9 +215,9 @@ fn start_outside_min_max_is_rejected() {
 
 #[test]
 fn an_output_missing_from_the_model_structure_is_rejected() {
-    let message = rejected(r#"<Unknown index="4" dependencies=""/>"#, "");
+    let message = rejected(r#"<Unknown index="7" dependencies=""/>"#, "");
     assert!(message.contains("<ModelStructure><Outputs>"), "{message}");
-    assert!(message.contains("missing: [4 (vx)]"), "{message}");
+    assert!(message.contains("missing: [7 (vx)]"), "{message}");
 }
 
 #[test]
@@ -246,7 +246,7 @@ fn an_unknown_attribute_is_rejected_with_the_expected_ones() {
 fn an_enumeration_start_must_be_an_item() {
     let message = rejected(
         r#"<Enumeration declaredType="VehicleModel" start="1"/>"#,
-        r#"<Enumeration declaredType="VehicleModel" start="3"/>"#,
+        r#"<Enumeration declaredType="VehicleModel" start="4"/>"#,
     );
     assert!(message.contains("variable 'model'"), "{message}");
     assert!(message.contains("1 (single_track_hsri)"), "{message}");
