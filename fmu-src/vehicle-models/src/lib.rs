@@ -22,6 +22,7 @@
 //!   automatic differentiation ([`scalar::Dual`]) of the very same code;
 //! - no heap allocation in any step.
 
+pub mod checks;
 pub mod driver_input;
 pub mod full_vehicle;
 pub mod integrator;

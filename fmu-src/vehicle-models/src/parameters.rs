@@ -9,16 +9,7 @@ use crate::full_vehicle::{CarData, FullVehicleParams};
 use crate::single_track::Chassis;
 use crate::tyre::HsriParams;
 
-/// `value` if it is a positive finite number, else the message naming the parameter.
-pub fn positive(name: &str, value: f64) -> Result<f64, String> {
-    if value > 0.0 && value.is_finite() {
-        Ok(value)
-    } else {
-        Err(format!(
-            "parameter {name} = {value}; expected a positive number"
-        ))
-    }
-}
+pub use crate::checks::positive;
 
 /// Reads the FMU's Real parameters by name.
 pub struct ParameterSource<F: Fn(&str) -> Option<f64>> {

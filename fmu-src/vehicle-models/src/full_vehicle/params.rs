@@ -306,7 +306,7 @@ impl FullVehicleParams {
             ("internal_step", self.internal_step),
         ];
         for (name, value) in positive {
-            crate::parameters::positive(name, value)?;
+            crate::checks::positive(name, value)?;
         }
         for (name, share) in [
             (
