@@ -164,6 +164,21 @@ pub struct OutputSample<const N: usize, Extra> {
     pub extra: Extra,
     pub nis: f64,
     pub rows_used: i32,
+    /// The filter held its estimate in this sample (low speed, or waiting for a measured speed).
+    pub holding: bool,
+}
+
+/// The sideslip's standard deviation reported while the filter holds at low speed: about 6°, the
+/// range the kinematic sideslip of a car manoeuvring slowly spans, so a user sees that the value
+/// is a guess (issue 12, point 4).
+pub const LOW_SPEED_SIDESLIP_STD: f64 = 0.1;
+
+/// The kinematic sideslip at the centre of gravity when the tyres do not slip, from the steering
+/// geometry: `tan β = lR / (lF + lR) · tan δ` (the single-track model at vanishing speed,
+/// Ackermann steering; Rajamani, Vehicle Dynamics and Control, 2nd ed., eq. 2.30).
+pub fn kinematic_sideslip(steering_angle: f64, v: &Variables) -> f64 {
+    let wheelbase = v.cog_to_front_axle + v.cog_to_rear_axle;
+    (v.cog_to_rear_axle / wheelbase * steering_angle.tan()).atan()
 }
 
 /// The measurement gate of issue 12, point 3 (`gate_measurements`), applied by the runner before
@@ -204,6 +219,9 @@ where
     pub(crate) min_speed: f64,
     pub(crate) nis: f64,
     pub(crate) rows_used: i32,
+    /// The last sample held the estimate (for its outputs; not part of the FMU state, whose
+    /// outputs are published before it is taken).
+    holding: bool,
     gate: Option<Gate>,
     /// Samples in a row for which each plausible row was gated (FMU state).
     gated_samples: [u64; M],
@@ -274,6 +292,7 @@ where
             min_speed,
             nis: 0.0,
             rows_used: 0,
+            holding: false,
             gate,
             gated_samples: [0; M],
             started: !v.start_from_measurements,
@@ -316,6 +335,7 @@ where
     /// Returns the status bits of the sample.
     pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
         let mut bits = 0;
+        self.holding = false;
         if !self.started {
             match Model::measured_start(self, sensors) {
                 Some(initial) if self.rebuild_at_measured(&initial) => {
@@ -362,6 +382,7 @@ where
     fn hold(&mut self, bits: i32) -> i32 {
         self.nis = 0.0;
         self.rows_used = 0;
+        self.holding = true;
         bits
     }
 
@@ -443,6 +464,7 @@ where
             extra: self.extra,
             nis: self.nis,
             rows_used: self.rows_used,
+            holding: self.holding,
         });
     }
 
@@ -462,6 +484,12 @@ where
                 break;
             }
             values.fill_from(&self.model.outputs(sample, &self.parameters), &mut finite);
+        }
+        if newest.holding {
+            // The held estimate's sideslip is stale and its std overconfident: the steering
+            // geometry's sideslip with a std that says it is a guess.
+            values.sideslip_est = kinematic_sideslip(newest.input[0], &self.parameters);
+            values.sideslip_std = LOW_SPEED_SIDESLIP_STD;
         }
         values.write_where(&finite, variables);
         variables.rows_used = newest.rows_used;

@@ -387,6 +387,9 @@ fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
         let status = s.get_integer(vr::STATUS).1;
         if (8.0..14.0).contains(&t) {
             assert_ne!(status & status::BELOW_MIN_SPEED, 0, "t = {t}");
+            // Standing: the sideslip of the steering geometry (straight: 0), marked uncertain.
+            assert_eq!(outputs[1], 0.0);
+            assert!(outputs[2] >= 0.1, "t = {t}: sideslip std {}", outputs[2]);
         }
         if (17.5..20.0).contains(&t) {
             // Moving again: never frozen, the estimate follows.
