@@ -300,8 +300,14 @@ impl Simulation {
             let tolerance = 1e-9 * self.sample_period;
             if self.time >= self.next_sample_time - tolerance {
                 self.held = delayed;
-                while self.next_sample_time <= self.time + tolerance {
-                    self.next_sample_time += self.sample_period;
+                // Whole periods past the current time, in one step: a loop adding the period
+                // would never end where the period is below the clock's resolution.
+                let periods =
+                    ((self.time + tolerance - self.next_sample_time) / self.sample_period).floor()
+                        + 1.0;
+                self.next_sample_time += periods * self.sample_period;
+                if self.next_sample_time <= self.time {
+                    self.next_sample_time = self.time + self.sample_period;
                 }
             }
         }
@@ -469,6 +475,20 @@ impl CoSimulationModel for ReferenceVehicle {
     const GUID: &'static str = model_description::GUID;
     const VARIABLES: &'static [fmi_export::VariableInfo] = model_description::VARIABLES;
     const LOG_CATEGORIES: &'static [&'static str] = model_description::LOG_CATEGORIES;
+
+    /// The finest internal step: the integration step, or the sensor sample period where it is
+    /// shorter (the sample-and-hold advances one period at a time), so that fmi-export refuses
+    /// a period that would make a doStep loop for hours (issue 15: `sensor_sample_period =
+    /// 1e-300` lies inside its declared range and hung the first doStep).
+    fn internal_step_size(&self) -> Option<f64> {
+        let v = &self.variables;
+        let sample_period = v.sensor_sample_period;
+        Some(if sample_period > 0.0 {
+            v.integration_step.min(sample_period)
+        } else {
+            v.integration_step
+        })
+    }
 
     fn instantiate(_context: &InstantiationContext) -> Self {
         Self {

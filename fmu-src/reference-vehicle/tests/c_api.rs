@@ -793,3 +793,42 @@ fn model_3_refuses_an_invalid_car_and_a_saved_state_brings_its_own_model() {
     run(&mut full, 0.0, 0.01, 10);
     full.free_state(&mut restored);
 }
+
+#[test]
+fn a_sample_period_below_the_clock_resolution_is_refused_at_initialisation() {
+    // Issue 15: 1e-300 s lies inside the declared range [0, 1] and made the first doStep loop
+    // for ever; the sample period is an internal step, checked by fmi-export.
+    let mut s = slave();
+    assert_eq!(s.set_real(vr::SENSOR_SAMPLE_PERIOD, 1e-300), Fmi2Status::Ok);
+    let status = s.initialize(0.0);
+    assert_error_logged(&s, status, Fmi2Status::Error, "internal step");
+}
+
+#[test]
+fn a_communication_step_of_a_million_seconds_is_discarded_at_once() {
+    // Issue 15: one doStep with h = 1e6 s ran about 20 minutes (1e9 integration steps).
+    let mut s = slave();
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+    let status = s.do_step(0.0, 1e6);
+    assert_error_logged(&s, status, Fmi2Status::Discard, "internal steps");
+}
+
+#[test]
+fn a_sample_period_shorter_than_the_integration_step_holds_the_latest_sample() {
+    // Several sample instants inside one integration step: the chain samples once per step
+    // and the next instant lies after the current time (no loop over the instants).
+    let mut s = slave();
+    s.set_boolean(vr::NOISE, false);
+    assert_eq!(s.set_real(vr::SENSOR_SAMPLE_PERIOD, 1e-4), Fmi2Status::Ok);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+    for k in 0..100 {
+        assert_eq!(s.do_step(k as f64 * 1e-3, 1e-3), Fmi2Status::Ok);
+    }
+    let (_, vx) = s.get_real(vr::VX);
+    let (_, vx_meas) = s.get_real(vr::VX_MEAS);
+    assert_eq!(
+        vx.to_bits(),
+        vx_meas.to_bits(),
+        "noise off: the held sample is the truth"
+    );
+}

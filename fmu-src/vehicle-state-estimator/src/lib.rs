@@ -164,6 +164,12 @@ impl CoSimulationModel for VehicleStateEstimator {
     const VARIABLES: &'static [fmi_export::VariableInfo] = model_description::VARIABLES;
     const LOG_CATEGORIES: &'static [&'static str] = model_description::LOG_CATEGORIES;
 
+    /// One filter step per sample: fmi-export bounds the samples one doStep may process
+    /// (issue 15: a doStep of 1e6 s ran 1e9 filter steps, about half an hour).
+    fn internal_step_size(&self) -> Option<f64> {
+        Some(self.variables.sample_time)
+    }
+
     fn instantiate(_context: &InstantiationContext) -> Self {
         Self {
             variables: Variables::default(),

@@ -630,3 +630,14 @@ fn particle_filter_states_take_60_bytes_per_particle() {
     };
     assert_eq!(serialized_size(200) - serialized_size(100), 100 * 60);
 }
+
+#[test]
+fn a_communication_step_of_a_million_seconds_is_discarded_at_once() {
+    // Issue 15: one doStep with h = 1e6 s ran 1e9 filter steps; fmi-export bounds the samples
+    // of one call (the estimator's internal step is its sample time).
+    let mut s = slave();
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    assert_eq!(s.do_step(0.0, 1e6), Fmi2Status::Discard);
+    let line = s.log.last().expect("a log line");
+    assert!(line.message.contains("internal steps"), "{}", line.message);
+}
