@@ -451,7 +451,7 @@ pub const AX_VALID_INPUT: usize = INPUT_DIM + 1;
 ///   the force balance of the `vx` row in the transition: `vx(k+1) = vx + T (ax + r vy)` (explicit
 ///   Euler with the state at the start of the sample).
 ///
-/// The wheel speeds keep their own dynamics (000: 5.6-5.7), so the wheels still carry the speed
+/// The wheel speeds keep their own dynamics (000: 5.45-5.46), so the wheels still carry the speed
 /// when neither measurement is there. With `ax_valid = 0` and the `vx` row missing (not finite) the
 /// model is the plain [`SingleTrackEstimationModel`] to the bit: the extra input column and row
 /// only add exact zeros. The linear filters (LKF, Luenberger) are linearised once: at
