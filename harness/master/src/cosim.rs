@@ -33,6 +33,7 @@ use fmi::traits::FmiInstance;
 use crate::fmu::{LoadedFmu, VariableInfo, VariableType};
 use crate::fmu_log;
 use crate::scenario::{Scenario, VarRef};
+use crate::ssv::{read_parameter_file, SsvValue};
 use manoeuvres::{Channel, Manoeuvre, ManoeuvreRun, VehicleMotion};
 
 /// The scenario with its FMUs loaded (each distinct .fmu file once) and every name resolved.
@@ -330,7 +331,7 @@ fn load_instances(
                 fmus.len() - 1
             }
         };
-        let mut parameters = Vec::new();
+        let mut parameters = file_parameters(scenario, i, &fmus[fmu], fmu_dir)?;
         for (name, value) in &section.parameters {
             let field = format!("scenario {source}: fmu[{i}].parameters.{name}");
             let var = settable(&fmus[fmu], name).with_context(|| field.clone())?;
@@ -348,6 +349,83 @@ fn load_instances(
         });
     }
     Ok((fmus, instances))
+}
+
+/// The values of `[[fmu]]` entry `index`'s parameter files, in file order (a later file and
+/// the scenario's own `parameters` override an earlier value, as the last set wins). Every
+/// name must be a parameter of the FMU; the message names the file, its line, the parameter
+/// and the FMU.
+fn file_parameters(
+    scenario: &Scenario,
+    index: usize,
+    fmu: &LoadedFmu,
+    fmu_dir: &Path,
+) -> Result<Vec<(VariableInfo, ParameterValue)>> {
+    let source = scenario.source.display();
+    let mut values = Vec::new();
+    for file in 0..scenario.fmus[index].parameter_files.len() {
+        let field = format!("scenario {source}: fmu[{index}].parameter_files[{file}]");
+        let path = scenario.parameter_file_path(index, file, fmu_dir);
+        for parameter in read_parameter_file(&path).with_context(|| field.clone())? {
+            let at = || {
+                format!(
+                    "{field}: {}, line {}: parameter {:?}",
+                    path.display(),
+                    parameter.line,
+                    parameter.name
+                )
+            };
+            let var = fmu.variable(&parameter.name).ok_or_else(|| {
+                anyhow!(
+                    "{}: FMU {} has no variable of that name",
+                    at(),
+                    fmu.path.display()
+                )
+            })?;
+            if !var.is_parameter() {
+                bail!(
+                    "{}: {:?} of FMU {} has causality {}; a parameter file sets parameters only",
+                    at(),
+                    var.name,
+                    fmu.path.display(),
+                    var.causality
+                );
+            }
+            let value = convert_file_value(fmu, var, &parameter.value).with_context(at)?;
+            values.push((var.clone(), value));
+        }
+    }
+    Ok(values)
+}
+
+/// Convert a parameter-file value to what `var` takes; an enumeration item by its name.
+fn convert_file_value(
+    fmu: &LoadedFmu,
+    var: &VariableInfo,
+    value: &SsvValue,
+) -> Result<ParameterValue> {
+    let as_toml = match value {
+        SsvValue::Real(x) => toml::Value::Float(*x),
+        SsvValue::Integer(x) => toml::Value::Integer(*x),
+        SsvValue::Boolean(b) => toml::Value::Boolean(*b),
+        SsvValue::String(s) => toml::Value::String(s.clone()),
+        SsvValue::Enumeration(item) => {
+            let items = fmu.enumeration_items(&var.name);
+            let found = items.iter().find(|(name, _)| name == item);
+            return match found {
+                Some(&(_, number)) => Ok(ParameterValue::Integer(number)),
+                None => {
+                    let names: Vec<&str> = items.iter().map(|(n, _)| n.as_str()).collect();
+                    bail!(
+                        "enumeration item {item:?} is not one of {:?}'s items ({})",
+                        var.name,
+                        names.join(", ")
+                    )
+                }
+            };
+        }
+    };
+    convert_value(var, &as_toml)
 }
 
 /// Resolve step: every `[[connection]]` to output/input pairs (connect-by-name expanded),

@@ -139,6 +139,8 @@ pub struct LoadedFmu {
     /// Variables in modelDescription order.
     pub variables: Vec<VariableInfo>,
     by_name: HashMap<String, usize>,
+    /// Items (name, value) of each Enumeration variable's declared type, by variable name.
+    enumeration_items: HashMap<String, Vec<(String, i32)>>,
     import: Fmi2Import,
 }
 
@@ -291,6 +293,7 @@ impl LoadedFmu {
         }
 
         let variables = variable_table(&description);
+        let enumeration_items = crate::ssv::enumeration_items(&xml);
         let by_name = variables
             .iter()
             .enumerate()
@@ -362,12 +365,19 @@ impl LoadedFmu {
             guid: description.guid.clone(),
             variables,
             by_name,
+            enumeration_items,
             import,
         })
     }
 
     pub fn variable(&self, name: &str) -> Option<&VariableInfo> {
         self.by_name.get(name).map(|&i| &self.variables[i])
+    }
+
+    /// The items (name, value) of Enumeration variable `name`'s declared type; empty when the
+    /// variable is no Enumeration or its type declares none.
+    pub fn enumeration_items(&self, name: &str) -> &[(String, i32)] {
+        self.enumeration_items.get(name).map_or(&[], Vec::as_slice)
     }
 
     pub fn import(&self) -> &Fmi2Import {

@@ -13,7 +13,8 @@
 //! [[fmu]]
 //! name = "vehicle"                   # instance name, unique, no '.'
 //! path = "{fmu_dir}/ReferenceVehicle.fmu"   # relative to this file; {fmu_dir} from the CLI
-//! parameters = { model = 1, seed = 7 }
+//! parameter_files = ["../../fmu-src/reference-vehicle/cars/bmw_320i.ssv"]  # SSP .ssv, first
+//! parameters = { model = 1, seed = 7 }          # then these (they override the files)
 //! [[connection]]
 //! from = "vehicle"                   # "inst" = every output of inst to the same-named input
 //! to = "ekf"                         # or "inst.variable" on both sides
@@ -154,7 +155,11 @@ fn default_amplitude_cap() -> f64 {
 pub struct FmuSection {
     pub name: String,
     pub path: String,
-    /// Parameter values set after instantiation, before initialisation.
+    /// SSP 1.0 parameter-value files (.ssv) applied in order before `parameters`; each path
+    /// relative to this file, `{fmu_dir}` replaced as in `path`.
+    #[serde(default)]
+    pub parameter_files: Vec<String>,
+    /// Parameter values set after instantiation, before initialisation (after the files).
     #[serde(default)]
     pub parameters: BTreeMap<String, toml::Value>,
 }
@@ -568,7 +573,15 @@ impl Scenario {
 
     /// Path of FMU section `index`, `{fmu_dir}` replaced, relative paths against the file's folder.
     pub fn fmu_path(&self, index: usize, fmu_dir: &Path) -> PathBuf {
-        let raw = &self.fmus[index].path;
+        self.resolve_path(&self.fmus[index].path, fmu_dir)
+    }
+
+    /// Path of parameter file `file` of FMU section `index`, resolved as [`Scenario::fmu_path`].
+    pub fn parameter_file_path(&self, index: usize, file: usize, fmu_dir: &Path) -> PathBuf {
+        self.resolve_path(&self.fmus[index].parameter_files[file], fmu_dir)
+    }
+
+    fn resolve_path(&self, raw: &str, fmu_dir: &Path) -> PathBuf {
         let replaced = raw.replace("{fmu_dir}", &fmu_dir.to_string_lossy());
         let p = PathBuf::from(replaced);
         if p.is_absolute() {
