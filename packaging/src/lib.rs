@@ -150,16 +150,58 @@ pub fn fmu_entries(
     entries
 }
 
-/// The SSP archive: `SystemStructure.ssd` plus both FMUs under `resources/`.
+/// Where the ReferenceVehicle's car parameter-value files (.ssv, issue 13 point 6) live,
+/// relative to the workspace root; `vehicle_models::parameters::parameter_value_file` writes them.
+pub const CAR_PARAMETER_DIR: &str = "fmu-src/reference-vehicle/cars";
+
+/// A file shipped in the SSP's `resources/` folder beside the FMUs: its file name and bytes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Resource {
+    pub file_name: String,
+    pub contents: Vec<u8>,
+}
+
+/// Every `*.ssv` of [`CAR_PARAMETER_DIR`], sorted by file name so that the archive is the same
+/// on every run whatever order the file system lists them in.
+pub fn car_parameter_files(workspace_root: &Path) -> Result<Vec<Resource>> {
+    let folder = workspace_root.join(CAR_PARAMETER_DIR);
+    let listing = std::fs::read_dir(&folder)
+        .with_context(|| format!("listing the car parameter files in {}", folder.display()))?;
+    let mut files = Vec::new();
+    for entry in listing {
+        let path = entry
+            .with_context(|| format!("listing {}", folder.display()))?
+            .path();
+        if path.extension().is_none_or(|e| e != "ssv") {
+            continue;
+        }
+        let Some(file_name) = path.file_name().and_then(|n| n.to_str()) else {
+            bail!("{}: the file name is not UTF-8", path.display());
+        };
+        let contents =
+            std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+        files.push(Resource {
+            file_name: file_name.to_string(),
+            contents,
+        });
+    }
+    files.sort_by(|a, b| a.file_name.cmp(&b.file_name));
+    Ok(files)
+}
+
+/// The SSP archive: `SystemStructure.ssd` plus both FMUs and the `parameter_files` (SSP 1.0
+/// parameter-value files a user binds with `ssd:ParameterBinding source="resources/<file>"`)
+/// under `resources/`.
 pub fn ssp_entries(
     vehicle: &ModelDescription,
     estimator: &ModelDescription,
     vehicle_fmu: &[u8],
     estimator_fmu: &[u8],
+    parameter_files: &[Resource],
 ) -> Result<(Vec<Entry>, ssp::SystemPlan)> {
     let plan = ssp::plan(vehicle, estimator)?;
     let ssd = ssp::system_structure(vehicle, estimator, &plan, GENERATION_TOOL)?;
-    let entries = vec![
+    let mut entries = vec![
         Entry::file("SystemStructure.ssd", ssd),
         // The FMUs are zip files already; storing them avoids compressing twice.
         Entry::stored(
@@ -171,6 +213,12 @@ pub fn ssp_entries(
             estimator_fmu.to_vec(),
         ),
     ];
+    entries.extend(parameter_files.iter().map(|file| {
+        Entry::file(
+            format!("resources/{}", file.file_name),
+            file.contents.clone(),
+        )
+    }));
     Ok((entries, plan))
 }
 
@@ -195,6 +243,7 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
         })
         .collect::<Result<_>>()?;
     let licenses = license_files(&workspace.root)?;
+    let car_files = car_parameter_files(&workspace.root)?;
 
     let packages: Vec<&str> = FMUS.iter().map(|spec| spec.package).collect();
     let names: Vec<&str> = FMUS.iter().map(|spec| spec.model_identifier).collect();
@@ -229,6 +278,7 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
         &checked[1].description,
         &archives[0].1,
         &archives[1].1,
+        &car_files,
     )?;
     let ssp_bytes = archive::zip_bytes(&ssp_entries).context("assembling the SSP")?;
     archives.push((workspace.fmu_directory().join(SSP_FILE_NAME), ssp_bytes));

@@ -487,7 +487,7 @@ fn fmu_layout_follows_fmi_2() {
 fn ssp_archive_holds_ssd_and_both_fmus() {
     let (vehicle, estimator) = (vehicle(), estimator());
     let (entries, plan) =
-        packaging::ssp_entries(&vehicle, &estimator, b"vehicle", b"estimator").unwrap();
+        packaging::ssp_entries(&vehicle, &estimator, b"vehicle", b"estimator", &[]).unwrap();
     assert_eq!(plan.connections.len(), 8);
     let names: Vec<&str> = entries.iter().map(|e| e.path.as_str()).collect();
     assert_eq!(
@@ -500,6 +500,37 @@ fn ssp_archive_holds_ssd_and_both_fmus() {
     );
     assert!(entries[1].stored && entries[2].stored);
     assert_eq!(entries[2].contents, b"estimator");
+}
+
+#[test]
+fn ssp_archive_ships_the_car_parameter_files_as_resources() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let cars = packaging::car_parameter_files(root).unwrap();
+    let names: Vec<&str> = cars.iter().map(|c| c.file_name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "bmw_320i.ssv",
+            "ford_escort.ssv",
+            "seed_car.ssv",
+            "vw_vanagon.ssv"
+        ]
+    );
+    let (vehicle, estimator) = (vehicle(), estimator());
+    let (entries, _) =
+        packaging::ssp_entries(&vehicle, &estimator, b"vehicle", b"estimator", &cars).unwrap();
+    let resources: Vec<&str> = entries[3..].iter().map(|e| e.path.as_str()).collect();
+    assert_eq!(
+        resources,
+        [
+            "resources/bmw_320i.ssv",
+            "resources/ford_escort.ssv",
+            "resources/seed_car.ssv",
+            "resources/vw_vanagon.ssv"
+        ]
+    );
+    let bmw = String::from_utf8(entries[3].contents.clone()).unwrap();
+    assert!(bmw.contains("<ssv:ParameterSet") && bmw.contains("name=\"mass\""));
 }
 
 #[test]
