@@ -87,9 +87,12 @@ def test_interface_has_the_names_of_issue_4(vehicle, estimator):
 def test_ssp_structure(ssp_file, vehicle, estimator):
     with zipfile.ZipFile(ssp_file) as archive:
         names = archive.namelist()
+    # Beside the FMUs, the car parameter-value files (issue 13 point 6) that a user binds.
+    cars = ["bmw_320i", "ford_escort", "seed_car", "vw_vanagon"]
     assert sorted(names) == sorted(["SystemStructure.ssd",
                                     f"resources/{support.VEHICLE}.fmu",
-                                    f"resources/{support.ESTIMATOR}.fmu"])
+                                    f"resources/{support.ESTIMATOR}.fmu"]
+                                   + [f"resources/{car}.ssv" for car in cars])
     # read_ssd validates against the SSP 1.0 XML schema shipped with fmpy.
     ssd = read_ssd(str(ssp_file))
     assert ssd.version == "1.0"
