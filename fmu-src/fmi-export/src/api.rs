@@ -732,6 +732,7 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                 }
             }
             let mut warnings = Vec::new();
+            let mut adjusted = Vec::new();
             let variables = instance.model.variables_mut();
             for (i, &reference) in references.iter().enumerate() {
                 // Found in the first pass, so the look-up cannot fail here.
@@ -743,10 +744,12 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                     Admitted::As(stored) => stored,
                     Admitted::Clamped(stored, message) => {
                         warnings.push(format!("{}: {message}", variable.label()));
+                        adjusted.push(variable);
                         stored
                     }
                     Admitted::Ignored(message) => {
                         warnings.push(format!("{}: {message}", variable.label()));
+                        adjusted.push(variable);
                         continue;
                     }
                 };
@@ -755,6 +758,9 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
                         "{function}: value reference {reference} is in the variable table but not in the model's storage (internal error)"
                     ));
                 }
+            }
+            for variable in adjusted {
+                instance.model.value_adjusted(variable);
             }
             if nvr > 0 && instance.state != MachineState::StepComplete {
                 instance.needs_initialization = true;

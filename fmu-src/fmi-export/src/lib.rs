@@ -129,6 +129,12 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
         None
     }
 
+    /// Told after fmi2SetReal/fmi2SetInteger stored a value other than the one sent (clamped
+    /// into the variable's range) or ignored it (the call answered fmi2Warning, see the setters),
+    /// so that the model can say so in its own outputs too (the estimator's `status` bit
+    /// 1024, issue 12 point 7). The default does nothing.
+    fn value_adjusted(&mut self, _variable: &'static VariableInfo) {}
+
     /// A fresh instance holding the start values (fmi2Instantiate, fmi2Reset).
     fn instantiate(context: &InstantiationContext) -> Self;
 

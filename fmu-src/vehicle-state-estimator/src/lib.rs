@@ -34,8 +34,8 @@
 //! - `gate_measurements`: the **runner** gates each row before the update, the same for every
 //!   estimator: physical plausibility and the chi-square test `nu² <= gate_threshold · S`
 //!   (bit 128); a plausible row gated for `readmit_time` re-seeds the filter from the
-//!   measurements (bit 256), so it cannot lock itself out. Bit 1024 is reserved for the FMI
-//!   layer's clamping of out-of-range inputs.
+//!   measurements (bit 256), so it cannot lock itself out. Bit 1024: an input outside its
+//!   declared range was clamped by the FMI layer (fmi2Warning) since the previous doStep.
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
 //! `u = [steering_angle, vx]` and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,
@@ -83,7 +83,8 @@ pub mod status {
     pub const SENSOR_READMITTED: i32 = 256;
     /// `start_from_measurements` waits for (or started from) the first measured speed.
     pub const INITIALISING: i32 = 512;
-    /// Reserved for the FMI layer: an input outside its declared range was clamped.
+    /// An input outside its declared range was clamped by fmi2SetReal/fmi2SetInteger (which
+    /// answered fmi2Warning) since the previous doStep (`CoSimulationModel::value_adjusted`).
     pub const INPUT_CLAMPED: i32 = 1024;
 }
 
@@ -131,6 +132,8 @@ pub struct VehicleStateEstimator {
     runner: Option<ModelRunner>,
     /// The latest doStep processed a sample, so its `status` includes the publish bits.
     status_awaits_publish: bool,
+    /// An input was clamped into its range since the last doStep (status bit 1024).
+    input_clamped: bool,
 }
 
 impl VehicleStateEstimator {
@@ -175,7 +178,14 @@ impl CoSimulationModel for VehicleStateEstimator {
             variables: Variables::default(),
             runner: None,
             status_awaits_publish: false,
+            input_clamped: false,
         }
+    }
+
+    fn value_adjusted(&mut self, variable: &'static fmi_export::VariableInfo) {
+        // Parameters are clamped before initialisation and reported there by the fmi2Warning;
+        // the status bit is about the inputs the filter consumes during the run.
+        self.input_clamped |= variable.causality == fmi_export::Causality::Input;
     }
 
     fn variables(&self) -> &Variables {
@@ -204,6 +214,9 @@ impl CoSimulationModel for VehicleStateEstimator {
             return StepOutcome::Error(String::from("the estimator was not initialised"));
         };
         let mut bits = 0;
+        if std::mem::take(&mut self.input_clamped) {
+            bits |= status::INPUT_CLAMPED;
+        }
         let (sample_bits, processed) = on_runner!(runner, r => {
             for (i, value) in driver.into_iter().enumerate() {
                 if value.is_finite() {

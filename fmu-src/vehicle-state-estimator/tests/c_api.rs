@@ -641,3 +641,25 @@ fn a_communication_step_of_a_million_seconds_is_discarded_at_once() {
     let line = s.log.last().expect("a log line");
     assert!(line.message.contains("internal steps"), "{}", line.message);
 }
+
+#[test]
+fn a_clamped_input_sets_status_bit_1024_for_that_step() {
+    // Issue 12 point 7: the FMI layer clamps an out-of-range input with fmi2Warning (issue 15
+    // point 3); the estimator's status says so for the doStep that consumes it.
+    let mut s = slave();
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    s.set_reals(&SENSORS, &[0.0, 0.0, 60.0, 60.0]);
+    assert_eq!(s.set_real(vr::STEERING_ANGLE, 2.0), Fmi2Status::Warning);
+    assert_eq!(s.do_step(0.0, 0.001), Fmi2Status::Ok, "{:?}", s.log.last());
+    let status_bits = s.get_integer(vr::STATUS).1;
+    assert_eq!(status_bits & status::INPUT_CLAMPED, status::INPUT_CLAMPED);
+    // A value inside the range: the bit is gone with the next step.
+    assert_eq!(s.set_real(vr::STEERING_ANGLE, 0.1), Fmi2Status::Ok);
+    assert_eq!(
+        s.do_step(0.001, 0.001),
+        Fmi2Status::Ok,
+        "{:?}",
+        s.log.last()
+    );
+    assert_eq!(s.get_integer(vr::STATUS).1 & status::INPUT_CLAMPED, 0);
+}
