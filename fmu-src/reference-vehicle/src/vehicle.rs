@@ -117,24 +117,26 @@ impl Vehicle {
         dt: f64,
     ) -> Result<(), String> {
         match self {
-            Self::Planar { model, .. } => model.step(input, dt).map_err(|error| error.to_string()),
-            Self::Full(vehicle) => {
-                vehicle.step(
-                    &FullVehicleInput {
-                        steering_angle: input[0],
-                        drive_torque: input[1],
-                        brake_torque: input[2],
-                        road_friction: road[0],
-                        road_bank_angle: road[1],
-                        road_grade_angle: road[2],
-                    },
-                    dt,
-                );
-                match vehicle.state().iter().position(|value| !value.is_finite()) {
-                    Some(index) => Err(format!("full-vehicle state {index} became non-finite")),
-                    None => Ok(()),
-                }
+            Self::Planar { model, .. } => {
+                return model.step(input, dt).map_err(|error| error.to_string())
             }
+            Self::Full(vehicle) => vehicle.step(
+                &FullVehicleInput {
+                    steering_angle: input[0],
+                    drive_torque: input[1],
+                    brake_torque: input[2],
+                    road_friction: road[0],
+                    road_bank_angle: road[1],
+                    road_grade_angle: road[2],
+                },
+                dt,
+            ),
+        }
+        // The full vehicle does not check itself; its message names the state as
+        // `non_finite_state` does.
+        match self.non_finite_state() {
+            Some(state) => Err(format!("{state} became non-finite")),
+            None => Ok(()),
         }
     }
 

@@ -185,11 +185,7 @@ pub fn estimate_panels(scenario: &Scenario, result: &RunResult, labels: &[String
         let Some(truth) = result.column(&section.truth) else {
             continue;
         };
-        let scale = section.display_scale.unwrap_or(1.0);
-        let unit = section
-            .display_unit
-            .clone()
-            .unwrap_or_else(|| section.unit.clone());
+        let (scale, unit) = section.display();
         let truth_name = VarRef::parse(&section.truth)
             .map(|r| format!("truth ({})", r.instance))
             .unwrap_or_else(|| "truth".into());

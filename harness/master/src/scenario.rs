@@ -220,6 +220,15 @@ pub struct ScoreSection {
     pub display_unit: Option<String>,
 }
 
+impl ScoreSection {
+    /// The factor and unit errors are shown in: `display_scale` (default 1) and
+    /// `display_unit` (default `unit`).
+    pub fn display(&self) -> (f64, String) {
+        let unit = self.display_unit.as_ref().unwrap_or(&self.unit);
+        (self.display_scale.unwrap_or(1.0), unit.clone())
+    }
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NisSection {

@@ -282,11 +282,7 @@ pub fn score_run(scenario: &Scenario, result: &RunResult) -> RunScores {
         let Some(truth) = result.column(&section.truth) else {
             continue;
         };
-        let scale = section.display_scale.unwrap_or(1.0);
-        let unit = section
-            .display_unit
-            .clone()
-            .unwrap_or_else(|| section.unit.clone());
+        let (scale, unit) = section.display();
         for (instance, column) in matching_columns(result, &section.estimate) {
             let std = section.std.as_ref().and_then(|pattern| {
                 let variable = VarRef::parse(pattern)?.variable;
