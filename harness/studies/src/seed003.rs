@@ -502,50 +502,24 @@ pub fn identify_from_arrays(
     sample_time: f64,
     config: &Seed003Config,
 ) -> Result<EmResult<4>, Seed003Error> {
-    if inputs.len() != measurements.len() {
-        return Err(Seed003Error::Data(format!(
-            "inputs has {} rows but measurements has {}; expected one input row per measurement row",
-            inputs.len(),
-            measurements.len()
-        )));
-    }
-    if let Some(k) = inputs
-        .iter()
-        .position(|row| row.iter().any(|v| !v.is_finite()))
-    {
-        return Err(Seed003Error::Data(format!(
-            "input row {k} is {:?}; expected finite [dVx_ref/dt, steering angle, Vx_ref]",
-            inputs[k]
-        )));
-    }
-    if let Some(k) = measurements
-        .iter()
-        .position(|row| row.iter().any(|v| v.is_infinite()))
-    {
-        return Err(Seed003Error::Data(format!(
-            "measurement row {k} is {:?}; expected finite values or NaN for missing",
-            measurements[k]
-        )));
-    }
-    let Some(first) = measurements
-        .iter()
-        .find(|row| row.iter().all(|v| v.is_finite()))
-    else {
+    let (run, first_complete) = RecordedRun::from_checked_rows(
+        inputs,
+        measurements,
+        "[dVx_ref/dt, steering angle, Vx_ref]",
+    )
+    .map_err(Seed003Error::Data)?;
+    let Some(first) = first_complete else {
         return Err(Seed003Error::Data(
             "no measurement row is complete; the initial particle cloud is centred on the first \
              complete row"
                 .to_string(),
         ));
     };
-    let run = RecordedRun {
-        inputs: inputs.iter().map(|row| SVector::from(*row)).collect(),
-        measurements: measurements.iter().map(|row| SVector::from(*row)).collect(),
-    };
     let config = Seed003Config {
         sample_time,
         ..config.clone()
     };
-    identify_run(&config, &run, SVector::from(*first))
+    identify_run(&config, &run, SVector::from(measurements[first]))
 }
 
 /// The EM identification of `run` from `config.start_parameters`, the particle cloud starting
