@@ -54,6 +54,10 @@ pub mod smoother;
 #[cfg(feature = "offline")]
 pub mod identification;
 
+/// The posterior Cramér-Rao lower bound (Tichavský, Muravchik and Nehorai 1998).
+#[cfg(feature = "offline")]
+pub mod pcrlb;
+
 #[cfg(test)]
 mod test_oracle;
 
