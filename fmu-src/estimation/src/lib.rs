@@ -42,6 +42,9 @@ pub mod models;
 /// SIR particle filter and resampling schemes (003: §2.2.4, A.4).
 pub mod particle;
 
+/// Innovation-based adaptive process noise (covariance matching on the NIS).
+pub mod adaptive;
+
 pub mod registry;
 pub mod running;
 pub mod snapshot;

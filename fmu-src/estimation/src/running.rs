@@ -42,6 +42,15 @@ pub trait RunningEstimator<const N: usize, const M: usize, const U: usize>:
     /// [`crate::FilterIssue`] but still corrected the estimate.
     fn last_report(&self) -> UpdateReport<M>;
 
+    /// Adds `extra` (symmetric positive semi-definite) to the error covariance after a
+    /// prediction, which is that prediction with `Q + extra` (the adaptive process noise of
+    /// [`crate::adaptive`]). Returns `false`, changing nothing, where the covariance is not a
+    /// free parameter of the estimator (the particle filter's sample covariance, the fixed-gain
+    /// observer's).
+    fn inflate_covariance(&mut self, _extra: &nalgebra::SMatrix<f64, N, N>) -> bool {
+        false
+    }
+
     /// Writes what [`Self::restore`] needs to continue bit-identically. Kalman-type estimators
     /// are fully described by `(x̂, P)` and their settings, which is the default.
     fn save(&self, sink: &mut dyn SnapshotSink) {

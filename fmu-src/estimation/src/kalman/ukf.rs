@@ -325,4 +325,10 @@ where
     fn last_report(&self) -> UpdateReport<M> {
         self.last_report
     }
+
+    /// `P` is this filter's own Gaussian: adding to it is a larger `Q` in the last prediction.
+    fn inflate_covariance(&mut self, extra: &nalgebra::SMatrix<f64, N, N>) -> bool {
+        self.covariance += extra;
+        true
+    }
 }
