@@ -138,6 +138,12 @@ struct Simulation {
     delay_head: usize,
     /// Sample-and-hold output of the sensor chain.
     held: [f64; SENSORS],
+    /// The standard-normal draws of the newest delay-line entry, kept so that the entry can be
+    /// re-evaluated with the inputs set at the communication point (`resample_at_inputs`).
+    newest_draws: [f64; SENSORS],
+    /// Whether the newest delay-line entry reached `held` at the end of the last step (no
+    /// latency and a sample instant there).
+    newest_is_held: bool,
     next_sample_time: f64,
     time: f64,
     /// The truth at the current state and input, computed once per integration step and reused
@@ -232,6 +238,8 @@ impl Simulation {
             delay_line: vec![initial; latency_steps as usize + 1],
             delay_head: 0,
             held: initial,
+            newest_draws: [0.0; SENSORS],
+            newest_is_held: latency_steps == 0.0,
             next_sample_time: start_time + v.sensor_sample_period,
             time: start_time,
         })
@@ -284,22 +292,23 @@ impl Simulation {
             self.held = truth;
             return Ok(());
         }
-        let mut corrupted = [0.0; SENSORS];
-        for (i, value) in corrupted.iter_mut().enumerate() {
-            let draw: f64 = StandardNormal.sample(&mut self.rng);
-            *value = quantise(truth[i] + draw * self.sensor_noise_std[i], self.quantum[i]);
+        for draw in self.newest_draws.iter_mut() {
+            *draw = StandardNormal.sample(&mut self.rng);
         }
         let length = self.delay_line.len();
         self.delay_head = (self.delay_head + 1) % length;
-        self.delay_line[self.delay_head] = corrupted;
+        self.delay_line[self.delay_head] = self.corrupted(&truth);
         // The oldest entry is the one after the head: `length - 1` steps old.
         let delayed = self.delay_line[(self.delay_head + 1) % length];
+        self.newest_is_held = false;
         if self.sample_period <= 0.0 {
             self.held = delayed;
+            self.newest_is_held = length == 1;
         } else {
             let tolerance = 1e-9 * self.sample_period;
             if self.time >= self.next_sample_time - tolerance {
                 self.held = delayed;
+                self.newest_is_held = length == 1;
                 // Whole periods past the current time, in one step: a loop adding the period
                 // would never end where the period is below the clock's resolution.
                 let periods =
@@ -312,6 +321,64 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// A sensed sample with the newest draws of white noise, quantised (seed 000 ch. 7 noise,
+    /// seed 001 quantisation).
+    fn corrupted(&self, sensed: &[f64; SENSORS]) -> [f64; SENSORS] {
+        std::array::from_fn(|i| {
+            quantise(
+                sensed[i] + self.newest_draws[i] * self.sensor_noise_std[i],
+                self.quantum[i],
+            )
+        })
+    }
+
+    /// Takes the driver and road inputs as the master set them (a non-finite value keeps the
+    /// last finite one and is named in the returned warning); true when any value changed.
+    fn take_inputs(&mut self, requested: [f64; 3 + ROAD_INPUTS]) -> (bool, Option<String>) {
+        let (mut changed, mut warning) = (false, None);
+        for (i, value) in requested.into_iter().enumerate() {
+            let held = if i < 3 {
+                &mut self.input[i]
+            } else {
+                &mut self.road[i - 3]
+            };
+            if !value.is_finite() {
+                warning = Some(format!(
+                    "input {} is {value}; the last finite value {held} is held",
+                    INPUT_NAMES[i]
+                ));
+            } else if value.to_bits() != held.to_bits() {
+                *held = value;
+                changed = true;
+            }
+        }
+        (changed, warning)
+    }
+
+    /// Re-evaluates what depends directly on the inputs at the current instant, after the
+    /// master set new inputs at a communication point: the truth (models 1 and 2: `ay`, `ax`
+    /// and the front tyre's slips depend on the steering angle through 000: 5.63) and the
+    /// sensor sample taken at this instant (the accelerometers' gravity also depends on the
+    /// road's bank and grade). The state, the random draws, the drift and the tooth counter stay
+    /// as the step left them, so this is the same sample seen with the inputs of `t_n`, as
+    /// `y(k) = h(x(k), u(k))` (000: 4.99-4.102) has it; the reasons are in
+    /// harness/scenarios/README.md, "Direct feed-through".
+    fn resample_at_inputs(&mut self) {
+        (self.truth, self.wheels) = self.vehicle.truth(&self.input);
+        let mut sensed = sensor_values(&self.truth);
+        self.effects
+            .sense_held(&mut sensed, attitude(&self.wheels, &self.road));
+        if !self.noise_on {
+            self.held = sensed;
+            return;
+        }
+        let corrupted = self.corrupted(&sensed);
+        self.delay_line[self.delay_head] = corrupted;
+        if self.newest_is_held {
+            self.held = corrupted;
+        }
     }
 
     fn write_state(&self, writer: &mut StateWriter) {
@@ -331,6 +398,8 @@ impl Simulation {
         }
         writer.u64(self.delay_head as u64);
         writer.f64s(&self.held);
+        writer.f64s(&self.newest_draws);
+        writer.bool(self.newest_is_held);
         writer.f64(self.next_sample_time);
         writer.f64(self.time);
         self.effects.write_state(writer);
@@ -369,6 +438,8 @@ impl Simulation {
         }
         self.delay_head = head as usize;
         reader.f64s_into(&mut self.held, "held sensor values")?;
+        reader.f64s_into(&mut self.newest_draws, "newest noise draws")?;
+        self.newest_is_held = reader.bool("newest sample held")?;
         self.next_sample_time = reader.f64("next sample time")?;
         self.time = reader.f64("simulation time")?;
         self.effects.read_state(reader)?;
@@ -463,6 +534,19 @@ impl ReferenceVehicle {
         }
     }
 
+    /// The input variables, driver then road, in the order of [`INPUT_NAMES`].
+    fn requested_inputs(&self) -> [f64; 3 + ROAD_INPUTS] {
+        let v = &self.variables;
+        [
+            v.steering_angle,
+            v.drive_torque,
+            v.brake_torque,
+            v.road_friction,
+            v.road_bank_angle,
+            v.road_grade_angle,
+        ]
+    }
+
     /// The simulation's internal time (for tests).
     pub fn simulation_time(&self) -> Option<f64> {
         self.simulation.as_ref().map(|s| s.time)
@@ -512,33 +596,16 @@ impl CoSimulationModel for ReferenceVehicle {
     }
 
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome {
-        let v = &self.variables;
-        let requested = [
-            v.steering_angle,
-            v.drive_torque,
-            v.brake_torque,
-            v.road_friction,
-            v.road_bank_angle,
-            v.road_grade_angle,
-        ];
+        let requested = self.requested_inputs();
         let Some(simulation) = self.simulation.as_mut() else {
             return StepOutcome::Error(String::from("the simulation was not initialised"));
         };
-        let mut warning = None;
-        for (i, value) in requested.into_iter().enumerate() {
-            let held = if i < 3 {
-                &mut simulation.input[i]
-            } else {
-                &mut simulation.road[i - 3]
-            };
-            if value.is_finite() {
-                *held = value;
-            } else {
-                warning = Some(format!(
-                    "input {} is {value}; the last finite value {held} is held",
-                    INPUT_NAMES[i]
-                ));
-            }
+        // Inputs set after the last read: the sample of t_n is re-evaluated with them first, so
+        // that a delayed or held sample carries the inputs of its instant whether or not the
+        // master read the outputs in between.
+        let (changed, warning) = simulation.take_inputs(requested);
+        if changed {
+            simulation.resample_at_inputs();
         }
         // The FMU's own clock follows the master's communication points exactly.
         simulation.time = current_time;
@@ -566,6 +633,19 @@ impl CoSimulationModel for ReferenceVehicle {
         match warning {
             Some(message) => StepOutcome::Warning(message),
             None => StepOutcome::Ok,
+        }
+    }
+
+    /// Direct feed-through (ModelStructure `<Outputs>` dependencies): outputs read after the
+    /// master set new inputs at a communication point are those of the new inputs.
+    fn refresh_outputs(&mut self) {
+        let requested = self.requested_inputs();
+        let Some(simulation) = self.simulation.as_mut() else {
+            return;
+        };
+        if let (true, _) = simulation.take_inputs(requested) {
+            simulation.resample_at_inputs();
+            self.publish();
         }
     }
 

@@ -148,6 +148,17 @@ impl SensorEffects {
         }
     }
 
+    /// What the sensors sense now without advancing anything: gravity and bias as in
+    /// [`SensorEffects::sense`], and the wheel speeds the tooth counter counted last.
+    pub fn sense_held(&self, values: &mut [f64; SENSORS], attitude: Attitude) {
+        self.sense(values, attitude);
+        if let Some(counter) = &self.teeth {
+            for (i, value) in WHEEL_CHANNELS.into_iter().zip(counter.measured) {
+                values[i] = value;
+            }
+        }
+    }
+
     pub fn write_state(&self, writer: &mut StateWriter) {
         writer.f64s(&self.drift);
         if let Some(counter) = &self.teeth {

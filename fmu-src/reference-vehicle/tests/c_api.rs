@@ -571,16 +571,17 @@ fn sensor_chain_delays_quantises_and_holds() {
     for k in 0..6000 {
         let t = k as f64 * h;
         s.set_real(vr::STEERING_ANGLE, high_ramp(t));
+        // The truth of t_k with the input of t_k (direct feed-through): what the sensor sampled
+        // at t_k.
+        ay_history.push(s.get_real(vr::AY).1);
         assert_eq!(s.do_step(t, h), Fmi2Status::Ok);
-        let (_, ay) = s.get_real(vr::AY);
         let (_, ay_meas) = s.get_real(vr::AY_MEAS);
-        ay_history.push(ay);
         let end = k + 1; // number of the integration step just finished
                          // Sample instants every 10 steps; the value is the truth 20 steps (0.02 s) before the
                          // last sample instant, rounded to 0.01; before that, the primed initial value (0).
         let last_sample = end - end % 10;
         let expected = if last_sample > 20 {
-            (ay_history[last_sample - 20 - 1] / 0.01).round() * 0.01
+            (ay_history[last_sample - 20] / 0.01).round() * 0.01
         } else {
             0.0
         };
