@@ -94,6 +94,18 @@ struct InstancePlan {
     /// Variables read after the inputs are set; `reads[slot]`.
     reads: Vec<(u32, VariableType)>,
     read_groups: TypedGroup<usize>,
+    /// `[[override]]` windows on this instance's Real inputs.
+    overrides: Vec<InputOverride>,
+}
+
+/// One `[[override]]` target: `inputs.real` entry `position` gets `value` at the communication
+/// points `t` with `from <= t <= to` (half a step beyond the first and last covered point).
+#[derive(Debug, Clone, Copy)]
+struct InputOverride {
+    position: usize,
+    from: f64,
+    to: f64,
+    value: f64,
 }
 
 /// Value references split by C type, each with what goes with it.
@@ -346,6 +358,7 @@ fn load_instances(
             inputs: TypedGroup::default(),
             reads: Vec::new(),
             read_groups: TypedGroup::default(),
+            overrides: Vec::new(),
         });
     }
     Ok((fmus, instances))
@@ -558,6 +571,7 @@ impl Plan {
         };
         plan.bind_connections(&edges);
         plan.bind_manoeuvre_inputs(&mut driven)?;
+        plan.bind_overrides()?;
         plan.bind_feedback()?;
         plan.bind_recording()?;
         Ok(plan)
@@ -636,6 +650,50 @@ impl Plan {
                 var.value_reference,
                 Source::Channel(channel),
             );
+        }
+        Ok(())
+    }
+
+    /// `[[override]]`: each target must be a Real input some connection or `[[input]]` drives.
+    fn bind_overrides(&mut self) -> Result<()> {
+        let source = self.source();
+        let (t0, h) = (self.scenario.start_time, self.scenario.step);
+        for (i, section) in self.scenario.overrides.clone().iter().enumerate() {
+            let (first, last) = section.points(t0, h);
+            let (from, to) = (
+                self.scenario.time_of(first) - 0.5 * h,
+                self.scenario.time_of(last) + 0.5 * h,
+            );
+            for (j, target) in section.to.iter().enumerate() {
+                let field = format!("scenario {source}: override[{i}].to[{j}]");
+                let r = VarRef::parse(target).expect("validated");
+                let matches = self.matching(&r, |v| v.is_input());
+                if matches.is_empty() {
+                    bail!("{field}: {target:?} names no input of any FMU");
+                }
+                for (instance, var) in matches {
+                    let plan = &mut self.instances[instance];
+                    let position = plan
+                        .inputs
+                        .real
+                        .0
+                        .iter()
+                        .position(|&vr| vr == var.value_reference)
+                        .ok_or_else(|| {
+                            anyhow!(
+                                "{field}: {}.{} is not a Real input driven by a connection or an [[input]]",
+                                plan.name,
+                                var.name
+                            )
+                        })?;
+                    plan.overrides.push(InputOverride {
+                        position,
+                        from,
+                        to,
+                        value: section.value,
+                    });
+                }
+            }
         }
         Ok(())
     }
@@ -1186,6 +1244,9 @@ impl Plan {
             if !plan.inputs.real.0.is_empty() {
                 for (value, source) in b.real_in.iter_mut().zip(&plan.inputs.real.1) {
                     *value = value_of(source, caches);
+                }
+                for o in plan.overrides.iter().filter(|o| o.from <= t && t <= o.to) {
+                    b.real_in[o.position] = o.value;
                 }
                 instance
                     .set_real(&plan.inputs.real.0, &b.real_in)

@@ -99,6 +99,9 @@ pub struct Scenario {
     pub nis: Vec<NisSection>,
     #[serde(default)]
     pub montecarlo: MonteCarloSection,
+    /// `[[override]]`: values that replace driven inputs in a time window (glitches, outages).
+    #[serde(default, rename = "override")]
+    pub overrides: Vec<OverrideSection>,
     /// Folder of the file (relative FMU paths are resolved against it).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -245,6 +248,33 @@ pub struct MonteCarloSection {
     /// Integer parameters ("inst.variable") set to base + run index in run `run`.
     #[serde(default)]
     pub seeds: Vec<String>,
+}
+
+/// `[[override]]`: from the first communication point at or after `start`, for `duration`
+/// seconds (0 = that one point only), the master sends `value` instead of what drives each
+/// target input (a connection or an `[[input]]`): a sensor glitch, a zero row, an outage (`nan`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OverrideSection {
+    /// Driven Real inputs, "inst.variable"; '*' = every instance having that input.
+    pub to: Vec<String>,
+    /// The value sent instead (TOML also writes `nan` and `inf`).
+    pub value: f64,
+    /// Time of the first overridden communication point [s].
+    pub start: f64,
+    /// Length of the window [s]: every point t with start <= t < start + duration.
+    #[serde(default)]
+    pub duration: f64,
+}
+
+impl OverrideSection {
+    /// The communication points `(first, last)` it covers, for points `t0 + n h`.
+    pub fn points(&self, t0: f64, h: f64) -> (u64, u64) {
+        let index = |t: f64| ((t - t0) / h - 1e-9).ceil().max(0.0) as u64;
+        let first = index(self.start);
+        let end = index(self.start + self.duration);
+        (first, end.saturating_sub(1).max(first))
+    }
 }
 
 /// A reference "inst.variable"; the instance may be '*'.
@@ -445,6 +475,20 @@ impl Scenario {
             self.check_ref(&format!("montecarlo.seeds[{i}]"), s, &|n: &str| {
                 names.contains(n)
             })?;
+        }
+        for (i, o) in self.overrides.iter().enumerate() {
+            if !(o.start.is_finite() && o.duration.is_finite() && o.duration >= 0.0) {
+                return Err(self.field_error(
+                    format!("override[{i}]"),
+                    format!(
+                        "start must be finite and duration finite and >= 0, got start {} s, duration {} s",
+                        o.start, o.duration
+                    ),
+                ));
+            }
+            for (j, target) in o.to.iter().enumerate() {
+                self.check_ref(&format!("override[{i}].to[{j}]"), target, &known)?;
+            }
         }
         if let Some(section) = &self.manoeuvre {
             if let Some(fb) = &section.feedback {

@@ -4,9 +4,11 @@
 //! parts (EM identification, no FMU involved) link the `estimation` library with its `offline`
 //! feature (and through it `vehicle-models`).
 
+pub mod campaigns;
 pub mod demo;
 pub mod expression;
 pub mod findings;
 pub mod identify;
 pub mod mismatch;
+pub mod robustness;
 pub mod seed003;

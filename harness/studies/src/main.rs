@@ -115,6 +115,16 @@ enum Command {
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
     },
+    /// Issue 12's robustness cases and the mismatch campaigns (issues 13, 17) on real cars'
+    /// parameter files, the demo's sections "Robustness" and "Mismatch campaigns" on their own
+    Robustness {
+        /// Output folder (report.md, report.html, CSV and plots).
+        #[arg(long, default_value = "out/robustness")]
+        out: PathBuf,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
     /// Check an .fmu and list its variables
     Inspect {
         fmu: PathBuf,
@@ -169,6 +179,14 @@ fn execute(cli: Cli) -> Result<()> {
             let report = harness::mismatch::run_shipped(&fmu_dir, &out)?;
             print!("{}", report.summary());
             println!("csv: {}", out.display());
+            Ok(())
+        }
+        Command::Robustness { out, fmu_dir } => {
+            let custom_dir = fmu_dir.is_some();
+            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+            demo::ensure_fmus(&fmu_dir, !custom_dir)?;
+            print!("{}", harness::robustness::run_and_report(&fmu_dir, &out)?);
+            println!("report: {}", out.join("report.md").display());
             Ok(())
         }
         Command::Run {
