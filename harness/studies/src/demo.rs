@@ -21,7 +21,7 @@ use estimation::identification::EmSchedule;
 use estimation::models::rear_axle::PARAMETER_NAMES;
 use estimation::particle::Proposal;
 
-pub use crate::findings::{fmt, window_mean, window_rmse, Finding};
+pub use crate::findings::{fmt, window_mean, window_rmse, Finding, Sources};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
 use crate::mismatch::{self, MismatchReport};
 use fmi_master::plot::{self, Panel, Series};
@@ -186,10 +186,10 @@ pub fn ensure_fmus(fmu_dir: &Path, allow_build: bool) -> Result<()> {
     Ok(())
 }
 
-/// Evaluate every co-simulated seed finding (harness/studies/findings/seed*.toml) on the runs
-/// (keyed by scenario name).
-pub fn findings(outputs: &[(String, RunOutput)]) -> Result<Vec<Finding>> {
-    crate::findings::findings(outputs)
+/// Evaluate every finding (harness/studies/findings/*.toml) on the runs (keyed by scenario
+/// name) and the offline studies that ran.
+pub fn findings(sources: Sources) -> Result<Vec<Finding>> {
+    crate::findings::findings(sources)
 }
 
 /// Runs the seed-003 identification (seed 003 §3.2) on the demo's noise seeds; `done` after each.
@@ -204,86 +204,6 @@ pub fn run_seed003(done: &(dyn Fn() + Sync)) -> Result<Outcome> {
 /// `a ± b` with the precision of the seed's tables.
 fn mean_spread(value: (f64, f64), decimals: usize) -> String {
     format!("{:.*} ± {:.*}", decimals, value.0, decimals, value.1)
-}
-
-/// The seed-003 findings: table 3.1 (the smoother beats the filter) and, per parameter, table 3.2
-/// (our mean relative error against the seed's).
-pub fn seed003_findings(outcome: &Outcome) -> Vec<Finding> {
-    let mut out = Vec::new();
-    let runs = outcome.runs.len();
-    let rmse: Vec<[(f64, f64); 3]> = (0..3).filter_map(|i| outcome.state_rmse(i)).collect();
-    if rmse.len() == 3 {
-        let pairs: Vec<String> = STATE_LABELS
-            .iter()
-            .zip(&rmse)
-            .map(|(label, [f, s, _])| format!("{label} {} → {}", fmt(f.0), fmt(s.0)))
-            .collect();
-        let seed_pairs: Vec<String> = STATE_LABELS
-            .iter()
-            .enumerate()
-            .map(|(i, label)| {
-                format!(
-                    "{label} {} → {}",
-                    SEED_TABLE_3_1_FILTER[i], SEED_TABLE_3_1_SMOOTHER[i]
-                )
-            })
-            .collect();
-        out.push(Finding {
-            seed: "003".into(),
-            experiment: "table 3.1 particle filter vs smoother".into(),
-            seed_says: format!(
-                "the particle smoother estimates more accurately (and smoother) than the filter; RMSE filter → smoother: {}",
-                seed_pairs.join(", ")
-            ),
-            we_measure: format!(
-                "RMSE filter → smoother, mean over {runs} noise seeds: {}",
-                pairs.join(", ")
-            ),
-            agrees: rmse.iter().all(|[f, s, _]| s.0 <= f.0),
-            note: "The filter and smoother run with the true parameters and Ξ = Θ, N = 50, bootstrap proposal, as in the seed.".into(),
-        });
-    }
-    let Some(truth) = outcome.job.truth else {
-        return out;
-    };
-    for (j, name) in PARAMETER_NAMES.iter().enumerate() {
-        let Some(error) = outcome.relative_error(j) else {
-            continue;
-        };
-        let identified = outcome.identified(j);
-        let seed_error = SEED_TABLE_3_2_RELATIVE_PERCENT[j];
-        let per_run: Vec<String> = outcome
-            .runs
-            .iter()
-            .filter_map(|r| outcome.relative_errors(r).map(|e| format!("{:.3}", e[j])))
-            .collect();
-        let agrees = error.0 <= seed_error;
-        let mut note = format!(
-            "Our mean relative error of {name} is {:.3} % against the seed's {seed_error} %, with a spread of {:.3} % over {runs} noise seeds",
-            error.0, error.1
-        );
-        if error.1 > seed_error {
-            note += "; the spread between noise realisations alone exceeds the seed's figure, so a single run reaching it is partly chance";
-        }
-        note += ". The seed itself finds m/J and lf the least determined parameters (their effect on the system response is very small, 003 §3.2 after table 3.2), and it reports one run on its measured lane change, ours are several noise realisations on a synthetic drive (the measured input is not available).";
-        out.push(Finding {
-            seed: "003".into(),
-            experiment: format!("table 3.2 {name}"),
-            seed_says: format!(
-                "{name} identified as {} (reference {}), relative error {seed_error} %",
-                SEED_TABLE_3_2_IDENTIFIED[j], truth[j]
-            ),
-            we_measure: format!(
-                "{name} identified as {} (mean ± spread over {runs} noise seeds), relative error {} % (per seed: {})",
-                mean_spread(identified, 4),
-                mean_spread(error, 3),
-                per_run.join(", ")
-            ),
-            agrees,
-            note,
-        });
-    }
-    out
 }
 
 /// Draw every library manoeuvre's open-loop signals (closed-loop ones show the course).
@@ -427,13 +347,11 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &mut failures,
     );
     bar.finish_with_message("all experiments done");
-    let mut findings = findings(&outputs)?;
-    if let Some(outcome) = &seed003 {
-        findings.extend(seed003_findings(outcome));
-    }
-    if let Some(report) = &mismatch {
-        findings.push(mismatch_finding(report));
-    }
+    let findings = findings(Sources {
+        runs: &outputs,
+        seed003: seed003.as_ref(),
+        mismatch: mismatch.as_ref(),
+    })?;
     write_findings_csv(&env.out_dir.join("findings.csv"), &findings)?;
     if options.plots {
         write_report(
@@ -792,42 +710,6 @@ fn score_tables(doc: &mut Document, scores: &RunScores) {
 /// How the report and the failure list name the model-mismatch study.
 pub const MISMATCH_STUDY: &str =
     "model-mismatch study (harness/scenarios/mismatch_*.toml, `harness mismatch`)";
-
-/// The study's verdict: do the identified scales lower every held-out sideslip RMSE?
-pub fn mismatch_finding(report: &MismatchReport) -> Finding {
-    let [front, rear] = [
-        report.identification.parameters[0],
-        report.identification.parameters[1],
-    ];
-    let rows: Vec<String> = report
-        .validation
-        .iter()
-        .map(|row| {
-            format!(
-                "{} {}: {} → {} deg (×{:.2})",
-                row.scenario,
-                row.estimator,
-                fmt(row.sideslip_rmse_seed.to_degrees()),
-                fmt(row.sideslip_rmse_identified.to_degrees()),
-                row.rmse_ratio()
-            )
-        })
-        .collect();
-    let helps =
-        !report.validation.is_empty() && report.validation.iter().all(|row| row.rmse_ratio() < 1.0);
-    Finding {
-        seed: "beyond".into(),
-        experiment: "model mismatch: model A's cornering-stiffness scales identified from a model-B run".into(),
-        seed_says: "(not in the seeds) identified scales should lower the EKF's and UKF's sideslip error on manoeuvres not used to identify them".into(),
-        we_measure: format!(
-            "identified k_F = {front:.4}, k_R = {rear:.4} ({}); sideslip RMSE scale 1 → identified: {}",
-            report.convergence(),
-            rows.join("; ")
-        ),
-        agrees: helps,
-        note: "a constant scale cannot follow the load transfer's dependence on the lateral acceleration; see the section's text".into(),
-    }
-}
 
 /// The report's model-mismatch section: what was identified from which run, and the held-out
 /// sideslip errors with the seed's tyre and with the identified scales.
