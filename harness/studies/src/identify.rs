@@ -28,9 +28,15 @@ use estimation::models::rear_axle::{
 use estimation::particle::Proposal;
 use nalgebra::SVector;
 use rayon::prelude::*;
-use serde::Deserialize;
 
 use fmi_master::plot::{self, Panel, Series};
+
+mod file;
+
+use file::{
+    AtLeast, IdentificationFile, IdentificationSection, NoiseSeeds, ParameterVector, PositiveReal,
+    ProposalName, ScheduleName, SimulationSection,
+};
 
 /// One column of the identification CSV.
 #[derive(Debug, Clone, Copy)]
@@ -339,62 +345,6 @@ fn number_or_empty(value: f64) -> String {
 // ---------------------------------------------------------------------------------------------
 // Identification files (TOML)
 
-/// The identification file; every field but `name` is optional and defaults to seed 003's value
-/// ([`Seed003Config::default`]). Documented in `harness/scenarios/README.md`.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct IdentificationFile {
-    name: String,
-    #[serde(default)]
-    description: String,
-    /// A recorded data set (CSV, relative to this file) instead of `[simulation]`.
-    data: Option<PathBuf>,
-    /// The true parameters of a recorded data set, when known (relative errors, plot).
-    true_parameters: Option<[f64; 4]>,
-    simulation: Option<SimulationSection>,
-    #[serde(default)]
-    identification: IdentificationSection,
-}
-
-#[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SimulationSection {
-    samples: Option<usize>,
-    sample_time: Option<f64>,
-    true_parameters: Option<[f64; 4]>,
-    process_noise_std: Option<[f64; 3]>,
-    noise_seeds: Option<Vec<u64>>,
-}
-
-#[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct IdentificationSection {
-    start: Option<[f64; 4]>,
-    measurement_noise_std: Option<[f64; 3]>,
-    process_noise_std: Option<[f64; 3]>,
-    particles: Option<usize>,
-    filter_seed: Option<u64>,
-    proposal: Option<ProposalName>,
-    schedule: Option<ScheduleName>,
-    max_sweeps: Option<usize>,
-    tolerance: Option<f64>,
-    max_iterations: Option<usize>,
-}
-
-#[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(rename_all = "snake_case")]
-enum ProposalName {
-    LinearisedOptimal,
-    Bootstrap,
-}
-
-#[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(rename_all = "snake_case")]
-enum ScheduleName {
-    Full,
-    ParameterWise,
-}
-
 /// Where the data come from.
 #[derive(Debug, Clone, PartialEq)]
 pub enum JobData {
@@ -512,24 +462,6 @@ fn field_error(path: &Path, field: &str, message: impl std::fmt::Display) -> any
     )
 }
 
-/// An optional field's value, refused with the field's name and `expected` unless `valid`.
-fn checked<T: Copy + std::fmt::Display>(
-    path: &Path,
-    field: &str,
-    value: Option<T>,
-    valid: impl Fn(T) -> bool,
-    expected: &str,
-) -> Result<Option<T>> {
-    match value {
-        Some(v) if !valid(v) => Err(field_error(
-            path,
-            field,
-            format!("{v}: expected {expected}"),
-        )),
-        other => Ok(other),
-    }
-}
-
 /// `p` must be a valid model-C parameter vector (finite, positive, `0 < lf < wheelbase`).
 fn check_parameters(path: &Path, field: &str, p: &[f64; 4], sample_time: f64) -> Result<()> {
     if let Some(j) = p.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
@@ -550,35 +482,8 @@ fn check_parameters(path: &Path, field: &str, p: &[f64; 4], sample_time: f64) ->
     Ok(())
 }
 
-/// Standard deviations: finite, and positive (or zero where `zero_allowed`: a simulator without
-/// process noise; the filter's `Θ` and `Ξ` must be positive definite).
-fn noise_std(
-    path: &Path,
-    field: &str,
-    std: &[f64; 3],
-    zero_allowed: bool,
-) -> Result<SVector<f64, 3>> {
-    let valid = |v: f64| v.is_finite() && (v > 0.0 || (zero_allowed && v == 0.0));
-    if let Some(v) = std.iter().find(|v| !valid(**v)) {
-        return Err(field_error(
-            path,
-            field,
-            format!(
-                "{v} is not a {} finite standard deviation",
-                if zero_allowed {
-                    "non-negative"
-                } else {
-                    "positive"
-                }
-            ),
-        ));
-    }
-    Ok(SVector::from(*std))
-}
-
 fn load_toml(path: &Path) -> Result<Job> {
     let file = read_identification_file(path)?;
-    check_name(path, &file.name)?;
     let mut config = Seed003Config::default();
     let section = &file.identification;
     section.apply(path, &mut config)?;
@@ -609,12 +514,12 @@ fn load_toml(path: &Path) -> Result<Job> {
             simulation.apply(path, &mut config)?
         }
     };
-    if let Some(start) = &section.start {
-        check_parameters(path, "identification.start", start, config.sample_time)?;
-        config.start_parameters = RearAxleParameterVector::from(*start);
+    if let Some(ParameterVector(start)) = section.start {
+        check_parameters(path, "identification.start", &start, config.sample_time)?;
+        config.start_parameters = RearAxleParameterVector::from(start);
     }
     Ok(Job {
-        name: file.name,
+        name: file.name.0,
         description: file.description,
         source: path.to_path_buf(),
         data,
@@ -623,8 +528,9 @@ fn load_toml(path: &Path) -> Result<Job> {
     })
 }
 
-/// The file parsed by serde into its sections (unknown fields and wrong types refused with
-/// line and column); a co-simulation scenario given by mistake is named as such.
+/// The file parsed by serde into its checked types (unknown fields, wrong types and refused
+/// values named with their key, line and column); a co-simulation scenario given by mistake is
+/// named as such.
 fn read_identification_file(path: &Path) -> Result<IdentificationFile> {
     let text = std::fs::read_to_string(path).with_context(|| {
         format!(
@@ -632,54 +538,31 @@ fn read_identification_file(path: &Path) -> Result<IdentificationFile> {
             path.display()
         )
     })?;
-    let file: IdentificationFile = toml::from_str(&text).map_err(|e| {
-        let mut message = e.to_string().trim_end().to_string();
+    file::parse(&text).map_err(|error| {
+        let mut message = error.to_string();
         if text.contains("[[fmu]]") {
             message += "\n(this looks like a co-simulation scenario for `harness run`; `harness identify` reads identification files, harness/scenarios/README.md)";
         }
         anyhow!("identification file {}: {message}", path.display())
-    })?;
-    Ok(file)
+    })
 }
 
-/// The job's name names the output folder: letters, digits, '_', '-' or '.' only.
-fn check_name(path: &Path, name: &str) -> Result<()> {
-    if name.is_empty()
-        || !name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
-    {
-        return Err(field_error(
-            path,
-            "name",
-            format!(
-                "{:?}: expected letters, digits, '_', '-' or '.' (it names the output folder)",
-                name
-            ),
-        ));
-    }
-    Ok(())
+/// Standard deviations as the library takes them.
+fn std_vector<T: Copy>(std: &[T; 3], value: impl Fn(T) -> f64) -> SVector<f64, 3> {
+    SVector::from(std.map(value))
 }
 
 impl IdentificationSection {
-    /// Checks the `[identification]` settings and writes them into `config` (seed 003's values
-    /// where a field is absent).
+    /// Writes the `[identification]` settings into `config` (seed 003's values where a field is
+    /// absent); `max_sweeps` only goes with the full schedule.
     fn apply(&self, path: &Path, config: &mut Seed003Config) -> Result<()> {
-        let section = self;
-        let field = |name: &str| format!("identification.{name}");
-        if let Some(n) = checked(
-            path,
-            &field("particles"),
-            section.particles,
-            |n| n >= 2,
-            "at least 2 particles",
-        )? {
+        if let Some(AtLeast(n)) = self.particles {
             config.filter.particle_count = n;
         }
-        if let Some(seed) = section.filter_seed {
+        if let Some(seed) = self.filter_seed {
             config.filter.seed = seed;
         }
-        if let Some(proposal) = section.proposal {
+        if let Some(proposal) = self.proposal {
             config.proposal = match proposal {
                 ProposalName::LinearisedOptimal => Proposal::LinearisedOptimal,
                 ProposalName::Bootstrap => Proposal::Bootstrap,
@@ -689,17 +572,10 @@ impl IdentificationSection {
             EmSchedule::FullMaximisation { max_sweeps } => max_sweeps,
             EmSchedule::ParameterWise => 30,
         };
-        checked(
-            path,
-            &field("max_sweeps"),
-            section.max_sweeps,
-            |n| n >= 1,
-            "at least 1 sweep",
-        )?;
-        let max_sweeps = section.max_sweeps.unwrap_or(default_sweeps);
-        config.schedule = match section.schedule {
+        let max_sweeps = self.max_sweeps.map_or(default_sweeps, |AtLeast(n)| n);
+        config.schedule = match self.schedule {
             Some(ScheduleName::ParameterWise) => {
-                if section.max_sweeps.is_some() {
+                if self.max_sweeps.is_some() {
                     return Err(field_error(
                         path,
                         "identification.max_sweeps",
@@ -714,31 +590,17 @@ impl IdentificationSection {
                 other => other,
             },
         };
-        if let Some(tolerance) = checked(
-            path,
-            &field("tolerance"),
-            section.tolerance,
-            |t| t.is_finite() && t > 0.0,
-            "a positive relative parameter change",
-        )? {
+        if let Some(PositiveReal(tolerance)) = self.tolerance {
             config.tolerance = tolerance;
         }
-        if let Some(max) = checked(
-            path,
-            &field("max_iterations"),
-            section.max_iterations,
-            |n| n >= 1,
-            "at least 1",
-        )? {
+        if let Some(AtLeast(max)) = self.max_iterations {
             config.max_iterations = max;
         }
-        if let Some(std) = &section.measurement_noise_std {
-            config.measurement_noise_std =
-                noise_std(path, "identification.measurement_noise_std", std, false)?;
+        if let Some(std) = &self.measurement_noise_std {
+            config.measurement_noise_std = std_vector(std, |v| v.0);
         }
-        if let Some(std) = &section.process_noise_std {
-            config.identification_process_noise_std =
-                noise_std(path, "identification.process_noise_std", std, false)?;
+        if let Some(std) = &self.process_noise_std {
+            config.identification_process_noise_std = std_vector(std, |v| v.0);
         }
         Ok(())
     }
@@ -749,7 +611,7 @@ impl IdentificationSection {
 fn recorded_data(
     path: &Path,
     csv: &Path,
-    true_parameters: Option<[f64; 4]>,
+    true_parameters: Option<ParameterVector>,
     config: &mut Seed003Config,
 ) -> Result<(JobData, Option<[f64; 4]>)> {
     let base = path.parent().unwrap_or(Path::new("."));
@@ -758,7 +620,8 @@ fn recorded_data(
         .with_context(|| format!("identification file {}: field `data`", path.display()))?;
     config.samples = data.len();
     config.sample_time = data.sample_time;
-    if let Some(truth) = true_parameters.as_ref() {
+    let truth = true_parameters.map(|ParameterVector(p)| p);
+    if let Some(truth) = truth.as_ref() {
         check_parameters(path, "true_parameters", truth, config.sample_time)?;
     }
     Ok((
@@ -766,57 +629,35 @@ fn recorded_data(
             path: csv_path,
             data,
         },
-        true_parameters,
+        truth,
     ))
 }
 
 impl SimulationSection {
-    /// Checks `[simulation]` and writes it into `config`; the data set is simulated, its truth
-    /// is the simulation's parameters.
+    /// Writes `[simulation]` into `config`; the data set is simulated, its truth is the
+    /// simulation's parameters.
     fn apply(
         &self,
         path: &Path,
         config: &mut Seed003Config,
     ) -> Result<(JobData, Option<[f64; 4]>)> {
-        let simulation = self;
-        if let Some(samples) = checked(
-            path,
-            "simulation.samples",
-            simulation.samples,
-            |n| n >= 2,
-            "at least 2",
-        )? {
+        if let Some(AtLeast(samples)) = self.samples {
             config.samples = samples;
         }
-        if let Some(t) = checked(
-            path,
-            "simulation.sample_time",
-            simulation.sample_time,
-            |t| t.is_finite() && t > 0.0,
-            "a positive number of seconds",
-        )? {
+        if let Some(PositiveReal(t)) = self.sample_time {
             config.sample_time = t;
         }
-        if let Some(p) = &simulation.true_parameters {
-            check_parameters(path, "simulation.true_parameters", p, config.sample_time)?;
-            config.true_parameters = RearAxleParameterVector::from(*p);
+        if let Some(ParameterVector(p)) = self.true_parameters {
+            check_parameters(path, "simulation.true_parameters", &p, config.sample_time)?;
+            config.true_parameters = RearAxleParameterVector::from(p);
         }
-        if let Some(std) = &simulation.process_noise_std {
-            config.simulation_process_noise_std =
-                noise_std(path, "simulation.process_noise_std", std, true)?;
+        if let Some(std) = &self.process_noise_std {
+            config.simulation_process_noise_std = std_vector(std, |v| v.0);
         }
-        if let Some(seeds) = &simulation.noise_seeds {
-            if seeds.is_empty() {
-                return Err(field_error(
-                    path,
-                    "simulation.noise_seeds",
-                    "empty; expected at least one noise seed",
-                ));
-            }
-            config.noise_seeds = seeds.clone();
-        } else {
-            config.noise_seeds = vec![config.noise_seeds[0]];
-        }
+        config.noise_seeds = match &self.noise_seeds {
+            Some(NoiseSeeds(seeds)) => seeds.clone(),
+            None => vec![config.noise_seeds[0]],
+        };
         let truth: [f64; 4] = config.true_parameters.into();
         Ok((JobData::Simulated, Some(truth)))
     }
