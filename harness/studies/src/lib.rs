@@ -10,5 +10,6 @@ pub mod expression;
 pub mod findings;
 pub mod identify;
 pub mod mismatch;
+pub mod replay;
 pub mod robustness;
 pub mod seed003;

@@ -125,6 +125,61 @@ enum Command {
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
     },
+    /// Replay a recorded drive (CSV or ASAM MDF4 .mf4) through the estimator FMU: estimates CSV,
+    /// plots against the log's reference channels, score table (format: harness/logs/README.md)
+    Replay {
+        /// The log: .csv with a header line, or .mf4.
+        log: PathBuf,
+        /// The map file (TOML): which column feeds which FMU input, units, signs, references.
+        #[arg(long)]
+        map: PathBuf,
+        /// SSP parameter-value file (.ssv) of the car, applied before the map's parameters.
+        #[arg(long)]
+        parameters: Option<PathBuf>,
+        #[arg(long, default_value = "out/replay")]
+        out: PathBuf,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+        /// Skip the PNG plot.
+        #[arg(long)]
+        no_plots: bool,
+    },
+    /// Fit the estimator to a car from a recorded drive: model A's per-axle cornering-stiffness
+    /// scales by EM, the noise levels from the innovations; held-out score against the
+    /// defaults; writes an SSP parameter-value file (.ssv)
+    Fit {
+        log: PathBuf,
+        #[arg(long)]
+        map: PathBuf,
+        /// Estimator model to fit: a (single track, HSRI) or b (3-state two-track).
+        #[arg(long, default_value = "a")]
+        model: String,
+        /// The .ssv to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// SSP parameter-value file (.ssv) of the car to start from.
+        #[arg(long)]
+        parameters: Option<PathBuf>,
+        /// Training segment t0:t1 in the log's seconds (default: the first two thirds).
+        #[arg(long)]
+        train: Option<String>,
+        /// Held-out segment t2:t3 (default: the last third).
+        #[arg(long)]
+        validate: Option<String>,
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
+    /// Issue 12's robustness cases and the mismatch campaigns (issues 13, 17) on real cars'
+    /// parameter files, the demo's sections "Robustness" and "Mismatch campaigns" on their own
+    Robustness {
+        /// Output folder (report.md, report.html, CSV and plots).
+        #[arg(long, default_value = "out/robustness")]
+        out: PathBuf,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
     /// Check an .fmu and list its variables
     Inspect {
         fmu: PathBuf,
@@ -326,6 +381,69 @@ fn execute(cli: Cli) -> Result<()> {
             for data in &written.data_csv {
                 println!("data:    {}", data.display());
             }
+            Ok(())
+        }
+        Command::Replay {
+            log,
+            map,
+            parameters,
+            out,
+            fmu_dir,
+            no_plots,
+        } => {
+            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+            let options = harness::replay::ReplayOptions {
+                fmu: harness::replay::estimator_path(None, &fmu_dir),
+                log,
+                map,
+                parameters,
+                out,
+                plots: !no_plots,
+            };
+            let outcome = harness::replay::replay(&options)?;
+            println!(
+                "replayed {} rows every {:.6} s in {:.2} s (reading, aligning, FMU)",
+                outcome.prepared.grid.rows, outcome.prepared.grid.step, outcome.seconds
+            );
+            print!("{}", harness::replay::report::score_table(&outcome.scores));
+            println!("csv: {}", outcome.csv.display());
+            if let Some(plot) = outcome.plot {
+                println!("plot: {}", plot.display());
+            }
+            Ok(())
+        }
+        Command::Fit {
+            log,
+            map,
+            model,
+            out,
+            parameters,
+            train,
+            validate,
+            fmu_dir,
+        } => {
+            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+            let options = harness::replay::fit::FitOptions {
+                fmu: harness::replay::estimator_path(None, &fmu_dir),
+                model: harness::replay::fit::FitModel::parse(&model)?,
+                train: train
+                    .as_deref()
+                    .map(harness::replay::fit::parse_segment)
+                    .transpose()
+                    .context("--train")?,
+                validate: validate
+                    .as_deref()
+                    .map(harness::replay::fit::parse_segment)
+                    .transpose()
+                    .context("--validate")?,
+                log,
+                map,
+                parameters,
+                out,
+            };
+            let outcome = harness::replay::fit::fit(&options)?;
+            print!("{}", outcome.summary());
+            println!("parameters: {}", options.out.display());
             Ok(())
         }
         Command::Inspect { fmu, out } => {

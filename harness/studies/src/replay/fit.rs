@@ -1,0 +1,499 @@
+//! `harness fit`: fits the estimator to a car from a recorded drive.
+//!
+//! 1. **Cornering stiffness** (model A): the per-axle scales `k_F`, `k_R` on the HSRI cornering
+//!    stiffness (000: 5.70) by the accelerated EM of seed 003 (003: §3.1) — the identification
+//!    the model-mismatch study uses ([`crate::mismatch::identification_config`]: particle filter
+//!    and smoother E-step, Q sized for the EM) — on the training segment, with the car's
+//!    vehicle data from the map and `--parameters`. Model B has no per-axle stiffness parameter
+//!    in the FMU, so for `--model b` only the noise is fitted.
+//! 2. **Noise level**: with `Q`, `R` and `P0` all multiplied by `s²` the Kalman gains do not
+//!    change and every innovation covariance is `s² S`, so the innovation likelihood is maximised
+//!    by `s² = Σ NIS / Σ dof` over the updates (the NIS with the unscaled `S`). The FMU reports
+//!    each update's NIS and degrees of freedom, so one FMU run on the training segment gives
+//!    `s`; every noise standard deviation is multiplied by it (exact for the linear filter, the
+//!    first-order answer for the EKF/UKF).
+//! 3. **Held-out score**: the FMU replays the validation segment with the starting parameters
+//!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
+//!    freedom (1 for a consistent filter) when the log has no reference.
+//! 4. The `.ssv` holds every parameter the map and `--parameters` set (the car's basic data) and
+//!    the fitted values; `harness run` (`parameter_files`), `replay --parameters` and fmpy
+//!    (`start_values`) read it.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use estimation::models::single_track_identification::{
+    identify_scales_from_arrays, SingleTrackHsri, PARAMETER_NAMES,
+};
+use vehicle_models::parameters::ParameterSource;
+use vehicle_models::single_track::{SingleTrackModel, SingleTrackParams};
+use vehicle_models::HsriTyre;
+
+use fmi_master::cosim::ParameterValue;
+use fmi_master::fmu::{LoadedFmu, VariableInfo, VariableType};
+use fmi_master::scoring::StateScore;
+
+use super::align::Grid;
+use super::drive::{self, Feed, Recording};
+use super::{prepare, report, Prepared};
+
+/// The estimator model to fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitModel {
+    A,
+    B,
+}
+
+impl FitModel {
+    pub fn parse(text: &str) -> Result<FitModel> {
+        match text {
+            "a" | "A" => Ok(FitModel::A),
+            "b" | "B" => Ok(FitModel::B),
+            other => {
+                bail!("--model {other:?}: expected a (single track, HSRI) or b (3-state two-track)")
+            }
+        }
+    }
+
+    /// The FMU's `model` enumeration value.
+    fn number(self) -> i32 {
+        match self {
+            FitModel::A => 1,
+            FitModel::B => 2,
+        }
+    }
+}
+
+/// `t0:t1` in seconds.
+pub fn parse_segment(text: &str) -> Result<(f64, f64)> {
+    let (a, b) = text
+        .split_once(':')
+        .ok_or_else(|| anyhow!("{text:?}: expected t0:t1 in seconds"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<f64>()
+            .map_err(|_| anyhow!("{text:?}: {s:?} is not a number of seconds"))
+    };
+    let (from, to) = (parse(a)?, parse(b)?);
+    if from.partial_cmp(&to) != Some(std::cmp::Ordering::Less) {
+        bail!("{text:?}: the segment must end after it starts");
+    }
+    Ok((from, to))
+}
+
+/// What `harness fit` is given.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    pub log: PathBuf,
+    pub map: PathBuf,
+    pub parameters: Option<PathBuf>,
+    pub fmu: PathBuf,
+    pub model: FitModel,
+    pub out: PathBuf,
+    pub train: Option<(f64, f64)>,
+    pub validate: Option<(f64, f64)>,
+}
+
+/// What the fit found.
+pub struct FitOutcome {
+    pub model: FitModel,
+    /// `[k_F, k_R]` (model A) and whether the EM converged.
+    pub scales: Option<([f64; 2], bool)>,
+    /// The common factor on every noise standard deviation.
+    pub noise_scale: f64,
+    pub train_rows: Range<usize>,
+    pub validate_rows: Range<usize>,
+    pub step: f64,
+    /// Held-out scores with the starting and the fitted parameters.
+    pub before: Vec<StateScore>,
+    pub after: Vec<StateScore>,
+    /// Held-out NIS per degree of freedom, starting and fitted.
+    pub nis_before: f64,
+    pub nis_after: f64,
+    /// The fitted parameters written to the .ssv.
+    pub fitted: Vec<(String, f64)>,
+}
+
+/// Noise standard deviations the FMU declares; each is multiplied by the fitted noise scale.
+const NOISE_PARAMETERS: [&str; 12] = [
+    "process_noise_std_vx",
+    "process_noise_std_vy",
+    "process_noise_std_yaw_rate",
+    "process_noise_std_omega_front",
+    "process_noise_std_omega_rear",
+    "process_noise_std_sideslip",
+    "process_noise_std_ay",
+    "measurement_noise_std_yaw_rate",
+    "measurement_noise_std_ay",
+    "measurement_noise_std_omega_front",
+    "measurement_noise_std_omega_rear",
+    "measurement_noise_std_vx",
+];
+
+/// `harness fit` (see the module text).
+pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
+    let out_dir = options
+        .out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let work = fmi_master::runner::WorkFolder::new(
+        out_dir.join(format!(".fit-work-{}", std::process::id())),
+    );
+    let fmu = LoadedFmu::load(&options.fmu, work.path())?;
+    let prepared = prepare(&options.log, &options.map, &fmu)?;
+    let model = (
+        drive::parameter(&fmu, "model")?.clone(),
+        ParameterValue::Integer(options.model.number()),
+    );
+    let start = super::parameters(&fmu, &prepared, options.parameters.as_deref(), &[model])?;
+    let (train_rows, validate_rows) = segments(&prepared.grid, options)?;
+
+    let mut fitted: Vec<(String, f64)> = Vec::new();
+    let scales = match options.model {
+        FitModel::A => {
+            let (scales, converged) = identify_scales(&fmu, &prepared, &start, train_rows.clone())?;
+            fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
+            Some((scales, converged))
+        }
+        FitModel::B => None,
+    };
+    let with_scales = with_reals(&fmu, &start, &fitted)?;
+    let train = segment(&prepared, train_rows.clone());
+    let recording = drive::run(&fmu, &with_scales, &train.0, &train.1)?;
+    let noise_scale = nis_per_dof(&recording).sqrt();
+    if !(noise_scale.is_finite() && noise_scale > 0.0) {
+        bail!("the training segment gave no measurement update (NIS per degree of freedom {noise_scale}); choose a segment where the car drives");
+    }
+    for name in NOISE_PARAMETERS {
+        fitted.push((
+            name.to_string(),
+            real_value(&fmu, &with_scales, name)? * noise_scale,
+        ));
+    }
+    let final_parameters = with_reals(&fmu, &start, &fitted)?;
+
+    let (validation_grid, validation_feeds) = segment(&prepared, validate_rows.clone());
+    let before = drive::run(&fmu, &start, &validation_grid, &validation_feeds)?;
+    let after = drive::run(&fmu, &final_parameters, &validation_grid, &validation_feeds)?;
+    let references = shifted(&prepared, validate_rows.clone());
+    write_ssv(&fmu, &final_parameters, &options.out, &options.log)?;
+    drop(fmu);
+    drop(work);
+    Ok(FitOutcome {
+        model: options.model,
+        scales,
+        noise_scale,
+        step: prepared.grid.step,
+        before: report::scores(&references, &before, 0..validation_grid.rows),
+        after: report::scores(&references, &after, 0..validation_grid.rows),
+        nis_before: nis_per_dof(&before),
+        nis_after: nis_per_dof(&after),
+        train_rows,
+        validate_rows,
+        fitted,
+    })
+}
+
+/// The training and validation rows: as given, or the first two thirds and the last third.
+fn segments(grid: &Grid, options: &FitOptions) -> Result<(Range<usize>, Range<usize>)> {
+    let end = grid.time(grid.rows - 1);
+    let split = grid.start + (end - grid.start) * 2.0 / 3.0;
+    let (t0, t1) = options.train.unwrap_or((grid.start, split));
+    let (t2, t3) = options.validate.unwrap_or((split, end));
+    let (train, validate) = (grid.rows_within(t0, t1), grid.rows_within(t2, t3));
+    for (name, rows, (a, b)) in [
+        ("--train", &train, (t0, t1)),
+        ("--validate", &validate, (t2, t3)),
+    ] {
+        if rows.len() < 10 {
+            bail!("{name} {a}:{b}: fewer than 10 samples of the log (from {} s to {end} s every {} s)", grid.start, grid.step);
+        }
+    }
+    Ok((train, validate))
+}
+
+/// The grid and inputs of `rows` only.
+fn segment(prepared: &Prepared, rows: Range<usize>) -> (Grid, Vec<Feed>) {
+    let grid = Grid {
+        start: prepared.grid.time(rows.start),
+        step: prepared.grid.step,
+        rows: rows.len(),
+    };
+    let feeds = prepared
+        .feeds
+        .iter()
+        .map(|f| Feed {
+            input: f.input.clone(),
+            values: f.values[rows.clone()].to_vec(),
+        })
+        .collect();
+    (grid, feeds)
+}
+
+/// The references of `rows` only, as a [`Prepared`] the report functions read.
+fn shifted(prepared: &Prepared, rows: Range<usize>) -> Prepared {
+    let (grid, feeds) = segment(prepared, rows.clone());
+    Prepared {
+        map: prepared.map.clone(),
+        log: prepared.log.clone(),
+        grid,
+        feeds,
+        references: prepared
+            .references
+            .iter()
+            .map(|(c, v)| (c.clone(), v[rows.clone()].to_vec()))
+            .collect(),
+    }
+}
+
+/// Σ NIS / Σ dof over the updates (rows where the FMU used at least one measurement row).
+fn nis_per_dof(recording: &Recording) -> f64 {
+    let (Some(nis), Some(dof)) = (recording.column("nis"), recording.column("rows_used")) else {
+        return f64::NAN;
+    };
+    let (mut sum, mut count) = (0.0, 0.0);
+    for (n, d) in nis.iter().zip(dof) {
+        if *d > 0.0 && n.is_finite() {
+            sum += n;
+            count += d;
+        }
+    }
+    sum / count
+}
+
+/// The Real parameter `name` as `values` set it, else its start value in the FMU.
+fn real_value(
+    fmu: &LoadedFmu,
+    values: &[(VariableInfo, ParameterValue)],
+    name: &str,
+) -> Result<f64> {
+    let set =
+        values
+            .iter()
+            .rev()
+            .find(|(v, _)| v.name == name)
+            .and_then(|(_, value)| match value {
+                ParameterValue::Real(x) => Some(*x),
+                _ => None,
+            });
+    set.or_else(|| start_value(fmu, name)).ok_or_else(|| {
+        anyhow!("the estimator FMU has no Real parameter {name:?} with a start value")
+    })
+}
+
+fn start_value(fmu: &LoadedFmu, name: &str) -> Option<f64> {
+    use fmi::fmi2::schema::ScalarVariableElement;
+    let variable = fmu.model_description().model_variable_by_name(name).ok()?;
+    match &variable.elem {
+        ScalarVariableElement::Real(real) => real.start,
+        _ => None,
+    }
+}
+
+/// `values` followed by the Real parameters `reals`.
+fn with_reals(
+    fmu: &LoadedFmu,
+    values: &[(VariableInfo, ParameterValue)],
+    reals: &[(String, f64)],
+) -> Result<Vec<(VariableInfo, ParameterValue)>> {
+    let mut out = values.to_vec();
+    for (name, value) in reals {
+        out.push((
+            drive::parameter(fmu, name)?.clone(),
+            ParameterValue::Real(*value),
+        ));
+    }
+    Ok(out)
+}
+
+/// Model A's vehicle as the FMU builds it from `values` (and its start values).
+fn vehicle(fmu: &LoadedFmu, values: &[(VariableInfo, ParameterValue)]) -> Result<SingleTrackHsri> {
+    let source = ParameterSource::new(|name| real_value(fmu, values, name).ok());
+    let params = SingleTrackParams {
+        chassis: source.chassis().map_err(|e| anyhow!(e))?,
+        ..SingleTrackParams::default()
+    };
+    Ok(SingleTrackModel::new(
+        params,
+        HsriTyre::new(source.hsri().map_err(|e| anyhow!(e))?),
+    ))
+}
+
+/// `[k_F, k_R]` by EM on the training rows.
+fn identify_scales(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    rows: Range<usize>,
+) -> Result<([f64; 2], bool)> {
+    let feed = |name: &str| {
+        prepared
+            .feeds
+            .iter()
+            .find(|f| f.input == name)
+            .map(|f| &f.values[rows.clone()])
+    };
+    let held = |name: &str| held_input(feed(name), rows.len());
+    let (steering, drive_torque, brake_torque) = (
+        held("steering_angle"),
+        held("drive_torque"),
+        held("brake_torque"),
+    );
+    let inputs: Vec<[f64; 3]> = (0..rows.len())
+        .map(|k| [steering[k], drive_torque[k], brake_torque[k]])
+        .collect();
+    let measured = |name: &str| {
+        feed(name)
+            .map(<[f64]>::to_vec)
+            .unwrap_or_else(|| vec![f64::NAN; rows.len()])
+    };
+    let y = [
+        measured("yaw_rate_meas"),
+        measured("ay_meas"),
+        measured("omega_front_meas"),
+        measured("omega_rear_meas"),
+    ];
+    let measurements: Vec<[f64; 4]> = (0..rows.len())
+        .map(|k| [y[0][k], y[1][k], y[2][k], y[3][k]])
+        .collect();
+    let mut config = crate::mismatch::identification_config();
+    config.sample_time = prepared.grid.step;
+    config.measurement_noise_std = [
+        "measurement_noise_std_yaw_rate",
+        "measurement_noise_std_ay",
+        "measurement_noise_std_omega_front",
+        "measurement_noise_std_omega_rear",
+    ]
+    .map(|name| real_value(fmu, values, name).unwrap_or(f64::NAN));
+    let result =
+        identify_scales_from_arrays(&vehicle(fmu, values)?, &inputs, &measurements, &config)
+            .map_err(|e| {
+                anyhow!("identifying the cornering-stiffness scales on the training segment: {e}")
+            })?;
+    Ok((
+        [result.parameters[0], result.parameters[1]],
+        result.converged,
+    ))
+}
+
+/// A driver input on the rows: a missing sample holds the previous one (0 before the first),
+/// an input the map does not feed is 0, as the FMU's start value.
+fn held_input(values: Option<&[f64]>, rows: usize) -> Vec<f64> {
+    let Some(values) = values else {
+        return vec![0.0; rows];
+    };
+    let mut last = 0.0;
+    values
+        .iter()
+        .map(|v| {
+            if v.is_finite() {
+                last = *v;
+            }
+            last
+        })
+        .collect()
+}
+
+/// Writes the SSP 1.0 parameter-value file (the last value of each name; enumerations by item
+/// name), under a temporary name renamed when complete.
+fn write_ssv(
+    fmu: &LoadedFmu,
+    values: &[(VariableInfo, ParameterValue)],
+    path: &Path,
+    log: &Path,
+) -> Result<()> {
+    let mut lines = Vec::new();
+    let mut seen: Vec<&str> = Vec::new();
+    for (var, value) in values.iter().rev() {
+        if seen.contains(&var.name.as_str()) {
+            continue;
+        }
+        seen.push(&var.name);
+        let element = match (var.var_type, value) {
+            (VariableType::Enumeration, ParameterValue::Integer(i)) => {
+                let item = fmu
+                    .enumeration_items(&var.name)
+                    .iter()
+                    .find(|(_, n)| n == i)
+                    .map(|(name, _)| name.clone());
+                format!(
+                    "<ssv:Enumeration value=\"{}\"/>",
+                    item.ok_or_else(|| anyhow!("{}: {i} is no item", var.name))?
+                )
+            }
+            (_, ParameterValue::Real(x)) => format!("<ssv:Real value=\"{x:?}\"/>"),
+            (_, ParameterValue::Integer(i)) => format!("<ssv:Integer value=\"{i}\"/>"),
+            (_, ParameterValue::Boolean(b)) => format!("<ssv:Boolean value=\"{b}\"/>"),
+            (_, ParameterValue::String(_)) => continue,
+        };
+        lines.push(format!(
+            "    <ssv:Parameter name=\"{}\">{element}</ssv:Parameter>",
+            var.name
+        ));
+    }
+    lines.reverse();
+    let source = log
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let text = format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<ssv:ParameterSet xmlns:ssv=\"http://ssp-standard.org/SSP1/SystemStructureParameterValues\" version=\"1.0\" name=\"fitted\" description=\"VehicleStateEstimator parameters fitted by harness fit to {}\" generationTool=\"harness fit\">\n  <ssv:Parameters>\n{}\n  </ssv:Parameters>\n</ssv:ParameterSet>\n",
+        xml_escape(&source),
+        lines.join("\n")
+    );
+    let partial = fmi_master::recording::partial_name(path);
+    std::fs::write(&partial, text).with_context(|| format!("writing {}", partial.display()))?;
+    std::fs::rename(&partial, path)
+        .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
+}
+
+fn xml_escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+impl FitOutcome {
+    /// Plain-text summary: fitted values, held-out scores before and after.
+    pub fn summary(&self) -> String {
+        let mut text = format!(
+            "fit of model {:?}: training rows {}..{}, held-out rows {}..{} (every {:.6} s)\n",
+            self.model,
+            self.train_rows.start,
+            self.train_rows.end,
+            self.validate_rows.start,
+            self.validate_rows.end,
+            self.step
+        );
+        match self.scales {
+            Some(([front, rear], converged)) => {
+                text += &format!("  cornering_stiffness_scale_front = {front:.4}, cornering_stiffness_scale_rear = {rear:.4} (EM {})\n", if converged { "converged" } else { "NOT converged" })
+            }
+            None => text += "  model B has no per-axle stiffness parameter: noise levels only\n",
+        }
+        text += &format!(
+            "  noise scale s = {:.3} (every noise std multiplied by it)\n",
+            self.noise_scale
+        );
+        text += &format!("  held-out NIS per degree of freedom: {:.2} with the starting parameters, {:.2} fitted\n", self.nis_before, self.nis_after);
+        text += "  held-out scores, starting parameters:\n";
+        text += &report::score_table(&self.before);
+        text += "  held-out scores, fitted parameters:\n";
+        text += &report::score_table(&self.after);
+        text
+    }
+
+    /// Held-out RMSE of the estimator's `label` before and after the fit.
+    pub fn rmse(&self, label: &str) -> Option<(f64, f64)> {
+        let find = |scores: &[StateScore]| {
+            scores
+                .iter()
+                .find(|s| s.label == label && s.estimator == "estimator")
+                .map(|s| s.rmse)
+        };
+        Some((find(&self.before)?, find(&self.after)?))
+    }
+}
