@@ -74,10 +74,12 @@ pub struct MonteCarloSummary {
     pub states: Vec<StateSummary>,
     pub nis: Vec<NisSummary>,
     pub step_wall_time: Vec<(String, Spread)>,
+    /// Every run's scores, run i with seed first_seed + i (`harness montecarlo` writes them to runs.csv).
+    pub per_run: Vec<RunScores>,
 }
 
 /// NEES time series keyed by (score label, estimator).
-type NeesSeries = Vec<((String, String), Vec<f64>)>;
+pub type NeesSeries = Vec<((String, String), Vec<f64>)>;
 
 /// Per-run NEES time series, one per (score label, estimator) having a std output.
 fn nees_series(plan: &Plan, result: &RunResult) -> NeesSeries {
@@ -129,6 +131,16 @@ fn check_seed_variable(plan: &Plan, r: &VarRef) -> Result<()> {
     Ok(())
 }
 
+/// One run of `plan` with `options`, scored: every Monte Carlo run goes through here, and so
+/// does every case of a campaign chunk (`harness cases`), so both give the same bits.
+pub fn scored_run(plan: &Plan, options: &RunOptions) -> Result<(RunScores, NeesSeries)> {
+    let result = plan.run(options, |_| {})?;
+    let scores = scoring::score_run(&plan.scenario, &result);
+    let nees = nees_series(plan, &result);
+    plan.recycle(result);
+    Ok((scores, nees))
+}
+
 /// Run `runs` seeds of `plan` in parallel; run i sets every `montecarlo.seeds` parameter (and
 /// `extra_seeds`) to `first_seed + i`. `on_done` is called after each finished run.
 pub fn run(
@@ -174,15 +186,10 @@ pub fn run(
                     .map(|r| (r.clone(), ParameterValue::Integer(seed)))
                     .collect(),
             };
-            let result = plan.run(&options, |_| {});
+            let outcome = scored_run(plan, &options);
             finished.fetch_add(1, Ordering::Relaxed);
             on_done();
-            let result =
-                result.map_err(|e| e.context(format!("Monte Carlo run {i} (seed {seed})")))?;
-            let scores = scoring::score_run(&plan.scenario, &result);
-            let nees = nees_series(plan, &result);
-            plan.recycle(result);
-            Ok((scores, nees))
+            outcome.map_err(|e| e.context(format!("Monte Carlo run {i} (seed {seed})")))
         })
         .collect();
     let mut per_run = Vec::with_capacity(runs);
@@ -285,6 +292,7 @@ pub fn run(
         states,
         nis,
         step_wall_time,
+        per_run: per_run.into_iter().map(|(scores, _)| scores).collect(),
     })
 }
 

@@ -14,6 +14,8 @@ use fmi_master::scenario::{Scenario, VarRef};
 use harness::demo::{self, DemoOptions};
 use harness::identify::{self, JobOverrides};
 
+mod cases;
+
 #[derive(Parser, Debug)]
 #[command(
     name = "harness",
@@ -73,6 +75,9 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Keep only these [[fmu]] instances and their connections (comma-separated).
+        #[arg(long, value_delimiter = ',', value_name = "INSTANCE,...")]
+        instances: Vec<String>,
         #[arg(long, default_value = "out/montecarlo")]
         out: PathBuf,
         #[arg(long)]
@@ -189,6 +194,18 @@ enum Command {
     },
     /// List the manoeuvre library with the numbers this project chose
     Manoeuvres,
+    /// Run one chunk of a campaign's cases (a TOML chunk file written by `python -m
+    /// vse_campaign`) and print each case's scores as CSV rows case,field,value
+    Cases {
+        /// Chunk file (format in harness/studies/src/cases.rs).
+        chunk: PathBuf,
+        /// Replaces {fmu_dir} in the scenario's FMU paths.
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+        /// Cases run at once (a Dask worker runs one chunk on one thread).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+    },
 }
 
 fn main() -> ExitCode {
@@ -287,10 +304,12 @@ fn execute(cli: Cli) -> Result<()> {
             first_seed,
             seed_var,
             threads,
+            instances,
             out,
             fmu_dir,
         } => {
-            let parsed = Scenario::from_file(&scenario)?;
+            let mut parsed = Scenario::from_file(&scenario)?;
+            cases::keep_instances(&mut parsed, &instances)?;
             let extra = seed_var
                 .iter()
                 .map(|s| {
@@ -324,8 +343,11 @@ fn execute(cli: Cli) -> Result<()> {
             let md = montecarlo::to_markdown(&summary);
             let path = env.out_dir.join("summary.md");
             std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
+            let runs_csv = env.out_dir.join("runs.csv");
+            cases::write_runs_csv(&runs_csv, first_seed, &summary.per_run)?;
             print!("{md}");
             println!("\nsummary: {}", path.display());
+            println!("every run's scores: {}", runs_csv.display());
             Ok(())
         }
         Command::Identify {
@@ -453,6 +475,14 @@ fn execute(cli: Cli) -> Result<()> {
                 Err(e) if runner::is_broken_pipe(&e) => Ok(()),
                 other => other,
             }
+        }
+        Command::Cases {
+            chunk,
+            fmu_dir,
+            threads,
+        } => {
+            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+            cases::run_chunk(&chunk, &fmu_dir, threads, &mut std::io::stdout())
         }
         Command::Manoeuvres => {
             for name in manoeuvres::LIBRARY {
