@@ -32,6 +32,9 @@ if [ ! -x "$venv/bin/python" ] || ! cmp -s "$root/tests/requirements.txt" "$stam
     cp "$root/tests/requirements.txt" "$stamp"
 fi
 
+# vse_campaign (harness/campaign, issue 16) on .venv's path: a .pth file, no build step.
+"$venv/bin/python" -c 'import site, sys; open(site.getsitepackages()[0] + "/vse_campaign.pth", "w").write(sys.argv[1] + "\n")' "$root/harness/campaign"
+
 zig_stamp="$venv/.requirements-zig"
 if ! cmp -s "$root/packaging/requirements-zig.txt" "$zig_stamp"; then
     echo "setup: installing zig and cargo-zigbuild into $venv (packaging/requirements-zig.txt)" >&2
