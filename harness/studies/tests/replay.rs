@@ -236,6 +236,12 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
             "scales {scales:?}, static-load equivalent {truth:?}"
         );
     }
+    // The fitted parameters lower the held-out sideslip error against the starting ones.
+    let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
+    assert!(
+        after < before,
+        "held-out sideslip RMSE {before} deg with the map's parameters, {after} deg fitted"
+    );
     // The file is an SSP parameter-value file the replay accepts.
     let again = replay(&ReplayOptions {
         parameters: Some(out.clone()),

@@ -6,12 +6,13 @@
 //!    and smoother E-step, Q sized for the EM) — on the training segment, with the car's
 //!    vehicle data from the map and `--parameters`. Model B has no per-axle stiffness parameter
 //!    in the FMU, so for `--model b` only the noise is fitted.
-//! 2. **Noise level**: with `Q`, `R` and `P0` all multiplied by `s²` the Kalman gains do not
-//!    change and every innovation covariance is `s² S`, so the innovation likelihood is maximised
-//!    by `s² = Σ NIS / Σ dof` over the updates (the NIS with the unscaled `S`). The FMU reports
-//!    each update's NIS and degrees of freedom, so one FMU run on the training segment gives
-//!    `s`; every noise standard deviation is multiplied by it (exact for the linear filter, the
-//!    first-order answer for the EKF/UKF).
+//! 2. **Noise levels**: model A: a factor on every process-noise and one on every
+//!    measurement-noise standard deviation, maximising the innovation likelihood of the
+//!    training segment through an offline EKF on model A with the fitted scales
+//!    ([`super::noise`]). Model B (no offline model here): one common factor `s` on all of them;
+//!    with `Q`, `R` and `P0` all multiplied by `s²` the Kalman gains do not change and every
+//!    innovation covariance is `s² S`, so the innovation likelihood is maximised by
+//!    `s² = Σ NIS / Σ dof` over the updates, which one FMU run on the training segment reports.
 //! 3. **Held-out score**: the FMU replays the validation segment with the starting parameters
 //!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
 //!    freedom (1 for a consistent filter) when the log has no reference.
@@ -100,8 +101,10 @@ pub struct FitOutcome {
     pub model: FitModel,
     /// `[k_F, k_R]` (model A) and whether the EM converged.
     pub scales: Option<([f64; 2], bool)>,
-    /// The common factor on every noise standard deviation.
-    pub noise_scale: f64,
+    /// Factors on the process- and on the measurement-noise standard deviations.
+    pub noise_factors: (f64, f64),
+    /// Model A: the likelihood search behind them.
+    pub noise_fit: Option<super::noise::NoiseFit>,
     pub train_rows: Range<usize>,
     pub validate_rows: Range<usize>,
     pub step: f64,
@@ -160,16 +163,25 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         FitModel::B => None,
     };
     let with_scales = with_reals(&fmu, &start, &fitted)?;
-    let train = segment(&prepared, train_rows.clone());
-    let recording = drive::run(&fmu, &with_scales, &train.0, &train.1)?;
-    let noise_scale = nis_per_dof(&recording).sqrt();
-    if !(noise_scale.is_finite() && noise_scale > 0.0) {
-        bail!("the training segment gave no measurement update (NIS per degree of freedom {noise_scale}); choose a segment where the car drives");
-    }
+    let (noise_factors, noise_fit) = match options.model {
+        FitModel::A => {
+            let found = fit_noise_a(&fmu, &prepared, &with_scales, train_rows.clone())?;
+            ((found.process, found.measurement), Some(found))
+        }
+        FitModel::B => {
+            let s = common_noise_scale(&fmu, &prepared, &with_scales, train_rows.clone())?;
+            ((s, s), None)
+        }
+    };
     for name in NOISE_PARAMETERS {
+        let factor = if name.starts_with("process") {
+            noise_factors.0
+        } else {
+            noise_factors.1
+        };
         fitted.push((
             name.to_string(),
-            real_value(&fmu, &with_scales, name)? * noise_scale,
+            real_value(&fmu, &with_scales, name)? * factor,
         ));
     }
     let final_parameters = with_reals(&fmu, &start, &fitted)?;
@@ -184,7 +196,8 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
     Ok(FitOutcome {
         model: options.model,
         scales,
-        noise_scale,
+        noise_factors,
+        noise_fit,
         step: prepared.grid.step,
         before: report::scores(&references, &before, 0..validation_grid.rows),
         after: report::scores(&references, &after, 0..validation_grid.rows),
@@ -193,6 +206,53 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         train_rows,
         validate_rows,
         fitted,
+    })
+}
+
+/// Model B: the common noise factor `sqrt(Σ NIS / Σ dof)` of an FMU run on the training rows.
+fn common_noise_scale(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    rows: Range<usize>,
+) -> Result<f64> {
+    let (grid, feeds) = segment(prepared, rows);
+    let scale = nis_per_dof(&drive::run(fmu, values, &grid, &feeds)?).sqrt();
+    if !(scale.is_finite() && scale > 0.0) {
+        bail!("the training segment gave no measurement update (NIS per degree of freedom {scale}); choose a segment where the car drives");
+    }
+    Ok(scale)
+}
+
+/// Model A: the noise factors of greatest innovation likelihood on the training rows.
+fn fit_noise_a(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    rows: Range<usize>,
+) -> Result<super::noise::NoiseFit> {
+    let (inputs, measurements) = training_rows(prepared, rows);
+    let std = |names: &[&str]| {
+        names
+            .iter()
+            .map(|n| real_value(fmu, values, n))
+            .collect::<Result<Vec<f64>>>()
+    };
+    let process = std(&NOISE_PARAMETERS[..5])?;
+    let measurement = std(&NOISE_PARAMETERS[7..11])?;
+    super::noise::fit_noise(&super::noise::NoiseProblem {
+        vehicle: &vehicle(fmu, values)?,
+        sample_time: prepared.grid.step,
+        process_std: [process[0], process[1], process[2], process[3], process[4]],
+        measurement_std: [
+            measurement[0],
+            measurement[1],
+            measurement[2],
+            measurement[3],
+        ],
+        initial_std: crate::mismatch::identification_config().initial_std,
+        inputs: &inputs,
+        measurements: &measurements,
     })
 }
 
@@ -313,6 +373,8 @@ fn vehicle(fmu: &LoadedFmu, values: &[(VariableInfo, ParameterValue)]) -> Result
     let source = ParameterSource::new(|name| real_value(fmu, values, name).ok());
     let params = SingleTrackParams {
         chassis: source.chassis().map_err(|e| anyhow!(e))?,
+        cornering_stiffness_scale_front: real_value(fmu, values, PARAMETER_NAMES[0])?,
+        cornering_stiffness_scale_rear: real_value(fmu, values, PARAMETER_NAMES[1])?,
         ..SingleTrackParams::default()
     };
     Ok(SingleTrackModel::new(
@@ -328,36 +390,7 @@ fn identify_scales(
     values: &[(VariableInfo, ParameterValue)],
     rows: Range<usize>,
 ) -> Result<([f64; 2], bool)> {
-    let feed = |name: &str| {
-        prepared
-            .feeds
-            .iter()
-            .find(|f| f.input == name)
-            .map(|f| &f.values[rows.clone()])
-    };
-    let held = |name: &str| held_input(feed(name), rows.len());
-    let (steering, drive_torque, brake_torque) = (
-        held("steering_angle"),
-        held("drive_torque"),
-        held("brake_torque"),
-    );
-    let inputs: Vec<[f64; 3]> = (0..rows.len())
-        .map(|k| [steering[k], drive_torque[k], brake_torque[k]])
-        .collect();
-    let measured = |name: &str| {
-        feed(name)
-            .map(<[f64]>::to_vec)
-            .unwrap_or_else(|| vec![f64::NAN; rows.len()])
-    };
-    let y = [
-        measured("yaw_rate_meas"),
-        measured("ay_meas"),
-        measured("omega_front_meas"),
-        measured("omega_rear_meas"),
-    ];
-    let measurements: Vec<[f64; 4]> = (0..rows.len())
-        .map(|k| [y[0][k], y[1][k], y[2][k], y[3][k]])
-        .collect();
+    let (inputs, measurements) = training_rows(prepared, rows);
     let mut config = crate::mismatch::identification_config();
     config.sample_time = prepared.grid.step;
     config.measurement_noise_std = [
@@ -376,6 +409,41 @@ fn identify_scales(
         [result.parameters[0], result.parameters[1]],
         result.converged,
     ))
+}
+
+/// The rows as model A reads them: inputs `[δ, drive, brake]` and measurements `[r, ay, ωF, ωR]`.
+fn training_rows(prepared: &Prepared, rows: Range<usize>) -> (Vec<[f64; 3]>, Vec<[f64; 4]>) {
+    let feed = |name: &str| {
+        prepared
+            .feeds
+            .iter()
+            .find(|f| f.input == name)
+            .map(|f| &f.values[rows.clone()])
+    };
+    let held = |name: &str| held_input(feed(name), rows.len());
+    let (steering, drive_torque, brake_torque) = (
+        held("steering_angle"),
+        held("drive_torque"),
+        held("brake_torque"),
+    );
+    let inputs = (0..rows.len())
+        .map(|k| [steering[k], drive_torque[k], brake_torque[k]])
+        .collect();
+    let measured = |name: &str| {
+        feed(name)
+            .map(<[f64]>::to_vec)
+            .unwrap_or_else(|| vec![f64::NAN; rows.len()])
+    };
+    let y = [
+        measured("yaw_rate_meas"),
+        measured("ay_meas"),
+        measured("omega_front_meas"),
+        measured("omega_rear_meas"),
+    ];
+    let measurements = (0..rows.len())
+        .map(|k| [y[0][k], y[1][k], y[2][k], y[3][k]])
+        .collect();
+    (inputs, measurements)
 }
 
 /// A driver input on the rows: a missing sample holds the previous one (0 before the first),
@@ -474,10 +542,19 @@ impl FitOutcome {
             }
             None => text += "  model B has no per-axle stiffness parameter: noise levels only\n",
         }
+        let (process, measurement) = self.noise_factors;
         text += &format!(
-            "  noise scale s = {:.3} (every noise std multiplied by it)\n",
-            self.noise_scale
+            "  noise: process-noise stds x {process:.3}, measurement-noise stds x {measurement:.3}"
         );
+        match self.noise_fit {
+            Some(f) => {
+                text += &format!(
+                    " (innovation likelihood: -log L per sample {:.3} -> {:.3})\n",
+                    f.negative_log_likelihood_start, f.negative_log_likelihood
+                )
+            }
+            None => text += " (model B: sqrt of the training NIS per degree of freedom)\n",
+        }
         text += &format!("  held-out NIS per degree of freedom: {:.2} with the starting parameters, {:.2} fitted\n", self.nis_before, self.nis_after);
         text += "  held-out scores, starting parameters:\n";
         text += &report::score_table(&self.before);

@@ -14,6 +14,7 @@ pub mod drive;
 pub mod fit;
 pub mod log;
 pub mod map;
+pub mod noise;
 pub mod record;
 pub mod report;
 pub mod units;
