@@ -141,6 +141,7 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
     let work = fmi_master::runner::WorkFolder::new(
         out_dir.join(format!(".fit-work-{}", std::process::id())),
     );
