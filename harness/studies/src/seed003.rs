@@ -519,7 +519,74 @@ pub fn identify_from_arrays(
         sample_time,
         ..config.clone()
     };
-    identify_run(&config, &run, SVector::from(measurements[first]))
+    check_moving(inputs, &RearAxleParams::default())?;
+    let initial_state = SVector::from(measurements[first]);
+    check_identifiable(&config, &run, initial_state)?;
+    identify_run(&config, &run, initial_state)
+}
+
+/// Model C's slip angles divide by `Vx_ref` (003: 2.8-2.9); below `low_speed_guard` the model
+/// runs on the project's standstill substitute, not the seed's equations, and the data say
+/// nothing about the tyres (a standing vehicle gave m/J = 564, issue 15). Refuses the first
+/// such row.
+fn check_moving(inputs: &[[f64; 3]], params: &RearAxleParams) -> Result<(), Seed003Error> {
+    let guard = params.low_speed_guard;
+    match inputs.iter().position(|input| !(input[2] >= guard)) {
+        Some(row) => Err(Seed003Error::Data(format!(
+            "data row {} (counting from 0): Vx_ref = {} m/s is below model C's low-speed guard of \
+             {guard} m/s; the identification needs a moving vehicle, so cut standstill and \
+             creeping from the data set",
+            row, inputs[row][2]
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// A parameter whose Cramér-Rao standard deviation is this fraction of its start value or more
+/// is not determined by the data.
+const LARGEST_RELATIVE_BOUND: f64 = 1.0;
+
+/// Refuses data that cannot determine `p`: the Fisher information of the identification's
+/// model at the start ([`parameter_information`], with the assumed `Ξ` and `Θ`) must bound
+/// every parameter's standard deviation below its own size. A singular information (a
+/// parameter or a combination without effect on these data, e.g. no steering at all) gives
+/// infinite bounds and is refused too.
+fn check_identifiable(
+    config: &Seed003Config,
+    run: &RecordedRun<3, 3>,
+    initial_state: SVector<f64, 3>,
+) -> Result<(), Seed003Error> {
+    let theta = diagonal_covariance(&config.measurement_noise_std);
+    let model = RearAxleModel::new(
+        params_with(&config.start_parameters),
+        config.sample_time,
+        diagonal_covariance(&config.identification_process_noise_std),
+        theta,
+    )?;
+    let initial = InitialEstimate {
+        state: initial_state,
+        covariance: theta,
+    };
+    let bound = cramer_rao_standard_deviations(&parameter_information(&model, run, &initial)?);
+    let start = config.start_parameters;
+    let undetermined: Vec<String> = (0..4)
+        .filter(|&j| !(bound[j] < LARGEST_RELATIVE_BOUND * start[j].abs()))
+        .map(|j| {
+            format!(
+                "{} (±{:.3e} around {})",
+                PARAMETER_NAMES[j], bound[j], start[j]
+            )
+        })
+        .collect();
+    if undetermined.is_empty() {
+        return Ok(());
+    }
+    Err(Seed003Error::Data(format!(
+        "the data do not determine {}: the Cramér-Rao standard deviation at the start is at \
+         least the parameter itself (the Fisher information is singular or nearly so); the \
+         drive must excite the lateral dynamics (steering while moving) and vary the speed",
+        undetermined.join(", ")
+    )))
 }
 
 /// The EM identification of `run` from `config.start_parameters`, the particle cloud starting

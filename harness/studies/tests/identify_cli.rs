@@ -390,6 +390,45 @@ fn the_command_names_a_missing_or_wrong_file() {
     assert_names(&e, &["--seeds", "recorded data set"]);
 }
 
+/// `rows` samples at 10 ms of a constant speed and steering angle, every state measured 0.
+fn constant_drive_csv(rows: usize, speed: f64, steering: f64) -> String {
+    let mut text =
+        String::from("time,dvx_ref_dt,steering_angle,vx_ref,vy_ref,yaw_rate,yaw_angle\n");
+    for k in 0..rows {
+        text += &format!("{},0,{steering},{speed},0,0,0\n", k as f64 * 0.01);
+    }
+    text
+}
+
+/// Issue 15: a standing vehicle gave m/J = 564 and exit 0. Data that cannot determine the
+/// parameters are refused, naming the file and the reason, with a non-zero exit.
+#[test]
+fn data_that_cannot_determine_the_parameters_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    let standing = write(
+        dir.path(),
+        "standing.csv",
+        &constant_drive_csv(50, 0.0, 0.05),
+    );
+    let e = refused(&["identify", standing.to_str().unwrap(), "--out", out]);
+    assert_names(
+        &e,
+        &["standing.csv", "row 0", "Vx_ref = 0", "low-speed guard"],
+    );
+    let straight = write(
+        dir.path(),
+        "straight.csv",
+        &constant_drive_csv(50, 14.0, 0.0),
+    );
+    let e = refused(&["identify", straight.to_str().unwrap(), "--out", out]);
+    assert_names(
+        &e,
+        &["straight.csv", "do not determine", "Csf", "Cramér-Rao"],
+    );
+}
+
 // ------------------------------------------------------------------------------------------
 // Bad identification files
 
@@ -564,8 +603,20 @@ fn overrides_that_do_not_fit_the_data_are_refused() {
 #[test]
 fn truth_on_the_command_line_gives_relative_errors_for_a_recorded_set() {
     let dir = tempfile::tempdir().unwrap();
-    let good = write(dir.path(), "good.csv", GOOD_CSV);
     let out = dir.path().join("out");
+    // A recorded data set that determines the parameters: a small simulated one, as CSV (a
+    // few rows are refused as not identifying anything, see
+    // data_that_cannot_determine_the_parameters_are_refused).
+    let file = small_identification_file(dir.path(), "small", "[4]");
+    let output = harness(&[
+        "identify",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let good = dir.path().join("good.csv");
+    std::fs::copy(out.join("small").join("data_seed4.csv"), &good).unwrap();
     let output = harness(&[
         "identify",
         good.to_str().unwrap(),
