@@ -14,6 +14,8 @@ pub mod cargo;
 pub mod description;
 pub mod documentation;
 pub mod exports;
+pub mod generation_time;
+pub mod icon;
 pub mod ssp;
 
 use std::path::{Path, PathBuf};
@@ -28,16 +30,20 @@ use description::{ModelDescription, Problems};
 pub struct FmuSpec {
     pub model_identifier: &'static str,
     pub package: &'static str,
+    /// What its `model.png` shows.
+    pub icon: icon::Icon,
 }
 
 pub const REFERENCE_VEHICLE: FmuSpec = FmuSpec {
     model_identifier: "ReferenceVehicle",
     package: "reference-vehicle",
+    icon: icon::Icon::ReferenceVehicle,
 };
 
 pub const VEHICLE_STATE_ESTIMATOR: FmuSpec = FmuSpec {
     model_identifier: "VehicleStateEstimator",
     package: "vehicle-state-estimator",
+    icon: icon::Icon::Estimator,
 };
 
 pub const FMUS: [FmuSpec; 2] = [REFERENCE_VEHICLE, VEHICLE_STATE_ESTIMATOR];
@@ -113,17 +119,23 @@ pub fn license_files(workspace_root: &Path) -> Result<Vec<(String, Vec<u8>)>> {
     Ok(files)
 }
 
-/// Everything one FMU archive contains, in the order of the FMI 2.0 standard's layout (§2.3).
+/// Everything one FMU archive contains, in the order of the FMI 2.0 standard's layout (§2.3);
+/// the model description gets `generationDateAndTime = generation_time` (see
+/// [`generation_time`]), the root the project's `model.png`.
 pub fn fmu_entries(
     checked: &CheckedDescription,
+    generation_time: &str,
     library: Vec<u8>,
     prose_html: &str,
     licenses: &[(String, Vec<u8>)],
     third_party: &[String],
-) -> Vec<Entry> {
+) -> Result<Vec<Entry>> {
     let id = checked.spec.model_identifier;
+    let xml = generation_time::stamp_model_description(&checked.xml, generation_time)
+        .with_context(|| format!("stamping the {id} model description"))?;
     let mut entries = vec![
-        Entry::file("modelDescription.xml", checked.xml.clone()),
+        Entry::file("modelDescription.xml", xml),
+        Entry::file("model.png", icon::model_png(checked.spec.icon)?),
         Entry::executable(format!("binaries/linux64/{id}.so"), library),
         Entry::file(
             "documentation/index.html",
@@ -147,7 +159,7 @@ pub fn fmu_entries(
         "documentation/licenses/THIRD-PARTY.txt",
         notice,
     ));
-    entries
+    Ok(entries)
 }
 
 /// Where the ReferenceVehicle's car parameter-value files (.ssv, issue 13 point 6) live,
@@ -189,9 +201,9 @@ pub fn car_parameter_files(workspace_root: &Path) -> Result<Vec<Resource>> {
     Ok(files)
 }
 
-/// The SSP archive: `SystemStructure.ssd` plus both FMUs and the `parameter_files` (SSP 1.0
-/// parameter-value files a user binds with `ssd:ParameterBinding source="resources/<file>"`)
-/// under `resources/`.
+/// The SSP archive: `SystemStructure.ssd` plus, under `resources/`, both FMUs, the driver inputs'
+/// parameter set the SSD binds ([`ssp::DRIVER_FILE`]) and the `parameter_files` (SSP 1.0
+/// parameter-value files a user binds with `ssd:ParameterBinding source="resources/<file>"`).
 pub fn ssp_entries(
     vehicle: &ModelDescription,
     estimator: &ModelDescription,
@@ -201,6 +213,7 @@ pub fn ssp_entries(
 ) -> Result<(Vec<Entry>, ssp::SystemPlan)> {
     let plan = ssp::plan(vehicle, estimator)?;
     let ssd = ssp::system_structure(vehicle, estimator, &plan, GENERATION_TOOL)?;
+    let driver = ssp::driver_parameter_set(vehicle, GENERATION_TOOL)?;
     let mut entries = vec![
         Entry::file("SystemStructure.ssd", ssd),
         // The FMUs are zip files already; storing them avoids compressing twice.
@@ -212,6 +225,7 @@ pub fn ssp_entries(
             format!("resources/{}.fmu", estimator.model_identifier),
             estimator_fmu.to_vec(),
         ),
+        Entry::file(format!("resources/{}", ssp::DRIVER_FILE), driver),
     ];
     entries.extend(parameter_files.iter().map(|file| {
         Entry::file(
@@ -244,6 +258,8 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
         .collect::<Result<_>>()?;
     let licenses = license_files(&workspace.root)?;
     let car_files = car_parameter_files(&workspace.root)?;
+    let generated =
+        generation_time::iso8601_utc(generation_time::generation_epoch(&workspace.root)?);
 
     let packages: Vec<&str> = FMUS.iter().map(|spec| spec.package).collect();
     let names: Vec<&str> = FMUS.iter().map(|spec| spec.model_identifier).collect();
@@ -257,7 +273,8 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
         let library = std::fs::read(library_path)
             .with_context(|| format!("reading {}", library_path.display()))?;
         let third_party = cargo::linked_crates(workspace, checked.spec.package)?;
-        let mut entries = fmu_entries(checked, library, prose, &licenses, &third_party);
+        let mut entries =
+            fmu_entries(checked, &generated, library, prose, &licenses, &third_party)?;
         if let Some(folder) = &workspace.prebuilt_binaries {
             let prebuilt = binaries::prebuilt_entries(folder, checked.spec.model_identifier)?;
             // A prebuilt linux64 library replaces the one built here.

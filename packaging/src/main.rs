@@ -77,13 +77,12 @@ fn run(arguments: Arguments) -> anyhow::Result<()> {
         println!("{what} {} ({} bytes)", item.path.display(), item.bytes);
     }
     println!(
-        "{}: {} connections ({} driver-input, {} {} -> {})",
+        "{}: {} connections {} -> {}; driver inputs of both from resources/{}",
         packaging::SSP_FILE_NAME,
         plan.connections.len(),
-        2 * packaging::ssp::DRIVER_INPUTS.len(),
-        plan.connections.len() - 2 * packaging::ssp::DRIVER_INPUTS.len(),
         plan.vehicle,
-        plan.estimator
+        plan.estimator,
+        packaging::ssp::DRIVER_FILE
     );
     if !plan.unconnected_estimator_inputs.is_empty() {
         println!(

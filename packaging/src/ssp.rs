@@ -1,7 +1,14 @@
 //! The SSP 1.0 system `VehicleWithEstimator`: the reference vehicle feeding the estimator.
 //!
 //! Connections go by name: every ReferenceVehicle output whose name is also a VehicleStateEstimator
-//! input is connected, and the driver inputs are system inputs connected to both components.
+//! input is connected. Every connection runs from a component to a component (`startElement` and
+//! `endElement` set): libcosim's SSP loader (`ssp_parser.cpp`, Open Simulation Platform) and Ecos
+//! refuse a connection from a system connector, so the system has no connectors of its own. The
+//! driver inputs of both FMUs instead get their values from one parameter set bound to both
+//! components, [`DRIVER_FILE`] (SSP 1.0 section 5.3.5; a parameter set may set inputs), which holds
+//! them constant. The default experiment carries the step size as the Open Simulation Platform
+//! annotation libcosim reads (`osp:FixedStepAlgorithm baseStepSize`); SSP 1.0 has no step-size
+//! attribute.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -11,20 +18,36 @@ use quick_xml::escape::escape;
 
 use crate::description::{ModelDescription, ScalarVariable};
 
-/// Driver inputs that both FMUs take and the system exposes as its own inputs.
+/// Driver inputs that both FMUs take; [`DRIVER_FILE`] sets them on both.
 pub const DRIVER_INPUTS: [&str; 3] = ["steering_angle", "drive_torque", "brake_torque"];
+
+/// The parameter-value file (under `resources/`) bound to both components: the driver inputs.
+pub const DRIVER_FILE: &str = "driver_inputs.ssv";
+
+/// The values [`DRIVER_FILE`] gives the driver inputs: the seed-000 step-steer angle (2 degrees,
+/// 000: fig. 7.18) held from the start, no drive or brake torque, so the default experiment is a
+/// steady turn that decelerates slowly (the seed's step steer starts at its steer time instead).
+pub const DRIVER_VALUES: [(&str, f64); 3] = [
+    ("steering_angle", manoeuvres::seed000::STEP_STEER_ANGLE),
+    ("drive_torque", 0.0),
+    ("brake_torque", 0.0),
+];
 
 pub const SYSTEM_NAME: &str = "VehicleWithEstimator";
 
 const SSD_NAMESPACE: &str = "http://ssp-standard.org/SSP1/SystemStructureDescription";
 const SSC_NAMESPACE: &str = "http://ssp-standard.org/SSP1/SystemStructureCommon";
+const SSV_NAMESPACE: &str = "http://ssp-standard.org/SSP1/SystemStructureParameterValues";
+/// The namespace of the Open Simulation Platform's SSP annotations (libcosim's
+/// `tests/data/ssp/OSPAnnotations.xsd`); libcosim matches the `osp:` prefix literally.
+const OSP_NAMESPACE: &str = "http://opensimulationplatform.com/SSP/OSPAnnotations";
 
-/// One SSD connection; `None` as element means the enclosing system's own connector.
+/// One SSD connection, always from a component's output to a component's input.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Connection {
-    pub start_element: Option<String>,
+    pub start_element: String,
     pub start_connector: String,
-    pub end_element: Option<String>,
+    pub end_element: String,
     pub end_connector: String,
 }
 
@@ -34,8 +57,9 @@ pub struct SystemPlan {
     pub vehicle: String,
     pub estimator: String,
     pub connections: Vec<Connection>,
-    /// Estimator inputs no ReferenceVehicle output provides; they keep their start values and get
-    /// no connector (SSP connectors of component inputs are expected to be connected).
+    /// Estimator inputs no ReferenceVehicle output provides, other than the driver inputs; they
+    /// keep their start values and get no connector (SSP connectors of component inputs are
+    /// expected to be connected).
     pub unconnected_estimator_inputs: Vec<String>,
 }
 
@@ -44,7 +68,7 @@ impl SystemPlan {
     pub fn connected_inputs(&self, element: &str) -> Vec<&str> {
         self.connections
             .iter()
-            .filter(|c| c.end_element.as_deref() == Some(element))
+            .filter(|c| c.end_element == element)
             .map(|c| c.end_connector.as_str())
             .collect()
     }
@@ -54,14 +78,14 @@ fn require_real_input(description: &ModelDescription, name: &str) -> Result<()> 
     match description.variable(name) {
         Some(variable) if variable.causality == "input" && variable.type_name == "Real" => Ok(()),
         Some(variable) => bail!(
-            "{}: {name:?} must be a Real input to be a system input of {SYSTEM_NAME}, but it is a \
-             {} {}",
+            "{}: {name:?} must be a Real input for {DRIVER_FILE} of {SYSTEM_NAME} to set it, but \
+             it is a {} {}",
             description.file.display(),
             variable.type_name,
             variable.causality
         ),
         None => bail!(
-            "{}: has no input {name:?}, which {SYSTEM_NAME} connects to the driver input",
+            "{}: has no input {name:?}, which {SYSTEM_NAME} sets from {DRIVER_FILE}",
             description.file.display()
         ),
     }
@@ -79,16 +103,6 @@ pub fn plan(vehicle: &ModelDescription, estimator: &ModelDescription) -> Result<
         require_real_input(estimator, name)?;
     }
     let mut connections = Vec::new();
-    for name in DRIVER_INPUTS {
-        for element in [&vehicle_id, &estimator_id] {
-            connections.push(Connection {
-                start_element: None,
-                start_connector: name.to_string(),
-                end_element: Some(element.clone()),
-                end_connector: name.to_string(),
-            });
-        }
-    }
     let mut unconnected = Vec::new();
     for input in estimator.variables_with_causality("input") {
         if DRIVER_INPUTS.contains(&input.name.as_str()) {
@@ -122,9 +136,9 @@ pub fn plan(vehicle: &ModelDescription, estimator: &ModelDescription) -> Result<
                     );
                 }
                 connections.push(Connection {
-                    start_element: Some(vehicle_id.clone()),
+                    start_element: vehicle_id.clone(),
                     start_connector: output.name.clone(),
-                    end_element: Some(estimator_id.clone()),
+                    end_element: estimator_id.clone(),
                     end_connector: input.name.clone(),
                 });
             }
@@ -228,8 +242,91 @@ fn component(
         );
     }
     out.push_str("        </ssd:Connectors>\n");
+    // SSP 1.0 section 5.3.5: the source is relative to the SSD, names to the component.
+    out.push_str("        <ssd:ParameterBindings>\n");
+    let _ = writeln!(
+        out,
+        "          <ssd:ParameterBinding{}{}/>",
+        attribute("type", "application/x-ssp-parameter-set"),
+        attribute("source", &format!("resources/{DRIVER_FILE}"))
+    );
+    out.push_str("        </ssd:ParameterBindings>\n");
     out.push_str("      </ssd:Component>\n");
     Ok(())
+}
+
+/// The text of [`DRIVER_FILE`]: an SSP 1.0 parameter-value file (section 6) with
+/// [`DRIVER_VALUES`], units from the ReferenceVehicle's model description; only `ssv:Real`
+/// entries, which every SSP runner applies (libcosim aborts on `ssv:Enumeration`).
+pub fn driver_parameter_set(vehicle: &ModelDescription, generation_tool: &str) -> Result<String> {
+    let mut out = String::new();
+    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let _ = writeln!(
+        out,
+        "<ssv:ParameterSet xmlns:ssc=\"{SSC_NAMESPACE}\" xmlns:ssv=\"{SSV_NAMESPACE}\"{}{}{}{}>",
+        attribute("version", "1.0"),
+        attribute("name", "driver inputs"),
+        attribute(
+            "description",
+            "Driver inputs held constant: the seed-000 step-steer angle (2 degrees) from the \
+             start, no drive or brake torque"
+        ),
+        attribute("generationTool", generation_tool)
+    );
+    out.push_str("  <ssv:Parameters>\n");
+    for (name, value) in DRIVER_VALUES {
+        require_real_input(vehicle, name)?;
+        let variable = vehicle.variable(name).expect("require_real_input found it");
+        let unit = vehicle
+            .effective_unit(variable)
+            .map(|unit| attribute("unit", &unit))
+            .unwrap_or_default();
+        // `{:?}` prints the shortest text that reads back as the same f64.
+        let _ = writeln!(
+            out,
+            "    <ssv:Parameter{}><ssv:Real{}{unit}/></ssv:Parameter>",
+            attribute("name", name),
+            attribute("value", &format!("{value:?}"))
+        );
+    }
+    out.push_str("  </ssv:Parameters>\n");
+    out.push_str("</ssv:ParameterSet>\n");
+    Ok(out)
+}
+
+/// `ssd:DefaultExperiment` from the ReferenceVehicle's DefaultExperiment: start and stop time,
+/// and its step size as the `com.opensimulationplatform` annotation libcosim reads.
+fn default_experiment(out: &mut String, vehicle: &ModelDescription) {
+    let value = |key: &str| {
+        vehicle
+            .default_experiment
+            .iter()
+            .find(|(name, _)| name == key)
+            .map(|(_, value)| value.clone())
+    };
+    let times: String = ["startTime", "stopTime"]
+        .iter()
+        .filter_map(|key| value(key).map(|v| attribute(key, &v)))
+        .collect();
+    let Some(step) = value("stepSize") else {
+        if !times.is_empty() {
+            let _ = writeln!(out, "  <ssd:DefaultExperiment{times}/>");
+        }
+        return;
+    };
+    let _ = writeln!(out, "  <ssd:DefaultExperiment{times}>");
+    out.push_str("    <ssd:Annotations>\n");
+    out.push_str("      <ssc:Annotation type=\"com.opensimulationplatform\">\n");
+    out.push_str("        <osp:Algorithm>\n");
+    let _ = writeln!(
+        out,
+        "          <osp:FixedStepAlgorithm{}/>",
+        attribute("baseStepSize", &step)
+    );
+    out.push_str("        </osp:Algorithm>\n");
+    out.push_str("      </ssc:Annotation>\n");
+    out.push_str("    </ssd:Annotations>\n");
+    out.push_str("  </ssd:DefaultExperiment>\n");
 }
 
 /// The text of `SystemStructure.ssd`.
@@ -244,7 +341,8 @@ pub fn system_structure(
     out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     let _ = writeln!(
         out,
-        "<ssd:SystemStructureDescription xmlns:ssd=\"{SSD_NAMESPACE}\" xmlns:ssc=\"{SSC_NAMESPACE}\"{}{}{}>",
+        "<ssd:SystemStructureDescription xmlns:ssd=\"{SSD_NAMESPACE}\" xmlns:ssc=\"{SSC_NAMESPACE}\" \
+         xmlns:osp=\"{OSP_NAMESPACE}\"{}{}{}>",
         attribute("version", "1.0"),
         attribute("name", SYSTEM_NAME),
         attribute("generationTool", generation_tool)
@@ -256,26 +354,12 @@ pub fn system_structure(
         attribute(
             "description",
             &format!(
-                "{} drives {}: the driver inputs go to both, every {} output named like a {} \
-                 input feeds it.",
-                plan.vehicle, plan.estimator, plan.vehicle, plan.estimator
+                "{} drives {}: every {} output named like a {} input feeds it; {} sets the \
+                 driver inputs of both.",
+                plan.vehicle, plan.estimator, plan.vehicle, plan.estimator, DRIVER_FILE
             )
         )
     );
-    out.push_str("    <ssd:Connectors>\n");
-    for name in DRIVER_INPUTS {
-        let variable = vehicle
-            .variable(name)
-            .expect("plan() checked that the driver inputs exist");
-        connector(
-            &mut out,
-            "      ",
-            name,
-            "input",
-            &connector_type(vehicle, variable),
-        );
-    }
-    out.push_str("    </ssd:Connectors>\n");
     out.push_str("    <ssd:Elements>\n");
     component(
         &mut out,
@@ -292,15 +376,10 @@ pub fn system_structure(
     out.push_str("    </ssd:Elements>\n");
     out.push_str("    <ssd:Connections>\n");
     for connection in &plan.connections {
-        let mut attributes = String::new();
-        if let Some(element) = &connection.start_element {
-            attributes += &attribute("startElement", element);
-        }
-        attributes += &attribute("startConnector", &connection.start_connector);
-        if let Some(element) = &connection.end_element {
-            attributes += &attribute("endElement", element);
-        }
-        attributes += &attribute("endConnector", &connection.end_connector);
+        let attributes = attribute("startElement", &connection.start_element)
+            + &attribute("startConnector", &connection.start_connector)
+            + &attribute("endElement", &connection.end_element)
+            + &attribute("endConnector", &connection.end_connector);
         let _ = writeln!(out, "      <ssd:Connection{attributes}/>");
     }
     out.push_str("    </ssd:Connections>\n");
@@ -320,15 +399,7 @@ pub fn system_structure(
         }
         out.push_str("  </ssd:Units>\n");
     }
-    let experiment: String = vehicle
-        .default_experiment
-        .iter()
-        .filter(|(key, _)| key == "startTime" || key == "stopTime")
-        .map(|(key, value)| attribute(key, value))
-        .collect();
-    if !experiment.is_empty() {
-        let _ = writeln!(out, "  <ssd:DefaultExperiment{experiment}/>");
-    }
+    default_experiment(&mut out, vehicle);
     out.push_str("</ssd:SystemStructureDescription>\n");
     Ok(out)
 }

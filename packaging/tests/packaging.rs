@@ -218,7 +218,7 @@ fn bad_value_reference_fails_parsing_with_the_variable_name() {
 }
 
 #[test]
-fn ssp_plan_connects_by_name_and_driver_inputs_to_both() {
+fn ssp_plan_connects_outputs_to_inputs_by_name_component_to_component() {
     let plan = ssp::plan(&vehicle(), &estimator()).unwrap();
     let describe: Vec<String> = plan
         .connections
@@ -226,22 +226,13 @@ fn ssp_plan_connects_by_name_and_driver_inputs_to_both() {
         .map(|c| {
             format!(
                 "{}.{} -> {}.{}",
-                c.start_element.as_deref().unwrap_or("system"),
-                c.start_connector,
-                c.end_element.as_deref().unwrap_or("system"),
-                c.end_connector
+                c.start_element, c.start_connector, c.end_element, c.end_connector
             )
         })
         .collect();
     assert_eq!(
         describe,
         vec![
-            "system.steering_angle -> ReferenceVehicle.steering_angle",
-            "system.steering_angle -> VehicleStateEstimator.steering_angle",
-            "system.drive_torque -> ReferenceVehicle.drive_torque",
-            "system.drive_torque -> VehicleStateEstimator.drive_torque",
-            "system.brake_torque -> ReferenceVehicle.brake_torque",
-            "system.brake_torque -> VehicleStateEstimator.brake_torque",
             "ReferenceVehicle.yaw_rate_meas -> VehicleStateEstimator.yaw_rate_meas",
             "ReferenceVehicle.ay_meas -> VehicleStateEstimator.ay_meas",
         ]
@@ -252,13 +243,7 @@ fn ssp_plan_connects_by_name_and_driver_inputs_to_both() {
     );
     assert_eq!(
         plan.connected_inputs("VehicleStateEstimator"),
-        vec![
-            "steering_angle",
-            "drive_torque",
-            "brake_torque",
-            "yaw_rate_meas",
-            "ay_meas"
-        ]
+        vec!["yaw_rate_meas", "ay_meas"]
     );
 }
 
@@ -309,21 +294,33 @@ fn system_structure_lists_connected_inputs_all_outputs_and_units() {
     let plan = ssp::plan(&vehicle, &estimator).unwrap();
     let ssd = ssp::system_structure(&vehicle, &estimator, &plan, "packaging test").unwrap();
     for expected in [
-        "<ssd:SystemStructureDescription xmlns:ssd=\"http://ssp-standard.org/SSP1/SystemStructureDescription\" xmlns:ssc=\"http://ssp-standard.org/SSP1/SystemStructureCommon\" version=\"1.0\" name=\"VehicleWithEstimator\"",
+        "<ssd:SystemStructureDescription xmlns:ssd=\"http://ssp-standard.org/SSP1/SystemStructureDescription\" xmlns:ssc=\"http://ssp-standard.org/SSP1/SystemStructureCommon\" xmlns:osp=\"http://opensimulationplatform.com/SSP/OSPAnnotations\" version=\"1.0\" name=\"VehicleWithEstimator\"",
         "<ssd:Component name=\"ReferenceVehicle\" type=\"application/x-fmu-sharedlibrary\" source=\"resources/ReferenceVehicle.fmu\">",
         "<ssd:Component name=\"VehicleStateEstimator\" type=\"application/x-fmu-sharedlibrary\" source=\"resources/VehicleStateEstimator.fmu\">",
-        "<ssd:Connector name=\"steering_angle\" kind=\"input\"><ssc:Real unit=\"rad\"/></ssd:Connector>",
+        "<ssd:ParameterBinding type=\"application/x-ssp-parameter-set\" source=\"resources/driver_inputs.ssv\"/>",
         "<ssd:Connector name=\"vy_est\" kind=\"output\"><ssc:Real unit=\"m/s\"/></ssd:Connector>",
         "<ssd:Connector name=\"status\" kind=\"output\"><ssc:Integer/></ssd:Connector>",
-        "<ssd:Connection startConnector=\"brake_torque\" endElement=\"VehicleStateEstimator\" endConnector=\"brake_torque\"/>",
         "<ssd:Connection startElement=\"ReferenceVehicle\" startConnector=\"ay_meas\" endElement=\"VehicleStateEstimator\" endConnector=\"ay_meas\"/>",
         "<ssc:Unit name=\"m/s2\"><ssc:BaseUnit m=\"1\" s=\"-2\"/></ssc:Unit>",
-        "<ssd:DefaultExperiment startTime=\"0\" stopTime=\"12\"/>",
+        "<ssd:DefaultExperiment startTime=\"0\" stopTime=\"12\">\n    <ssd:Annotations>\n      <ssc:Annotation type=\"com.opensimulationplatform\">\n        <osp:Algorithm>\n          <osp:FixedStepAlgorithm baseStepSize=\"0.001\"/>",
     ] {
         assert!(ssd.contains(expected), "missing {expected:?} in\n{ssd}");
     }
-    // An unconnected input has no connector, parameters are not connectors.
+    // Both components bind the driver inputs; libcosim and Ecos need both ends of a connection
+    // to be components, so the system has no connectors and no connection lacks a startElement.
+    assert_eq!(ssd.matches("<ssd:ParameterBinding ").count(), 2, "{ssd}");
+    assert!(
+        !ssd.contains("\n    <ssd:Connectors>"),
+        "system connectors in\n{ssd}"
+    );
+    assert_eq!(
+        ssd.matches("<ssd:Connection ").count(),
+        ssd.matches("<ssd:Connection startElement=").count()
+    );
+    // An unconnected input has no connector (the driver inputs come from the binding),
+    // parameters are not connectors.
     assert!(!ssd.contains("\"vx_meas\""), "{ssd}");
+    assert!(!ssd.contains("\"steering_angle\""), "{ssd}");
     assert!(!ssd.contains("name=\"noise\""), "{ssd}");
     // Well-formed XML: every element closes.
     let mut reader = quick_xml::Reader::from_str(&ssd);
@@ -458,16 +455,19 @@ fn fmu_layout_follows_fmi_2() {
         packaging::license_files(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))).unwrap();
     let entries = packaging::fmu_entries(
         &checked(REFERENCE_VEHICLE, vehicle()),
+        "2026-01-02T03:04:05Z",
         b"\x7fELF".to_vec(),
         "<p>prose</p>",
         &licenses,
         &["nalgebra v0.35.0  Apache-2.0".to_string()],
-    );
+    )
+    .unwrap();
     let names: Vec<&str> = entries.iter().map(|e| e.path.as_str()).collect();
     assert_eq!(
         names,
         vec![
             "modelDescription.xml",
+            "model.png",
             "binaries/linux64/ReferenceVehicle.so",
             "documentation/index.html",
             "documentation/licenses/LICENSE.txt",
@@ -476,10 +476,10 @@ fn fmu_layout_follows_fmi_2() {
             "documentation/licenses/THIRD-PARTY.txt",
         ]
     );
-    assert!(entries[1].executable);
-    let notice = String::from_utf8(entries[6].contents.clone()).unwrap();
+    assert!(entries[2].executable);
+    let notice = String::from_utf8(entries[7].contents.clone()).unwrap();
     assert!(notice.contains("nalgebra v0.35.0  Apache-2.0"), "{notice}");
-    let apache = String::from_utf8(entries[5].contents.clone()).unwrap();
+    let apache = String::from_utf8(entries[6].contents.clone()).unwrap();
     assert!(apache.contains("Apache License") && apache.contains("Version 2.0"));
 }
 
@@ -488,18 +488,41 @@ fn ssp_archive_holds_ssd_and_both_fmus() {
     let (vehicle, estimator) = (vehicle(), estimator());
     let (entries, plan) =
         packaging::ssp_entries(&vehicle, &estimator, b"vehicle", b"estimator", &[]).unwrap();
-    assert_eq!(plan.connections.len(), 8);
+    assert_eq!(plan.connections.len(), 2);
     let names: Vec<&str> = entries.iter().map(|e| e.path.as_str()).collect();
     assert_eq!(
         names,
         vec![
             "SystemStructure.ssd",
             "resources/ReferenceVehicle.fmu",
-            "resources/VehicleStateEstimator.fmu"
+            "resources/VehicleStateEstimator.fmu",
+            "resources/driver_inputs.ssv"
         ]
     );
     assert!(entries[1].stored && entries[2].stored);
     assert_eq!(entries[2].contents, b"estimator");
+}
+
+#[test]
+fn driver_parameter_set_holds_the_seed_step_steer_angle_as_reals_with_units() {
+    let ssv = ssp::driver_parameter_set(&vehicle(), "packaging test").unwrap();
+    for expected in [
+        "<ssv:ParameterSet xmlns:ssc=\"http://ssp-standard.org/SSP1/SystemStructureCommon\" xmlns:ssv=\"http://ssp-standard.org/SSP1/SystemStructureParameterValues\" version=\"1.0\" name=\"driver inputs\"",
+        // 2 degrees (000: fig. 7.18) in radians, printed so that it reads back bit for bit.
+        "<ssv:Parameter name=\"steering_angle\"><ssv:Real value=\"0.03490658503988659\" unit=\"rad\"/></ssv:Parameter>",
+        "<ssv:Parameter name=\"brake_torque\"><ssv:Real value=\"0.0\" unit=\"N.m\"/></ssv:Parameter>",
+    ] {
+        assert!(ssv.contains(expected), "missing {expected:?} in\n{ssv}");
+    }
+    assert!(!ssv.contains("Enumeration") && !ssv.contains("Boolean"));
+    let no_drive = parse(
+        "ReferenceVehicle",
+        &fixture_text("ReferenceVehicle").replace("name=\"drive_torque\"", "name=\"drive\""),
+    );
+    let error = ssp::driver_parameter_set(&no_drive, "t")
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("has no input \"drive_torque\""), "{error}");
 }
 
 #[test]
@@ -519,7 +542,7 @@ fn ssp_archive_ships_the_car_parameter_files_as_resources() {
     let (vehicle, estimator) = (vehicle(), estimator());
     let (entries, _) =
         packaging::ssp_entries(&vehicle, &estimator, b"vehicle", b"estimator", &cars).unwrap();
-    let resources: Vec<&str> = entries[3..].iter().map(|e| e.path.as_str()).collect();
+    let resources: Vec<&str> = entries[4..].iter().map(|e| e.path.as_str()).collect();
     assert_eq!(
         resources,
         [
@@ -529,7 +552,7 @@ fn ssp_archive_ships_the_car_parameter_files_as_resources() {
             "resources/vw_vanagon.ssv"
         ]
     );
-    let bmw = String::from_utf8(entries[3].contents.clone()).unwrap();
+    let bmw = String::from_utf8(entries[4].contents.clone()).unwrap();
     assert!(bmw.contains("<ssv:ParameterSet") && bmw.contains("name=\"mass\""));
 }
 
@@ -620,15 +643,71 @@ fn workspace_model_descriptions_connect_every_sensor() {
         assert!(
             plan.connections
                 .iter()
-                .any(|c| c.start_element.as_deref() == Some("ReferenceVehicle")
+                .any(|c| c.start_element == "ReferenceVehicle"
                     && c.start_connector == sensor
                     && c.end_connector == sensor),
             "{sensor} is not connected"
         );
     }
-    assert!(plan.unconnected_estimator_inputs.is_empty());
+    // What stays unconnected keeps its start value: inputs with no ReferenceVehicle counterpart
+    // (a rear drive torque), never a sensor signal.
+    assert!(
+        plan.unconnected_estimator_inputs
+            .iter()
+            .all(|name| !name.ends_with("_meas")),
+        "{:?}",
+        plan.unconnected_estimator_inputs
+    );
     // Every page the archives ship has its prose.
     for c in &checked {
         assert!(packaging::prose_path(&root, c.spec).is_file());
     }
+}
+
+#[test]
+fn archived_model_description_gains_only_the_generation_time() {
+    let repository = fixture_text("ReferenceVehicle");
+    let stamped = packaging::generation_time::stamp_model_description(
+        repository.as_bytes(),
+        "2026-01-02T03:04:05Z",
+    )
+    .unwrap();
+    let stamped = String::from_utf8(stamped).unwrap();
+    let attribute = "\n  generationDateAndTime=\"2026-01-02T03:04:05Z\"";
+    assert_eq!(stamped.replacen(attribute, "", 1), repository);
+    parse("ReferenceVehicle", &stamped);
+    let error = packaging::generation_time::stamp_model_description(stamped.as_bytes(), "x")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("already has generationDateAndTime"),
+        "{error}"
+    );
+}
+
+#[test]
+fn generation_time_is_utc_iso_8601() {
+    use packaging::generation_time::iso8601_utc;
+    assert_eq!(iso8601_utc(0), "1970-01-01T00:00:00Z");
+    // Values checked with `date -u -d @N +%FT%TZ`.
+    assert_eq!(iso8601_utc(951_782_400), "2000-02-29T00:00:00Z");
+    assert_eq!(iso8601_utc(1_700_000_000), "2023-11-14T22:13:20Z");
+    assert_eq!(iso8601_utc(4_107_542_399), "2100-02-28T23:59:59Z");
+    assert_eq!(iso8601_utc(253_402_300_799), "9999-12-31T23:59:59Z");
+}
+
+#[test]
+fn model_icons_are_deterministic_pngs_that_differ_per_fmu() {
+    use packaging::icon::{icon_pixels, model_png, Icon, ICON_SIZE};
+    let vehicle = model_png(Icon::ReferenceVehicle).unwrap();
+    assert_eq!(vehicle, model_png(Icon::ReferenceVehicle).unwrap());
+    assert_eq!(&vehicle[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR: width and height big-endian at bytes 16..24.
+    assert_eq!(vehicle[16..20], ICON_SIZE.to_be_bytes());
+    assert_eq!(vehicle[20..24], ICON_SIZE.to_be_bytes());
+    let estimator = model_png(Icon::Estimator).unwrap();
+    assert_ne!(vehicle, estimator);
+    let pixels = icon_pixels(Icon::Estimator).unwrap();
+    let colours: std::collections::BTreeSet<&[u8]> = pixels.chunks(3).collect();
+    assert!(colours.len() > 5, "an icon of {} colours", colours.len());
 }

@@ -1,9 +1,14 @@
 """The packaged archives: fmpy's validation, the FMI 2.0 archive layout, the generated
 documentation, and the interface names issue 4 fixes."""
 
+import datetime
+import io
+import subprocess
 import zipfile
 
 import pytest
+from lxml import etree
+from PIL import Image
 from fmpy.ssp.ssd import read_ssd
 from fmpy.validation import validate_fmu
 
@@ -26,6 +31,7 @@ def test_archive_layout(fmu):
         names = archive.namelist()
         assert archive.testzip() is None
         for required in ["modelDescription.xml",
+                         "model.png",
                          f"binaries/linux64/{identifier}.so",
                          "documentation/index.html",
                          "documentation/licenses/LICENSE.txt",
@@ -37,6 +43,46 @@ def test_archive_layout(fmu):
         library = archive.read(f"binaries/linux64/{identifier}.so")
         assert library[:4] == b"\x7fELF"
         assert (archive.getinfo(f"binaries/linux64/{identifier}.so").external_attr >> 16) & 0o111
+
+
+def _root_attributes(xml):
+    return dict(etree.fromstring(xml).attrib)
+
+
+def test_metadata_copyright_licence_and_generation_time(fmu):
+    """Issue 15 point 2: the archived description names holder and licence (as the shipped licence
+    texts do) and when it was generated; apart from that one attribute it is the repository's."""
+    with zipfile.ZipFile(fmu) as archive:
+        archived = archive.read("modelDescription.xml")
+        licence = archive.read("documentation/licenses/LICENSE-MIT.txt").decode("utf-8")
+    attributes = _root_attributes(archived)
+    assert attributes["license"] == "MIT OR Apache-2.0"
+    assert attributes["copyright"].startswith("Copyright (c) ")
+    assert attributes["copyright"] in licence
+    stamp = attributes["generationDateAndTime"]
+    generated = datetime.datetime.strptime(stamp, "%Y-%m-%dT%H:%M:%SZ")
+    repository = (support.ROOT / "modelDescription" / f"{fmu.stem}.xml").read_bytes()
+    assert "generationDateAndTime" not in _root_attributes(repository)
+    assert archived.replace(f'\n  generationDateAndTime="{stamp}"'.encode(), b"", 1) == repository
+    # packaging takes SOURCE_DATE_EPOCH or the last commit's time; the archive may predate the
+    # newest commit but never the project nor the present.
+    last_commit = int(subprocess.run(["git", "-C", str(support.ROOT), "log", "-1", "--format=%ct"],
+                                     capture_output=True, text=True, check=True).stdout)
+    assert datetime.datetime(2026, 1, 1) <= generated <= \
+        datetime.datetime.fromtimestamp(last_commit, datetime.UTC).replace(tzinfo=None)
+
+
+def test_model_icon_is_a_drawn_png_at_the_archive_root(fmu, vehicle_fmu, estimator_fmu):
+    with zipfile.ZipFile(fmu) as archive:
+        icon = Image.open(io.BytesIO(archive.read("model.png")))
+        icon.load()
+    assert icon.format == "PNG" and icon.size[0] == icon.size[1] >= 64
+    # A drawing, not a blank: many colours, none of which covers almost everything.
+    histogram = icon.convert("RGB").getcolors(maxcolors=1 << 16)
+    assert len(histogram) > 20
+    assert max(count for count, _ in histogram) < 0.9 * icon.size[0] * icon.size[1]
+    with zipfile.ZipFile(vehicle_fmu) as a, zipfile.ZipFile(estimator_fmu) as b:
+        assert a.read("model.png") != b.read("model.png"), "both FMUs show the same icon"
 
 
 def test_documentation_explains_every_variable(fmu):
@@ -87,28 +133,31 @@ def test_interface_has_the_names_of_issue_4(vehicle, estimator):
 def test_ssp_structure(ssp_file, vehicle, estimator):
     with zipfile.ZipFile(ssp_file) as archive:
         names = archive.namelist()
-    # Beside the FMUs, the car parameter-value files (issue 13 point 6) that a user binds.
+    # Beside the FMUs, the driver inputs both components bind, and the car parameter-value files
+    # (issue 13 point 6) that a user binds.
     cars = ["bmw_320i", "ford_escort", "seed_car", "vw_vanagon"]
     assert sorted(names) == sorted(["SystemStructure.ssd",
                                     f"resources/{support.VEHICLE}.fmu",
-                                    f"resources/{support.ESTIMATOR}.fmu"]
+                                    f"resources/{support.ESTIMATOR}.fmu",
+                                    "resources/driver_inputs.ssv"]
                                    + [f"resources/{car}.ssv" for car in cars])
     # read_ssd validates against the SSP 1.0 XML schema shipped with fmpy.
     ssd = read_ssd(str(ssp_file))
     assert ssd.version == "1.0"
     system = ssd.system
-    assert [c.name for c in system.connectors] == support.DRIVER_INPUTS
+    # libcosim and Ecos need a startElement on every connection: no system connectors.
+    assert system.connectors == []
     components = {element.name: element for element in system.elements}
     assert components[support.VEHICLE].source == f"resources/{support.VEHICLE}.fmu"
     assert components[support.ESTIMATOR].source == f"resources/{support.ESTIMATOR}.fmu"
+    for component in components.values():
+        assert [b.source for b in component.parameterBindings] == ["resources/driver_inputs.ssv"]
+        bound = {p.name for p in component.parameterBindings[0].parameterValues[0].parameters}
+        assert bound == set(support.DRIVER_INPUTS)
     connections = {(c.startElement, c.startConnector, c.endElement, c.endConnector)
                    for c in system.connections}
-    expected = set()
-    for name in support.DRIVER_INPUTS:
-        expected.add((None, name, support.VEHICLE, name))
-        expected.add((None, name, support.ESTIMATOR, name))
     # Connections by name: every vehicle output that is an estimator input.
-    for name in set(vehicle.names("output")) & set(estimator.names("input")):
-        expected.add((support.VEHICLE, name, support.ESTIMATOR, name))
+    expected = {(support.VEHICLE, name, support.ESTIMATOR, name)
+                for name in set(vehicle.names("output")) & set(estimator.names("input"))}
     assert connections == expected
     assert all(name in {c[3] for c in connections} for name in support.SENSOR_SIGNALS)

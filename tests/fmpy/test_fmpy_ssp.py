@@ -1,58 +1,160 @@
-"""The SSP system VehicleWithEstimator simulated with fmpy.ssp.
+"""The SSP system VehicleWithEstimator simulated with fmpy.ssp (issue 15 point 7).
 
 fmpy's SSP master is minimal: it applies each connection after all components stepped, so every
-connected input lags its source by one communication step, and it ignores ParameterBindings (the
-SSP has none: both FMUs run on their defaults, i.e. reference noise on and the default estimator)."""
+connected input lags its source by one communication step. It reads the ParameterBindings
+(fmpy.ssp.ssd.read_ssd parses each bound .ssv) but applies only the one parameter set it is
+given, with names prefixed by the component, and converts no enumeration or boolean literal; it
+does not read the DefaultExperiment. `bound_parameters` and `default_experiment` below do those
+parts, so the run is the one the SSD describes: the driver inputs of both FMUs from
+resources/driver_inputs.ssv, the start, stop time and step of the DefaultExperiment."""
+
+import shutil
+import zipfile
 
 import numpy as np
 import pytest
 from fmpy.ssp.simulation import simulate_ssp
+from fmpy.ssp.ssd import Parameter, ParameterSet, read_ssd
+from lxml import etree
 
 import fmu_support as support
 
-STEP = 1e-3
-STOP = 7.0
+NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+      "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations"}
+# fmpy's runner makes a few Python calls per connector and step: 3 s of the 20 s default
+# experiment keep this test at about a second; the libcosim test runs all of it.
+FMPY_STOP = 3.0
+
+
+def default_experiment(ssp_path):
+    """(start, stop, step) of the SSD's DefaultExperiment; the step from the Open Simulation
+    Platform annotation, the one place SSP 1.0 tools read a step size from."""
+    with zipfile.ZipFile(ssp_path) as archive:
+        root = etree.fromstring(archive.read("SystemStructure.ssd"))
+    experiment = root.find("ssd:DefaultExperiment", NS)
+    step = experiment.find("ssd:Annotations/ssc:Annotation[@type='com.opensimulationplatform']/"
+                           "osp:Algorithm/osp:FixedStepAlgorithm", NS)
+    return float(experiment.get("startTime")), float(experiment.get("stopTime")), \
+        float(step.get("baseStepSize"))
+
+
+def fmpy_value(variable, parameter):
+    """A parameter-set value as fmpy's set_value needs it: enumeration items by their number,
+    booleans as 0/1 (fmpy compares the literal with 0.0), numbers as given."""
+    if parameter.type == "Enumeration":
+        return next(int(item.value) for item in variable.declaredType.items
+                    if item.name == parameter.value)
+    if parameter.type == "Boolean":
+        return int(parameter.value in ("true", "1"))
+    return parameter.value
+
+
+def bound_parameters(ssp_path, interfaces):
+    """Every ParameterBinding of every component, as the one prefixed set fmpy applies."""
+    merged = ParameterSet(name="bindings")
+    for component in read_ssd(str(ssp_path)).system.elements:
+        interface = interfaces[component.name]
+        for binding in component.parameterBindings:
+            for parameter_set in binding.parameterValues:
+                for parameter in parameter_set.parameters:
+                    merged.parameters.append(Parameter(
+                        name=f"{component.name}.{parameter.name}", type=parameter.type,
+                        value=fmpy_value(interface[parameter.name], parameter)))
+    return merged
+
+
+def run(ssp_path, interfaces, stop):
+    start, _, step = default_experiment(ssp_path)
+    return simulate_ssp(str(ssp_path), start_time=start, stop_time=stop, step_size=step,
+                        parameter_set=bound_parameters(ssp_path, interfaces))
 
 
 @pytest.fixture(scope="module")
-def ssp_run(ssp_file):
-    steering = lambda time: float(support.steering_ramp(time, support.MODERATE_RAMP_ANGLE))
-    return simulate_ssp(str(ssp_file), start_time=0.0, stop_time=STOP, step_size=STEP,
-                        input={"steering_angle": steering})
+def interfaces(vehicle, estimator):
+    return {support.VEHICLE: vehicle, support.ESTIMATOR: estimator}
+
+
+@pytest.fixture(scope="module")
+def ssp_run(ssp_file, interfaces):
+    return run(ssp_file, interfaces, FMPY_STOP)
 
 
 def column(result, element, name):
     return result[f"{element}.{name}"]
 
 
-def test_ssp_runs_the_whole_horizon(ssp_run):
-    assert len(ssp_run) == int(round(STOP / STEP))
-    assert ssp_run["time"][-1] == pytest.approx(STOP - STEP)
+def test_default_experiment_is_the_fmus_own(ssp_file, vehicle, estimator):
+    start, stop, step = default_experiment(ssp_file)
+    for interface in (vehicle, estimator):
+        experiment = interface.description.defaultExperiment
+        assert (start, stop, step) == (float(experiment.startTime), float(experiment.stopTime),
+                                       float(experiment.stepSize))
 
 
-def test_ssp_connections_carry_values_by_name(ssp_run, vehicle, estimator):
+def test_ssp_runs_with_the_default_step(ssp_run, ssp_file):
+    _, _, step = default_experiment(ssp_file)
+    # fmpy adds the step to a float time, so the last row may fall a rounding error short of stop.
+    assert np.diff(ssp_run["time"]) == pytest.approx(step)
+    assert ssp_run["time"][0] == 0.0
+    assert ssp_run["time"][-1] < FMPY_STOP < ssp_run["time"][-1] + 2 * step
+
+
+def test_driver_binding_sets_both_fmus_and_connections_carry_values(ssp_run, ssp_file, interfaces,
+                                                                    vehicle, estimator):
+    driver = {p.name: float(p.value) for p in bound_parameters(ssp_file, interfaces).parameters}
+    angle = driver[f"{support.VEHICLE}.steering_angle"]
+    assert angle == driver[f"{support.ESTIMATOR}.steering_angle"] > 0
     # Rows are recorded after the connections were applied: a connected input equals its source.
-    for name in support.DRIVER_INPUTS:
-        assert np.array_equal(column(ssp_run, support.VEHICLE, name), ssp_run[name])
-        assert np.array_equal(column(ssp_run, support.ESTIMATOR, name), ssp_run[name])
     for name in set(vehicle.names("output")) & set(estimator.names("input")):
-        assert np.array_equal(column(ssp_run, support.ESTIMATOR, name), column(ssp_run, support.VEHICLE, name)), name
-    assert np.max(ssp_run["steering_angle"]) == pytest.approx(support.MODERATE_RAMP_ANGLE)
+        assert np.array_equal(column(ssp_run, support.ESTIMATOR, name),
+                              column(ssp_run, support.VEHICLE, name)), name
+    # The bound steering angle reached the car: a steady left turn (ISO 8855: positive yaw rate)
+    # at the yaw rate of the single-track model, v delta / (l (1 + K v^2)), within 20 %.
+    yaw_rate = column(ssp_run, support.VEHICLE, "yaw_rate")
+    wheelbase = vehicle.start("cog_to_front_axle") + vehicle.start("cog_to_rear_axle")
+    kinematic = vehicle.start("vx0") * angle / wheelbase
+    assert 0.5 * kinematic < yaw_rate[-1] < 1.2 * kinematic
 
 
 def test_ssp_estimator_tracks_the_vehicle(ssp_run):
-    vy = column(ssp_run, support.VEHICLE, "vy")
-    vy_est = column(ssp_run, support.ESTIMATOR, "vy_est")
-    assert np.all(np.isfinite(vy_est))
-    turning = ssp_run["time"] > 5.0
-    # The car really turns left (ISO 8855: positive yaw rate) and has a lateral velocity to track.
-    assert np.all(column(ssp_run, support.VEHICLE, "yaw_rate")[turning] > 0.05)
-    assert np.max(np.abs(vy)) > 0.01
-    # The estimator sees every measurement one step late (fmpy's connection lag); with 1 ms steps
-    # that costs far less than the 1 cm/s the tolerance allows.
-    error = support.rmse(vy_est, vy)
-    print(f"SSP default estimator: vy RMSE {error:.3g} m/s")
-    assert error < 1e-2
-    yaw_error = support.rmse(column(ssp_run, support.ESTIMATOR, "yaw_rate_est"),
-                             column(ssp_run, support.VEHICLE, "yaw_rate"))
-    assert yaw_error < 1e-2
+    turning = ssp_run["time"] > 1.0
+    for truth, estimate in (("vy", "vy_est"), ("yaw_rate", "yaw_rate_est")):
+        error = support.rmse(column(ssp_run, support.ESTIMATOR, estimate)[turning],
+                             column(ssp_run, support.VEHICLE, truth)[turning])
+        print(f"SSP default estimator: {truth} RMSE {error:.3g}")
+        assert error < 1e-2
+
+
+def test_a_car_binding_is_applied(ssp_file, interfaces, tmp_path, vehicle):
+    """packaging/README.md: a user binds a shipped car to the ReferenceVehicle. With the BMW 320i
+    the reference runs the full vehicle (model 3) with the car's mass."""
+    car = "resources/bmw_320i.ssv"
+    with zipfile.ZipFile(ssp_file) as archive:
+        ssd = archive.read("SystemStructure.ssd").decode("utf-8")
+        mass = next(float(p.find("{*}Real").get("value"))
+                    for p in etree.fromstring(archive.read(car)).iter("{*}Parameter")
+                    if p.get("name") == "mass")
+    component = f'<ssd:Component name="{support.VEHICLE}"'
+    binding = '<ssd:ParameterBindings>\n'
+    position = ssd.index(binding, ssd.index(component)) + len(binding)
+    with_car = ssd[:position] + \
+        f'          <ssd:ParameterBinding type="application/x-ssp-parameter-set" source="{car}"/>\n' + \
+        ssd[position:]
+    modified = tmp_path / "with_car.ssp"
+    shutil.copy(ssp_file, modified)
+    with zipfile.ZipFile(ssp_file) as source, zipfile.ZipFile(modified, "w") as target:
+        for item in source.infolist():
+            data = with_car.encode() if item.filename == "SystemStructure.ssd" else source.read(item)
+            target.writestr(item, data)
+    parameters = bound_parameters(modified, interfaces)
+    assert f"{support.VEHICLE}.mass" in [p.name for p in parameters.parameters]
+    result = run(modified, interfaces, 0.1)
+    loads = sum(column(result, support.VEHICLE, f"wheel_load_{corner}")[0]
+                for corner in ("front_left", "front_right", "rear_left", "rear_right"))
+    assert loads == pytest.approx(mass * 9.81, rel=0.05)
+    assert abs(mass - vehicle.start("mass")) > 100.0  # the default car is another one
+    # Model 3 rolls in the turn the bound steering angle starts; the default model A has no roll.
+    default = run(ssp_file, interfaces, 0.1)
+    assert column(result, support.VEHICLE, "roll_angle")[-1] > 1e-3
+    assert np.all(column(default, support.VEHICLE, "roll_angle") == 0.0)
