@@ -178,3 +178,33 @@ def test_grid_random_and_latin_hypercube_expansions(tmp_path):
     assert values == [c["UKF.process_noise_std_vy"] for c in random.cases()]
     assert all(1e-5 <= v <= 1e-3 for v in values) and len(set(values)) == 6
     assert os.path.basename(str(random.path)) == "random.toml"
+
+
+def test_a_worker_killed_mid_campaign_loses_only_its_chunk_which_runs_again(
+        tmp_path, harness_binary, fmu_dir, dask_scheduler):
+    from distributed import Client
+    total = 24
+    path = write_campaign(tmp_path, f'[[axis]]\nseeds = ["vehicle.seed"]\ncount = {total}\n')
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "vse_campaign", str(path), "--out", str(out), "--chunk", "2",
+         "--scheduler", dask_scheduler, "--harness", str(harness_binary), "--fmu-dir", str(fmu_dir),
+         "--no-progress"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not chunk_files(out) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    with Client(dask_scheduler, timeout=30) as client:
+        address, victim = sorted(client.run(os.getpid).items())[0]
+        in_flight = client.processing()[address]  # the chunks given to that worker
+        os.kill(victim, 9)
+        stdout, stderr = process.communicate(timeout=120)
+        client.wait_for_workers(2, timeout=60)  # the nanny starts a new one for the next tests
+    assert in_flight, "the worker had no chunk when it was killed"
+    assert process.returncode == 0, stderr
+    assert "lost chunk" not in stderr and f"{total} of {total} cases in the results" in stdout
+    rows = results(out)
+    assert [row["case"] for row in rows] == list(range(total))
+    assert {row["status"] for row in rows} == {"ok"}
+    # Its chunks (keys chunk-<first>-<last>) were run again by another worker process.
+    rerun = {case for key in in_flight for case in range(int(key.split("-")[1]), int(key.split("-")[2]) + 1)}
+    assert all(not row["worker"].endswith(f":{victim}") for row in rows if row["case"] in rerun)
