@@ -305,6 +305,8 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    // The FMUs' extraction folder, removed on every exit path (issue 15, point 6).
+    let work = env.work_folder();
     let mut outputs = Vec::new();
     let mut failures: Vec<(String, String)> = Vec::new();
     for (index, (file, _, _)) in experiments.iter().enumerate() {
@@ -328,7 +330,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
             }
         }
     }
-    let _ = std::fs::remove_dir_all(env.work_dir());
+    drop(work);
     let seeds = seed003_noise_seeds().len() as u64;
     bar.set_message(format!("seed 003: EM identification, {seeds} noise seeds"));
     bar.set_position(experiments.len() as u64 * 1000);

@@ -156,6 +156,9 @@ pub fn run_mismatch(study: &MismatchStudy, env: &Environment) -> Result<Mismatch
         fmu_dir: env.fmu_dir.clone(),
         out_dir: env.out_dir.join(folder),
     };
+    // The FMUs' extraction folders are scratch, removed on every exit path (issue 15, point 6).
+    let _work = ["identification", "seed_scales", "identified_scales"]
+        .map(|folder| sub_environment(folder).work_folder());
     let scenario = Scenario::from_file(&study.identification_scenario)?;
     let step = scenario.step;
     let sample_time = study.identification.sample_time;
@@ -235,10 +238,6 @@ pub fn run_mismatch(study: &MismatchStudy, env: &Environment) -> Result<Mismatch
                 peak_lateral_acceleration: peak,
             });
         }
-    }
-    // The FMUs' extraction folders are scratch (their temporary contents are gone already).
-    for folder in ["identification", "seed_scales", "identified_scales"] {
-        let _ = std::fs::remove_dir_all(sub_environment(folder).work_dir());
     }
     Ok(MismatchReport {
         identification_scenario: output.scenario.name.clone(),
