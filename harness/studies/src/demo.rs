@@ -23,6 +23,7 @@ use estimation::particle::Proposal;
 
 pub use crate::findings::{fmt, window_mean, window_rmse, Finding, Sources};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
+use crate::consistency::{self, ConsistencyReport};
 use crate::mismatch::{self, MismatchReport};
 use fmi_master::plot::{self, Panel, Series};
 use fmi_master::report::Document;
@@ -348,6 +349,13 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &bar,
         &mut failures,
     );
+    bar.set_message("consistency: Monte Carlo NEES, NIS and the Cramér-Rao bound");
+    let consistency = keep(
+        CONSISTENCY_STUDY,
+        consistency::run_shipped(&env.fmu_dir, &env.out_dir.join("consistency")),
+        &bar,
+        &mut failures,
+    );
     bar.finish_with_message("all experiments done");
     let findings = findings(Sources {
         runs: &outputs,
@@ -362,6 +370,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
             &outputs,
             seed003.as_ref(),
             mismatch.as_ref(),
+            consistency.as_ref(),
             &findings,
             &failures,
         )?;
@@ -444,12 +453,14 @@ fn score_rows(scores: &RunScores) -> Vec<Vec<String>> {
         .collect()
 }
 
+#[allow(clippy::too_many_arguments)]
 fn write_report(
     env: &Environment,
     experiments: &[&(&str, &str, &str)],
     outputs: &[(String, RunOutput)],
     seed003: Option<&Outcome>,
     mismatch: Option<&MismatchReport>,
+    consistency: Option<&ConsistencyReport>,
     findings: &[Finding],
     failures: &[(String, String)],
 ) -> Result<()> {
@@ -476,6 +487,12 @@ fn write_report(
                 "The study ({MISMATCH_STUDY}) failed; the error is listed above."
             ));
         }
+    }
+    match consistency {
+        Some(report) => consistency::section(&mut doc, report),
+        None => doc.paragraph(format!(
+            "The {CONSISTENCY_STUDY} failed; the error is listed above."
+        )),
     }
 
     let md = doc.to_markdown();
@@ -708,6 +725,10 @@ fn score_tables(doc: &mut Document, scores: &RunScores) {
             .collect(),
     );
 }
+
+/// How the report and the failure list name the consistency study.
+pub const CONSISTENCY_STUDY: &str =
+    "consistency study (seed-000 high-ay ramp, Monte Carlo NEES/NIS and PCRLB, harness/studies/src/consistency.rs)";
 
 /// How the report and the failure list name the model-mismatch study.
 pub const MISMATCH_STUDY: &str =

@@ -5,6 +5,7 @@
 //! feature (and through it `vehicle-models`).
 
 pub mod campaigns;
+pub mod consistency;
 pub mod demo;
 pub mod expression;
 pub mod findings;

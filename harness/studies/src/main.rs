@@ -120,6 +120,19 @@ enum Command {
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
     },
+    /// Consistency where the model is right (issue 17): Monte Carlo NEES and NIS of the
+    /// seed-000 high-ay ramp's filters and their RMSE against the posterior Cramér-Rao bound
+    Consistency {
+        /// Output folder (the plot).
+        #[arg(long, default_value = "out/consistency")]
+        out: PathBuf,
+        /// Monte Carlo runs (noise seeds 1 to N).
+        #[arg(long, default_value_t = 40)]
+        runs: usize,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
     /// Issue 12's robustness cases and the mismatch campaigns (issues 13, 17) on real cars'
     /// parameter files, the demo's sections "Robustness" and "Mismatch campaigns" on their own
     Robustness {
@@ -241,6 +254,22 @@ fn execute(cli: Cli) -> Result<()> {
             print!("{}", demo::summary_table(&findings, &outputs));
             println!("\nreport: {}", out.join("report.md").display());
             println!("        {}", out.join("report.html").display());
+            Ok(())
+        }
+        Command::Consistency { out, runs, fmu_dir } => {
+            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+            let study = harness::consistency::ConsistencyStudy {
+                runs,
+                ..harness::consistency::ConsistencyStudy::shipped()
+            };
+            let env = Environment {
+                fmu_dir,
+                out_dir: out,
+            };
+            let report = harness::consistency::run(&study, &env)?;
+            let mut doc = fmi_master::report::Document::default();
+            harness::consistency::section(&mut doc, &report);
+            print!("{}", doc.to_markdown());
             Ok(())
         }
         Command::Mismatch { out, fmu_dir } => {
