@@ -8,6 +8,7 @@ always gives the same ids), one value per axis, and what the harness must change
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import itertools
 import json
@@ -66,7 +67,11 @@ class Campaign:
     main_axes: tuple[str, ...]
 
     def cases(self) -> list[dict]:
-        """Every case: {"case": id, <axis name>: value, ...}."""
+        """Every case: {"case": id, <axis name>: value, ...} (expanded once; do not modify)."""
+        return self._expanded
+
+    @functools.cached_property
+    def _expanded(self) -> list[dict]:
         if self.method == "grid":
             rows = itertools.product(*(axis.values for axis in self.axes))
         else:
