@@ -347,7 +347,8 @@ fn load_instances(
         for (name, value) in &section.parameters {
             let field = format!("scenario {source}: fmu[{i}].parameters.{name}");
             let var = settable(&fmus[fmu], name).with_context(|| field.clone())?;
-            let value = convert_value(var, value).with_context(|| field.clone())?;
+            let value = convert_scenario_value(&fmus[fmu], var, value)
+                .with_context(|| field.clone())?;
             parameters.push((var.clone(), value));
         }
         instances.push(InstancePlan {
@@ -422,23 +423,38 @@ fn convert_file_value(
         SsvValue::Integer(x) => toml::Value::Integer(*x),
         SsvValue::Boolean(b) => toml::Value::Boolean(*b),
         SsvValue::String(s) => toml::Value::String(s.clone()),
-        SsvValue::Enumeration(item) => {
-            let items = fmu.enumeration_items(&var.name);
-            let found = items.iter().find(|(name, _)| name == item);
-            return match found {
-                Some(&(_, number)) => Ok(ParameterValue::Integer(number)),
-                None => {
-                    let names: Vec<&str> = items.iter().map(|(n, _)| n.as_str()).collect();
-                    bail!(
-                        "enumeration item {item:?} is not one of {:?}'s items ({})",
-                        var.name,
-                        names.join(", ")
-                    )
-                }
-            };
-        }
+        SsvValue::Enumeration(item) => return enumeration_item(fmu, var, item),
     };
     convert_value(var, &as_toml)
+}
+
+/// Convert a scenario's TOML value to what `var` of `fmu` takes: as [`convert_value`], and an
+/// Enumeration also by its item name (`estimator = "ukf"`), looked up in the modelDescription.
+pub fn convert_scenario_value(
+    fmu: &LoadedFmu,
+    var: &VariableInfo,
+    value: &toml::Value,
+) -> Result<ParameterValue> {
+    match (var.var_type, value) {
+        (VariableType::Enumeration, toml::Value::String(item)) => enumeration_item(fmu, var, item),
+        _ => convert_value(var, value),
+    }
+}
+
+/// The number of Enumeration item `item` of `var`, or an error listing the items.
+fn enumeration_item(fmu: &LoadedFmu, var: &VariableInfo, item: &str) -> Result<ParameterValue> {
+    let items = fmu.enumeration_items(&var.name);
+    match items.iter().find(|(name, _)| name == item) {
+        Some(&(_, number)) => Ok(ParameterValue::Integer(number)),
+        None => {
+            let names: Vec<&str> = items.iter().map(|(n, _)| n.as_str()).collect();
+            bail!(
+                "enumeration item {item:?} is not one of {:?}'s items ({})",
+                var.name,
+                names.join(", ")
+            )
+        }
+    }
 }
 
 /// Resolve step: every `[[connection]]` to output/input pairs (connect-by-name expanded),

@@ -146,3 +146,30 @@ fn a_missing_file_is_named() {
         "{message}"
     );
 }
+
+/// A scenario selects an Enumeration value by its item name from the modelDescription, with
+/// the same result as its number; an unknown item is refused with the field and the items.
+#[test]
+fn an_enumeration_is_set_by_its_item_name() {
+    let scratch = Scratch::new("parameter-files-enumeration");
+    let car = [cars_dir().join("seed_car.ssv")];
+    let by_number = final_yaw_rate(&step_steer(&car, "model = 2"), &scratch.0);
+    let by_name = final_yaw_rate(
+        &step_steer(&car, "model = \"two_track_magic_formula\""),
+        &scratch.0,
+    );
+    assert_eq!(by_name.to_bits(), by_number.to_bits());
+    let message = format!(
+        "{:#}",
+        plan(&step_steer(&car, "model = \"two_track\""), &scratch.0)
+            .err()
+            .expect("an unknown item is refused")
+    );
+    for part in [
+        "fmu[0].parameters.model",
+        "\"two_track\"",
+        "two_track_magic_formula",
+    ] {
+        assert!(message.contains(part), "{part:?} missing in: {message}");
+    }
+}
