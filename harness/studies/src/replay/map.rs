@@ -309,3 +309,51 @@ fn location(text: &str, offset: usize) -> Location {
         column: before[line_start..].chars().count() + 1,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An estimator with one input of each unit the map test uses.
+    struct Units;
+    impl VariableUnits for Units {
+        fn input_unit(&self, name: &str) -> Option<String> {
+            match name {
+                "steering_angle" => Some("rad".into()),
+                "ay_meas" => Some("m/s2".into()),
+                _ => None,
+            }
+        }
+        fn estimate_unit(&self, name: &str) -> Option<String> {
+            (name == "sideslip").then(|| "rad".into())
+        }
+    }
+
+    fn parse(text: &str) -> Result<Map> {
+        Map::parse(text, Path::new("m.toml"), &Units)
+    }
+
+    #[test]
+    fn entries_resolve_to_si_factors_and_errors_name_line_and_column() {
+        let map = parse(
+            "[log]\ntime_unit = \"ms\"\nalign = \"linear\"\n[inputs.steering_angle]\ncolumn = \"swa\"\nunit = \"deg\"\nsteering_ratio = 16.0\nsign = -1\n[inputs.ay_meas]\nvalue = 0.5\n[reference.sideslip]\ncolumn = \"beta\"\nunit = \"rad\"\n",
+        )
+        .unwrap();
+        assert_eq!((map.time_factor, map.align), (1e-3, Alignment::Linear));
+        assert_eq!(map.inputs[1].factor, -std::f64::consts::PI / 180.0 / 16.0);
+        assert_eq!(map.inputs[0].source, Source::Constant(0.5));
+        assert_eq!(map.columns(), ["swa", "beta"]);
+        let error = |text: &str| format!("{:#}", parse(text).unwrap_err());
+        let e = error("[inputs.ay_meas]\ncolumn = \"a\"\nunit = \"deg\"\n");
+        assert!(
+            e.starts_with("map m.toml, line 3, column 8:") && e.contains("m/s2, m/s^2, g"),
+            "{e}"
+        );
+        let e = error("[inputs.ay_meas]\ncolumn = \"a\"\nunit = \"g\"\nsign = 2\n");
+        assert!(e.starts_with("map m.toml, line 4, column 8:"), "{e}");
+        let e = error("[inputs.yaw]\ncolumn = \"a\"\nunit = \"g\"\n");
+        assert!(e.contains("no input \"yaw\""), "{e}");
+        let e = error("[inputs.ay_meas]\ncolumn = \"a\"\nunit = \"g\"\n[log]\nalign = \"cubic\"\n");
+        assert!(e.starts_with("map m.toml, line 5, column 9:"), "{e}");
+    }
+}
