@@ -129,6 +129,21 @@ def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
     return np.array(rows)
 
 
+def test_libcosim_leaves_out_the_enumerations_so_the_documented_default_runs(estimator,
+                                                                           estimator_fmu):
+    """packaging/doc/VehicleStateEstimator.html tells libcosim users that they get the EKF on
+    model A: libcosim lists no Enumeration variable, and those are the XML's start values."""
+    log_output_level(CosimLogLevel.ERROR)
+    execution = CosimExecution.from_step_size(STEP_NS)
+    slave = execution.add_local_slave(CosimLocalSlave(str(estimator_fmu), support.ESTIMATOR))
+    listed = {v.name.decode() for v in execution.slave_variables(slave)}
+    enumerations = {v.name for v in estimator.description.modelVariables if v.type == "Enumeration"}
+    assert enumerations >= {"estimator", "model"} and not enumerations & listed
+    assert listed >= set(estimator.names("input")) | set(estimator.names("output"))
+    assert estimator.start("estimator") == estimator.enumeration_value("estimator", "ekf")
+    assert estimator.start("model") == estimator.enumeration_value("model", "single_track_5_state")
+
+
 def test_libcosim_and_an_fmpy_loop_give_bit_identical_outputs(
         vehicle, estimator, vehicle_fmu, estimator_fmu, vehicle_dir, estimator_dir):
     cosim = libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu)
