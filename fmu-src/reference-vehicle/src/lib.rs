@@ -30,8 +30,14 @@
 //!   counted teeth; module `sensors`) → + white Gaussian noise → quantisation
 //!   (rounding to a multiple of `quantum_*`) → transport delay of `sensor_latency` (whole
 //!   integration steps) → sample-and-hold every `sensor_sample_period` (sample instants
-//!   `t0 + k·period`) → dropout of chosen channels for a time (NaN or stale). The chain starts
-//!   primed with the noise-free initial values. The issue-13 effects are all off by default.
+//!   `t0 + k·period`) → dropout of chosen channels for a time, or while the `sensor_blanking`
+//!   input names them (NaN or stale). Each channel may have its own period and delay
+//!   (`sample_period_*`, `latency_*`; -1 = the common value), as the messages of a car's CAN
+//!   buses have. The chain starts primed with the noise-free initial values. The issue-13
+//!   effects are all off by default.
+//! - **Direct feed-through**: when the master sets new inputs at a communication point, the
+//!   outputs that depend on them (ModelStructure) are re-evaluated at that instant before they
+//!   are read (`refresh_outputs`); see harness/scenarios/README.md, "Direct feed-through".
 //! - `noise = false` switches off process noise, noise, quantisation, sampling and latency; the
 //!   `*_meas` outputs then equal what the sensors sense (the truth, unless an issue-13 effect is
 //!   on).
@@ -124,7 +130,8 @@ struct Simulation {
     process_noise_std: [f64; MAX_STATE_DIM],
     sensor_noise_std: [f64; SENSORS],
     quantum: [f64; SENSORS],
-    sample_period: f64,
+    /// Per channel: sample period (0: every integration step) and delay in integration steps.
+    timing: ChannelTiming,
     rng: ChaCha20Rng,
     /// The driver input applied during the steps (last finite values).
     input: DriverInputVector,
@@ -133,7 +140,8 @@ struct Simulation {
     /// Gravity, bias, drift and tooth counting in front of the noise chain.
     effects: SensorEffects,
     dropout: Dropout,
-    /// Ring buffer of `latency_steps + 1` corrupted samples; `delay_head` is the newest.
+    /// Ring buffer of the longest channel delay + 1 corrupted samples; `delay_head` is the
+    /// newest.
     delay_line: Vec<[f64; SENSORS]>,
     delay_head: usize,
     /// Sample-and-hold output of the sensor chain.
@@ -141,10 +149,10 @@ struct Simulation {
     /// The standard-normal draws of the newest delay-line entry, kept so that the entry can be
     /// re-evaluated with the inputs set at the communication point (`resample_at_inputs`).
     newest_draws: [f64; SENSORS],
-    /// Whether the newest delay-line entry reached `held` at the end of the last step (no
-    /// latency and a sample instant there).
-    newest_is_held: bool,
-    next_sample_time: f64,
+    /// Per channel: whether the newest delay-line entry reached `held` at the end of the last
+    /// step (no latency and a sample instant there).
+    newest_is_held: [bool; SENSORS],
+    next_sample_time: [f64; SENSORS],
     time: f64,
     /// The truth at the current state and input, computed once per integration step and reused
     /// by the outputs (model B's truth costs a load-transfer loop).
@@ -171,13 +179,7 @@ impl Simulation {
         let vehicle = Vehicle::build(v)?;
         let process_noise_std = process_noise_std(&vehicle, v);
         let integration_step = positive("integration_step", v.integration_step)?;
-        let latency_steps = (v.sensor_latency / integration_step).round();
-        if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&latency_steps) {
-            return Err(format!(
-                "parameter sensor_latency = {} is {latency_steps} integration steps; expected 0 to {MAX_LATENCY_STEPS}",
-                v.sensor_latency
-            ));
-        }
+        let timing = ChannelTiming::new(v, integration_step)?;
         let seed = u64::try_from(v.seed)
             .map_err(|_| format!("parameter seed = {}; expected a value >= 0", v.seed))?;
         let input = DriverInputVector::new(
@@ -192,7 +194,8 @@ impl Simulation {
         ];
         let (truth, wheels) = vehicle.truth(&input);
         let mut sensed = sensor_values(&truth);
-        let effects = SensorEffects::new(v, integration_step, [sensed[2], sensed[3]]);
+        let effects =
+            SensorEffects::new(v, &timing.period, integration_step, [sensed[2], sensed[3]]);
         effects.sense(&mut sensed, attitude(&wheels, &road));
         let initial = quantised_sensors(
             &sensed,
@@ -232,15 +235,15 @@ impl Simulation {
                 v.quantum_ax_meas,
                 v.quantum_vx_meas,
             ],
-            sample_period: v.sensor_sample_period,
             rng: ChaCha20Rng::seed_from_u64(seed),
             input,
-            delay_line: vec![initial; latency_steps as usize + 1],
+            delay_line: vec![initial; timing.longest_delay() + 1],
             delay_head: 0,
             held: initial,
             newest_draws: [0.0; SENSORS],
-            newest_is_held: latency_steps == 0.0,
-            next_sample_time: start_time + v.sensor_sample_period,
+            newest_is_held: timing.delay_steps.map(|steps| steps == 0),
+            next_sample_time: timing.period.map(|period| start_time + period),
+            timing,
             time: start_time,
         })
     }
@@ -298,27 +301,18 @@ impl Simulation {
         let length = self.delay_line.len();
         self.delay_head = (self.delay_head + 1) % length;
         self.delay_line[self.delay_head] = self.corrupted(&truth);
-        // The oldest entry is the one after the head: `length - 1` steps old.
-        let delayed = self.delay_line[(self.delay_head + 1) % length];
-        self.newest_is_held = false;
-        if self.sample_period <= 0.0 {
-            self.held = delayed;
-            self.newest_is_held = length == 1;
-        } else {
-            let tolerance = 1e-9 * self.sample_period;
-            if self.time >= self.next_sample_time - tolerance {
-                self.held = delayed;
-                self.newest_is_held = length == 1;
-                // Whole periods past the current time, in one step: a loop adding the period
-                // would never end where the period is below the clock's resolution.
-                let periods =
-                    ((self.time + tolerance - self.next_sample_time) / self.sample_period).floor()
-                        + 1.0;
-                self.next_sample_time += periods * self.sample_period;
-                if self.next_sample_time <= self.time {
-                    self.next_sample_time = self.time + self.sample_period;
-                }
+        for i in 0..SENSORS {
+            let delay = self.timing.delay_steps[i];
+            let sampled = sample_due(
+                &mut self.next_sample_time[i],
+                self.timing.period[i],
+                self.time,
+            );
+            if sampled {
+                // The entry `delay` steps behind the head (ring buffer).
+                self.held[i] = self.delay_line[(self.delay_head + length - delay) % length][i];
             }
+            self.newest_is_held[i] = sampled && delay == 0;
         }
         Ok(())
     }
@@ -376,8 +370,11 @@ impl Simulation {
         }
         let corrupted = self.corrupted(&sensed);
         self.delay_line[self.delay_head] = corrupted;
-        if self.newest_is_held {
-            self.held = corrupted;
+        for ((held, value), newest) in self.held.iter_mut().zip(corrupted).zip(self.newest_is_held)
+        {
+            if newest {
+                *held = value;
+            }
         }
     }
 
@@ -399,8 +396,10 @@ impl Simulation {
         writer.u64(self.delay_head as u64);
         writer.f64s(&self.held);
         writer.f64s(&self.newest_draws);
-        writer.bool(self.newest_is_held);
-        writer.f64(self.next_sample_time);
+        for held in self.newest_is_held {
+            writer.bool(held);
+        }
+        writer.f64s(&self.next_sample_time);
         writer.f64(self.time);
         self.effects.write_state(writer);
     }
@@ -439,8 +438,10 @@ impl Simulation {
         self.delay_head = head as usize;
         reader.f64s_into(&mut self.held, "held sensor values")?;
         reader.f64s_into(&mut self.newest_draws, "newest noise draws")?;
-        self.newest_is_held = reader.bool("newest sample held")?;
-        self.next_sample_time = reader.f64("next sample time")?;
+        for held in self.newest_is_held.iter_mut() {
+            *held = reader.bool("newest sample held")?;
+        }
+        reader.f64s_into(&mut self.next_sample_time, "next sample times")?;
         self.time = reader.f64("simulation time")?;
         self.effects.read_state(reader)?;
         (self.truth, self.wheels) = self.vehicle.truth(&self.input);
@@ -455,6 +456,113 @@ fn attitude(wheels: &WheelTruth, road: &[f64; ROAD_INPUTS]) -> Attitude {
         bank: road[1],
         grade: road[2],
     }
+}
+
+/// Whether a sample is taken at `time` on a channel sampled every `period` (0: at every
+/// integration step), advancing `next` past `time` if so.
+fn sample_due(next: &mut f64, period: f64, time: f64) -> bool {
+    if period <= 0.0 {
+        return true;
+    }
+    let tolerance = 1e-9 * period;
+    if time < *next - tolerance {
+        return false;
+    }
+    // Whole periods past the current time, in one step: a loop adding the period would never
+    // end where the period is below the clock's resolution.
+    let periods = ((time + tolerance - *next) / period).floor() + 1.0;
+    *next += periods * period;
+    if *next <= time {
+        *next = time + period;
+    }
+    true
+}
+
+/// The CAN timing of each sensor channel (issue 13 point 5: yaw rate, ay, wheel speeds, ax and
+/// vx come in different messages at different rates): the channel's own parameter, or the
+/// common `sensor_sample_period` / `sensor_latency` where it is -1.
+#[derive(Clone, Copy, Debug)]
+struct ChannelTiming {
+    /// Sample period, s (0: every integration step).
+    period: [f64; SENSORS],
+    /// Transport delay in whole integration steps.
+    delay_steps: [usize; SENSORS],
+}
+
+impl ChannelTiming {
+    fn new(v: &Variables, integration_step: f64) -> Result<Self, String> {
+        let periods = channel_periods(v);
+        let latencies = [
+            ("latency_yaw_rate_meas", v.latency_yaw_rate_meas),
+            ("latency_ay_meas", v.latency_ay_meas),
+            ("latency_omega_front_meas", v.latency_omega_front_meas),
+            ("latency_omega_rear_meas", v.latency_omega_rear_meas),
+            ("latency_ax_meas", v.latency_ax_meas),
+            ("latency_vx_meas", v.latency_vx_meas),
+        ];
+        for (name, own) in OWN_PERIOD_NAMES.into_iter().zip(own_periods(v)) {
+            if own != -1.0 && !(0.0..=1.0).contains(&own) {
+                return Err(format!(
+                    "parameter {name} = {own}; expected -1 (sensor_sample_period) or 0 to 1 s"
+                ));
+            }
+        }
+        let mut delay_steps = [0; SENSORS];
+        for (steps, (name, own)) in delay_steps.iter_mut().zip(latencies) {
+            let (name, latency) = if own == -1.0 {
+                ("sensor_latency", v.sensor_latency)
+            } else {
+                (name, own)
+            };
+            let whole = (latency / integration_step).round();
+            if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&whole) {
+                return Err(format!(
+                    "parameter {name} = {latency} is {whole} integration steps; expected 0 to {MAX_LATENCY_STEPS}"
+                ));
+            }
+            *steps = whole as usize;
+        }
+        Ok(Self {
+            period: periods,
+            delay_steps,
+        })
+    }
+
+    fn longest_delay(&self) -> usize {
+        self.delay_steps.into_iter().max().unwrap_or(0)
+    }
+}
+
+/// The channels' own sample-period parameters, in channel order.
+const OWN_PERIOD_NAMES: [&str; SENSORS] = [
+    "sample_period_yaw_rate_meas",
+    "sample_period_ay_meas",
+    "sample_period_omega_front_meas",
+    "sample_period_omega_rear_meas",
+    "sample_period_ax_meas",
+    "sample_period_vx_meas",
+];
+
+fn own_periods(v: &Variables) -> [f64; SENSORS] {
+    [
+        v.sample_period_yaw_rate_meas,
+        v.sample_period_ay_meas,
+        v.sample_period_omega_front_meas,
+        v.sample_period_omega_rear_meas,
+        v.sample_period_ax_meas,
+        v.sample_period_vx_meas,
+    ]
+}
+
+/// Each channel's sample period: its own parameter, or `sensor_sample_period` where that is -1.
+fn channel_periods(v: &Variables) -> [f64; SENSORS] {
+    own_periods(v).map(|own| {
+        if own == -1.0 {
+            v.sensor_sample_period
+        } else {
+            own
+        }
+    })
 }
 
 fn finite_or(value: f64, fallback: f64) -> f64 {
@@ -483,6 +591,8 @@ fn quantised_sensors(
 pub struct ReferenceVehicle {
     variables: Variables,
     simulation: Option<Simulation>,
+    /// The `sensor_blanking` input the outputs were last published with.
+    shown_blanking: i32,
 }
 
 impl ReferenceVehicle {
@@ -528,10 +638,15 @@ impl ReferenceVehicle {
             &mut v.vx_meas,
         ];
         for (i, output) in measured.into_iter().enumerate() {
-            *output = simulation
-                .dropout
-                .shown(i, simulation.time, simulation.held[i], *output);
+            *output = simulation.dropout.shown(
+                i,
+                simulation.time,
+                v.sensor_blanking,
+                simulation.held[i],
+                *output,
+            );
         }
+        self.shown_blanking = v.sensor_blanking;
     }
 
     /// The input variables, driver then road, in the order of [`INPUT_NAMES`].
@@ -566,18 +681,19 @@ impl CoSimulationModel for ReferenceVehicle {
     /// 1e-300` lies inside its declared range and hung the first doStep).
     fn internal_step_size(&self) -> Option<f64> {
         let v = &self.variables;
-        let sample_period = v.sensor_sample_period;
-        Some(if sample_period > 0.0 {
-            v.integration_step.min(sample_period)
-        } else {
-            v.integration_step
-        })
+        Some(
+            channel_periods(v)
+                .into_iter()
+                .filter(|period| *period > 0.0)
+                .fold(v.integration_step, f64::min),
+        )
     }
 
     fn instantiate(_context: &InstantiationContext) -> Self {
         Self {
             variables: Variables::default(),
             simulation: None,
+            shown_blanking: 0,
         }
     }
 
@@ -645,6 +761,8 @@ impl CoSimulationModel for ReferenceVehicle {
         };
         if let (true, _) = simulation.take_inputs(requested) {
             simulation.resample_at_inputs();
+            self.publish();
+        } else if self.variables.sensor_blanking != self.shown_blanking {
             self.publish();
         }
     }

@@ -42,27 +42,26 @@ pub(crate) struct Attitude {
 struct ToothCounter {
     /// Angle between two teeth, rad.
     tooth_angle: f64,
-    window: f64,
+    /// Counting window of each wheel: its channel's sample period (at least one step).
+    window: [f64; 2],
     angle: [f64; 2],
     window_start_angle: [f64; 2],
-    window_elapsed: f64,
+    window_elapsed: [f64; 2],
     measured: [f64; 2],
 }
 
 impl ToothCounter {
     fn count(&mut self, true_speed: [f64; 2], dt: f64) -> [f64; 2] {
-        self.window_elapsed += dt;
-        for (angle, speed) in self.angle.iter_mut().zip(true_speed) {
-            *angle += speed * dt;
-        }
-        if self.window_elapsed >= self.window * (1.0 - 1e-9) {
-            for i in 0..2 {
+        for (i, speed) in true_speed.into_iter().enumerate() {
+            self.window_elapsed[i] += dt;
+            self.angle[i] += speed * dt;
+            if self.window_elapsed[i] >= self.window[i] * (1.0 - 1e-9) {
                 let teeth = (self.angle[i] / self.tooth_angle).floor()
                     - (self.window_start_angle[i] / self.tooth_angle).floor();
-                self.measured[i] = teeth * self.tooth_angle / self.window_elapsed;
+                self.measured[i] = teeth * self.tooth_angle / self.window_elapsed[i];
+                self.window_start_angle[i] = self.angle[i];
+                self.window_elapsed[i] = 0.0;
             }
-            self.window_start_angle = self.angle;
-            self.window_elapsed = 0.0;
         }
         self.measured
     }
@@ -81,7 +80,13 @@ pub(crate) struct SensorEffects {
 }
 
 impl SensorEffects {
-    pub fn new(v: &Variables, integration_step: f64, true_wheel_speed: [f64; 2]) -> Self {
+    /// `sample_period` is each channel's sample period (the wheels count over theirs).
+    pub fn new(
+        v: &Variables,
+        sample_period: &[f64; SENSORS],
+        integration_step: f64,
+        true_wheel_speed: [f64; 2],
+    ) -> Self {
         let teeth = u32::try_from(v.wheel_speed_teeth).unwrap_or(0);
         Self {
             bias: [v.bias_yaw_rate_meas, v.bias_ay_meas, v.bias_ax_meas],
@@ -90,10 +95,10 @@ impl SensorEffects {
             gravity: v.gravity_in_accelerometers,
             teeth: (teeth > 0).then(|| ToothCounter {
                 tooth_angle: std::f64::consts::TAU / f64::from(teeth),
-                window: v.sensor_sample_period.max(integration_step),
+                window: WHEEL_CHANNELS.map(|i| sample_period[i].max(integration_step)),
                 angle: [0.0; 2],
                 window_start_angle: [0.0; 2],
-                window_elapsed: 0.0,
+                window_elapsed: [0.0; 2],
                 measured: true_wheel_speed,
             }),
         }
@@ -164,7 +169,7 @@ impl SensorEffects {
         if let Some(counter) = &self.teeth {
             writer.f64s(&counter.angle);
             writer.f64s(&counter.window_start_angle);
-            writer.f64(counter.window_elapsed);
+            writer.f64s(&counter.window_elapsed);
             writer.f64s(&counter.measured);
         }
     }
@@ -174,7 +179,7 @@ impl SensorEffects {
         if let Some(counter) = &mut self.teeth {
             reader.f64s_into(&mut counter.angle, "wheel angle")?;
             reader.f64s_into(&mut counter.window_start_angle, "tooth window start")?;
-            counter.window_elapsed = reader.f64("tooth window length")?;
+            reader.f64s_into(&mut counter.window_elapsed, "tooth window length")?;
             reader.f64s_into(&mut counter.measured, "counted wheel speed")?;
         }
         Ok(())
@@ -209,9 +214,12 @@ impl Dropout {
         })
     }
 
-    /// The value channel `index` shows at `time`: the sensor's, NaN, or `last` (stale).
-    pub fn shown(&self, index: usize, time: f64, value: f64, last: f64) -> f64 {
-        let out = self.channels & (1 << index) != 0 && time >= self.start && time < self.end;
+    /// The value channel `index` shows at `time` with the `sensor_blanking` input `blanking`:
+    /// the sensor's, NaN, or `last` (stale).
+    pub fn shown(&self, index: usize, time: f64, blanking: i32, value: f64, last: f64) -> f64 {
+        let bit = 1 << index;
+        let out = (self.channels & bit != 0 && time >= self.start && time < self.end)
+            || blanking & bit as i32 != 0;
         match (out, self.hold_last) {
             (false, _) => value,
             (true, true) => last,

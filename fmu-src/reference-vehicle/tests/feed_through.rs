@@ -10,7 +10,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
-use model_description::Causality;
+use model_description::{BaseType, Causality};
 use ReferenceVehicle::model_description::{vr, GUID};
 
 const XML: &str = concat!(
@@ -21,13 +21,14 @@ const XML: &str = concat!(
 /// An input or output: (name, value reference, index in the model structure).
 type Variable = (String, u32, usize);
 
+/// The Real variables of `causality` (the Integer input `sensor_blanking` has its own test).
 fn variables_of(causality: Causality) -> Vec<Variable> {
     let description = model_description::parse_file(XML).expect("ReferenceVehicle.xml parses");
     description
         .variables
         .iter()
         .enumerate()
-        .filter(|(_, v)| v.causality == causality)
+        .filter(|(_, v)| v.causality == causality && v.base_type() == BaseType::Real)
         .map(|(i, v)| (v.name.clone(), v.value_reference, i + 1))
         .collect()
 }
@@ -105,6 +106,15 @@ fn outputs_depend_on_exactly_the_declared_inputs() {
             );
         }
     }
+    // The blanking input blanks every channel of its mask at once.
+    for output in outputs
+        .iter()
+        .map(|v| &v.0)
+        .filter(|n| n.ends_with("_meas"))
+    {
+        let dependency = blanking_dependency(output);
+        observed.get_mut(output).unwrap().extend(dependency);
+    }
     assert_eq!(
         observed,
         declared(),
@@ -167,4 +177,28 @@ fn the_sensor_sample_of_a_communication_point_follows_its_input() {
         (error_after - error_before).abs() < 1e-9,
         "{error_before} {error_after}"
     );
+}
+
+/// `{"sensor_blanking"}` when blanking every channel turns `output` into NaN at once.
+fn blanking_dependency(output: &str) -> BTreeSet<String> {
+    let mut s = driven_vehicle(1);
+    let reference = variables_of(Causality::Output)
+        .into_iter()
+        .find(|v| v.0 == output)
+        .expect("a Real output")
+        .1;
+    let before = s.get_real(reference).1;
+    assert_eq!(s.set_integer(vr::SENSOR_BLANKING, 63), Fmi2Status::Ok);
+    let blanked = s.get_real(reference).1;
+    assert_eq!(s.set_integer(vr::SENSOR_BLANKING, 0), Fmi2Status::Ok);
+    assert_eq!(
+        s.get_real(reference).1.to_bits(),
+        before.to_bits(),
+        "{output} comes back"
+    );
+    if before.is_finite() && blanked.is_nan() {
+        BTreeSet::from([String::from("sensor_blanking")])
+    } else {
+        BTreeSet::new()
+    }
 }
