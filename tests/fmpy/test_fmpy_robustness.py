@@ -28,16 +28,24 @@ ESTIMATE = ["vx_est", "vy_est", "sideslip_est", "sideslip_std"]
 
 def escort_estimator_parameters(vehicle, kind):
     """The Escort's model-A parameters from its parameter file; everything else at its default."""
-    car = read_ssv(ESCORT, vehicle)
+    parameters = model_a_parameters(read_ssv(ESCORT, vehicle))
+    parameters["sample_time"] = STEP
+    parameters["estimator"] = support.ESTIMATOR_KINDS[kind]
+    return parameters
+
+
+def model_a_parameters(car):
+    """The estimator's model-A car parameters from a car's parameter-value file (as read_ssv
+    reads it): mass, inertias, axle distances, radii, brake split, static wheel loads."""
     wheelbase = car["cog_to_front_axle"] + car["cog_to_rear_axle"]
     axle = lambda distance: car["mass"] * GRAVITY * distance / wheelbase / 2.0
     parameters = {name: car[name] for name in (
-        "mass", "yaw_inertia", "cog_to_front_axle", "cog_to_rear_axle", "wheel_radius",
+        "mass", "yaw_inertia", "cog_to_front_axle", "cog_to_rear_axle",
         "wheel_inertia_front", "wheel_inertia_rear", "brake_distribution_front")}
+    # The car file has one radius for all wheels; the estimator takes one per axle.
+    parameters["wheel_radius_front"] = parameters["wheel_radius_rear"] = car["wheel_radius"]
     parameters["wheel_load_front"] = axle(car["cog_to_rear_axle"])
     parameters["wheel_load_rear"] = axle(car["cog_to_front_axle"])
-    parameters["sample_time"] = STEP
-    parameters["estimator"] = support.ESTIMATOR_KINDS[kind]
     return parameters
 
 

@@ -11,6 +11,11 @@ use crate::tyre::HsriParams;
 
 pub use crate::checks::positive;
 
+/// The FMU parameter of the front rolling radius (see [`ParameterSource::wheel_radii`]).
+pub const WHEEL_RADIUS_FRONT: &str = "wheel_radius_front";
+/// The FMU parameter of the rear rolling radius.
+pub const WHEEL_RADIUS_REAR: &str = "wheel_radius_rear";
+
 /// Reads the FMU's Real parameters by name.
 pub struct ParameterSource<F: Fn(&str) -> Option<f64>> {
     lookup: F,
@@ -34,6 +39,7 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
 
     /// The car: the FMU's vehicle parameters, the steering ratio the seed car's.
     pub fn chassis(&self) -> Result<Chassis, String> {
+        let (front_wheel_radius, rear_wheel_radius) = self.wheel_radii()?;
         Ok(Chassis {
             mass: self.positive("mass")?,
             cog_to_front_axle: self.positive("cog_to_front_axle")?,
@@ -42,11 +48,28 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
             front_wheel_inertia: self.positive("wheel_inertia_front")?,
             rear_wheel_inertia: self.positive("wheel_inertia_rear")?,
             brake_split_front: self.value("brake_distribution_front")?,
-            wheel_radius: self.positive("wheel_radius")?,
+            front_wheel_radius,
+            rear_wheel_radius,
             front_wheel_load: self.positive("wheel_load_front")?,
             rear_wheel_load: self.positive("wheel_load_rear")?,
             ..Chassis::default()
         })
+    }
+
+    /// The front and rear rolling radii: `wheel_radius_front` and `wheel_radius_rear` where the
+    /// FMU declares them (the estimator: a car may carry other tyres on each axle), else the one
+    /// `wheel_radius` of all wheels (the ReferenceVehicle, whose full vehicle has one radius).
+    pub fn wheel_radii(&self) -> Result<(f64, f64), String> {
+        match (self.lookup)(WHEEL_RADIUS_FRONT) {
+            Some(front) => Ok((
+                positive(WHEEL_RADIUS_FRONT, front)?,
+                self.positive(WHEEL_RADIUS_REAR)?,
+            )),
+            None => {
+                let radius = self.positive("wheel_radius")?;
+                Ok((radius, radius))
+            }
+        }
     }
 
     /// The HSRI tyre parameters (model A's tyre; model B's Magic Formula tyre is matched to

@@ -4,7 +4,9 @@
 //! - State `x = [vx, vy, r, ωF, ωR]`: CoG velocities in the body frame (m/s), yaw rate (rad/s),
 //!   front and rear wheel angular speeds (rad/s). Indices in [`state_index`].
 //! - Input `u = [steering_angle, drive_torque, brake_torque]`, see [`crate::driver_input`]
-//!   (brake torque is a magnitude ≥ 0; the seed's `M_B = −brake_torque`).
+//!   (brake torque is a magnitude ≥ 0; the seed's `M_B = −brake_torque`); `drive_torque` acts on
+//!   the front axle. A rear drive torque (rear- and all-wheel drive) enters through
+//!   [`SingleTrackModel::step_with_rear_drive`].
 //! - Measurement `y = [r, ay, ωF, ωR]` (000: 5.63), `ay = v̇y + vx r` (000: 5.40): direct
 //!   feed-through of the steering angle. Indices in [`measurement_index`].
 //! - Axes ISO 8855 (x forward, y left, z up); sideslip `β = atan2(vy, vx)`.
@@ -125,8 +127,11 @@ pub struct Chassis {
     pub rear_wheel_inertia: f64,
     /// `ν`, share of the brake torque on the front axle.
     pub brake_split_front: f64,
-    /// `r`, tyre radius, m (table 5.2).
-    pub wheel_radius: f64,
+    /// `r`, dynamic rolling radius of the front tyres, m (000: table 5.2 gives one radius for
+    /// all wheels; a car may carry other tyres on the rear axle).
+    pub front_wheel_radius: f64,
+    /// `r`, dynamic rolling radius of the rear tyres, m (000: table 5.2).
+    pub rear_wheel_radius: f64,
     /// `FZF`, static vertical load of **one** front wheel, N.
     pub front_wheel_load: f64,
     /// `FZR`, static vertical load of **one** rear wheel, N.
@@ -146,11 +151,25 @@ impl Default for Chassis {
             front_wheel_inertia: 10.3,
             rear_wheel_inertia: 3.0,
             brake_split_front: 0.6,
-            wheel_radius: 0.3,
+            front_wheel_radius: 0.3,
+            rear_wheel_radius: 0.3,
             front_wheel_load: 3492.0,
             rear_wheel_load: 3374.0,
             steering_ratio: manoeuvres::STEERING_RATIO,
         }
+    }
+}
+
+impl Chassis {
+    /// The static vertical load of one front and one rear wheel, N, from the mass and the axle
+    /// distances on a level road: `m g lR / (2 l)` and `m g lF / (2 l)`.
+    pub fn static_wheel_loads(&self, gravity: f64) -> (f64, f64) {
+        let per_wheel =
+            0.5 * self.mass * gravity / (self.cog_to_front_axle + self.cog_to_rear_axle);
+        (
+            per_wheel * self.cog_to_rear_axle,
+            per_wheel * self.cog_to_front_axle,
+        )
     }
 }
 
@@ -196,6 +215,17 @@ struct AxleState<S: Scalar> {
     /// `∂F_x/∂ω` of the axle force, for the semi-implicit wheel-speed step (000: 6.1, 6.2);
     /// zero unless asked for.
     longitudinal_force_spin_derivative: S,
+}
+
+/// What one axle's force law takes from the parameters.
+#[derive(Clone, Copy, Debug)]
+struct AxleConstants {
+    /// Static load of one wheel, N.
+    wheel_load: f64,
+    /// Dynamic rolling radius, m.
+    wheel_radius: f64,
+    /// Factor on the cornering stiffness (see [`SingleTrackParams`]).
+    cornering_stiffness_scale: f64,
 }
 
 /// Axle forces (both wheels, wheel frame) and the steering angle they are rotated by.
@@ -284,10 +314,16 @@ impl<T: TyreModel> SingleTrackModel<T> {
         Self { vehicle, tyre }
     }
 
-    /// Straight driving at `speed` with freely rolling wheels (`ω r = vx`).
+    /// Straight driving at `speed` with freely rolling wheels (`ω r = vx` on each axle).
     pub fn straight_rolling_state(&self, speed: f64) -> SingleTrackState {
-        let omega = speed / self.vehicle.chassis.wheel_radius;
-        SingleTrackState::new(speed, 0.0, 0.0, omega, omega)
+        let chassis = &self.vehicle.chassis;
+        SingleTrackState::new(
+            speed,
+            0.0,
+            0.0,
+            speed / chassis.front_wheel_radius,
+            speed / chassis.rear_wheel_radius,
+        )
     }
 
     /// Kinematics and force of one axle from the longitudinal and lateral velocity of its wheel
@@ -298,11 +334,15 @@ impl<T: TyreModel> SingleTrackModel<T> {
         wheel_velocity: S,
         wheel_lateral_velocity: S,
         omega: S,
-        wheel_load: f64,
-        cornering_stiffness_scale: f64,
+        axle: AxleConstants,
         with_spin_derivative: bool,
     ) -> AxleState<S> {
         let p = &self.vehicle;
+        let AxleConstants {
+            wheel_load,
+            wheel_radius,
+            cornering_stiffness_scale,
+        } = axle;
         let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
         // Divisions and square roots share one unit of the core and bound a filter's model
         // evaluations: each quotient by the same number is a product with its reciprocal.
@@ -310,7 +350,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         // (000: 5.17), (000: 5.22)
         let tan_slip_angle = -wheel_lateral_velocity * inverse_divisor;
         // (000: 5.65)
-        let slip = (omega * p.chassis.wheel_radius - wheel_velocity) * inverse_divisor;
+        let slip = (omega * wheel_radius - wheel_velocity) * inverse_divisor;
         let kinematics = TyreKinematics {
             slip,
             tan_slip_angle,
@@ -323,7 +363,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
                 .force_and_slip_derivative(&kinematics, cornering_stiffness_scale);
             // ∂Fx/∂ω = ∂Fx/∂s · ∂s/∂ω with ∂s/∂ω = r / divisor (000: 5.65), both wheels
             let spin_derivative =
-                slip_derivative * (p.chassis.wheel_radius * WHEELS_PER_AXLE) * inverse_divisor;
+                slip_derivative * (wheel_radius * WHEELS_PER_AXLE) * inverse_divisor;
             (force, spin_derivative)
         } else {
             let force = self
@@ -362,8 +402,11 @@ impl<T: TyreModel> SingleTrackModel<T> {
             wheel_velocity,
             wheel_lateral_velocity,
             omega,
-            self.vehicle.chassis.front_wheel_load,
-            self.vehicle.cornering_stiffness_scale_front,
+            AxleConstants {
+                wheel_load: self.vehicle.chassis.front_wheel_load,
+                wheel_radius: self.vehicle.chassis.front_wheel_radius,
+                cornering_stiffness_scale: self.vehicle.cornering_stiffness_scale_front,
+            },
             with_spin_derivative,
         )
     }
@@ -384,8 +427,11 @@ impl<T: TyreModel> SingleTrackModel<T> {
             vx,
             wheel_lateral_velocity,
             omega,
-            self.vehicle.chassis.rear_wheel_load,
-            self.vehicle.cornering_stiffness_scale_rear,
+            AxleConstants {
+                wheel_load: self.vehicle.chassis.rear_wheel_load,
+                wheel_radius: self.vehicle.chassis.rear_wheel_radius,
+                cornering_stiffness_scale: self.vehicle.cornering_stiffness_scale_rear,
+            },
             with_spin_derivative,
         )
     }
@@ -463,17 +509,30 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
         // (000: 5.45)
         (u[input_index::DRIVE_TORQUE] + brake * p.chassis.brake_split_front
-            - longitudinal_force * p.chassis.wheel_radius)
+            - longitudinal_force * p.chassis.front_wheel_radius)
             * (1.0 / p.chassis.front_wheel_inertia)
     }
 
-    /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`.
+    /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`. Seed 000's car
+    /// is front-driven: its rear wheels carry no drive torque (`rear_drive_torque = None`, the
+    /// seed's expression to the bit). A rear drive torque `M_AR` enters as `M_A` does at the
+    /// front (000: 5.45): `IR ω̇R = M_AR + (1 − ν) M_B − FxR r_R`.
     #[inline(always)]
-    fn rear_spin_acceleration<S: Scalar>(&self, u: &[S; INPUT_DIM], longitudinal_force: S) -> S {
+    fn rear_spin_acceleration<S: Scalar>(
+        &self,
+        u: &[S; INPUT_DIM],
+        rear_drive_torque: Option<S>,
+        longitudinal_force: S,
+    ) -> S {
         let p = &self.vehicle;
         let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
+        let brake_rear = brake * (1.0 - p.chassis.brake_split_front);
+        let wheel_torque = match rear_drive_torque {
+            Some(drive) => drive + brake_rear,
+            None => brake_rear,
+        };
         // (000: 5.46)
-        (brake * (1.0 - p.chassis.brake_split_front) - longitudinal_force * p.chassis.wheel_radius)
+        (wheel_torque - longitudinal_force * p.chassis.rear_wheel_radius)
             * (1.0 / p.chassis.rear_wheel_inertia)
     }
 
@@ -484,6 +543,18 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
     ) -> [S; STATE_DIM] {
+        self.derivatives_with_rear_drive(x, u, None)
+    }
+
+    /// [`Self::derivatives_generic`] with a drive torque on the rear axle too (rear- and
+    /// all-wheel drive cars; see [`Self::rear_spin_acceleration`]).
+    #[inline(always)]
+    fn derivatives_with_rear_drive<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        rear_drive_torque: Option<S>,
+    ) -> [S; STATE_DIM] {
         let e = self.evaluate(x, u, false);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         [
@@ -491,7 +562,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
             vy_dot,
             yaw_acceleration,
             self.front_spin_acceleration(u, e.front.longitudinal_force),
-            self.rear_spin_acceleration(u, e.rear.longitudinal_force),
+            self.rear_spin_acceleration(u, rear_drive_torque, e.rear.longitudinal_force),
         ]
     }
 
@@ -504,6 +575,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         &self,
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
+        rear_drive_torque: Option<S>,
         dt: f64,
     ) -> [S; STATE_DIM] {
         use state_index::*;
@@ -512,13 +584,13 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         let p = &self.vehicle;
         let front_spin = self.front_spin_acceleration(u, front.longitudinal_force);
-        let rear_spin = self.rear_spin_acceleration(u, rear.longitudinal_force);
+        let rear_spin = self.rear_spin_acceleration(u, rear_drive_torque, rear.longitudinal_force);
         // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46)
         let front_spin_derivative = -(front.longitudinal_force_spin_derivative
-            * p.chassis.wheel_radius)
+            * p.chassis.front_wheel_radius)
             * (1.0 / p.chassis.front_wheel_inertia);
         let rear_spin_derivative = -(rear.longitudinal_force_spin_derivative
-            * p.chassis.wheel_radius)
+            * p.chassis.rear_wheel_radius)
             * (1.0 / p.chassis.rear_wheel_inertia);
         // (000: 6.3), (000: 6.4), (000: 6.5)
         let body = explicit_euler(
@@ -546,11 +618,26 @@ impl<T: TyreModel> SingleTrackModel<T> {
         dt: f64,
         integrator: Integrator,
     ) -> [S; STATE_DIM] {
+        self.step_with_rear_drive(x, u, None, dt, integrator)
+    }
+
+    /// [`Self::step_generic`] with a drive torque `rear_drive_torque` (N·m, both rear wheels
+    /// together) on the rear axle: the estimator's model A for rear- and all-wheel drive cars
+    /// (issue 12). `None` is seed 000's front-driven car to the bit.
+    #[inline(always)]
+    pub fn step_with_rear_drive<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        rear_drive_torque: Option<S>,
+        dt: f64,
+        integrator: Integrator,
+    ) -> [S; STATE_DIM] {
         match integrator {
-            Integrator::SemiImplicitEuler => self.step_seed_scheme(x, u, dt),
-            Integrator::RungeKutta4 => {
-                runge_kutta4(x, dt, |state| self.derivatives_generic(state, u))
-            }
+            Integrator::SemiImplicitEuler => self.step_seed_scheme(x, u, rear_drive_torque, dt),
+            Integrator::RungeKutta4 => runge_kutta4(x, dt, |state| {
+                self.derivatives_with_rear_drive(state, u, rear_drive_torque)
+            }),
         }
     }
 

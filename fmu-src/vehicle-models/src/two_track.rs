@@ -159,6 +159,16 @@ impl TwoTrackParams {
     pub fn is_front(wheel: usize) -> bool {
         wheel == wheel_index::FRONT_LEFT || wheel == wheel_index::FRONT_RIGHT
     }
+
+    /// Dynamic rolling radius of wheel `i` (its axle's, [`Chassis`]).
+    #[inline(always)]
+    pub fn wheel_radius(&self, wheel: usize) -> f64 {
+        if Self::is_front(wheel) {
+            self.chassis.front_wheel_radius
+        } else {
+            self.chassis.rear_wheel_radius
+        }
+    }
 }
 
 /// Per-wheel kinematics and forces at one `(x, u)`.
@@ -204,8 +214,9 @@ impl<T: TyreModel> TwoTrackModel<T> {
 
     /// Straight driving at `speed` with freely rolling wheels.
     pub fn straight_rolling_state(&self, speed: f64) -> TwoTrackState {
-        let omega = speed / self.vehicle.chassis.wheel_radius;
-        TwoTrackState::from([speed, 0.0, 0.0, omega, omega, omega, omega])
+        let front = speed / self.vehicle.chassis.front_wheel_radius;
+        let rear = speed / self.vehicle.chassis.rear_wheel_radius;
+        TwoTrackState::from([speed, 0.0, 0.0, front, front, rear, rear])
     }
 
     /// Wheel kinematics and tyre forces for given loads (001: eqs 4-5 generalised to each wheel
@@ -246,7 +257,7 @@ impl<T: TyreModel> TwoTrackModel<T> {
             let tan_slip_angle = -wheel_lateral_velocity / divisor;
             // (000: 5.65)
             let slip =
-                (x[FIRST_WHEEL_STATE + wheel] * p.chassis.wheel_radius - wheel_velocity) / divisor;
+                (x[FIRST_WHEEL_STATE + wheel] * p.wheel_radius(wheel) - wheel_velocity) / divisor;
             let force = self.tyre.force(&TyreKinematics {
                 slip,
                 tan_slip_angle,
@@ -393,7 +404,7 @@ impl<T: TyreModel> TwoTrackModel<T> {
         derivative[..3].copy_from_slice(&body);
         for wheel in 0..WHEELS {
             derivative[FIRST_WHEEL_STATE + wheel] = (self.wheel_torque(wheel, u)
-                - e.wheels.longitudinal_force[wheel] * self.vehicle.chassis.wheel_radius)
+                - e.wheels.longitudinal_force[wheel] * self.vehicle.wheel_radius(wheel))
                 / self.single_wheel_inertia(wheel);
         }
         derivative
@@ -437,8 +448,9 @@ impl<T: TyreModel> TwoTrackModel<T> {
             let force = plain.wheels.longitudinal_force[wheel];
             let force_slope = e.wheels.longitudinal_force[wheel].gradient[wheel];
             // (000: 5.45-5.46) per wheel
-            let rate = (self.wheel_torque(wheel, u) - force * p.chassis.wheel_radius) / inertia;
-            let rate_derivative = -(force_slope * p.chassis.wheel_radius) / inertia;
+            let radius = p.wheel_radius(wheel);
+            let rate = (self.wheel_torque(wheel, u) - force * radius) / inertia;
+            let rate_derivative = -(force_slope * radius) / inertia;
             // (000: 6.1-6.2)
             next[FIRST_WHEEL_STATE + wheel] =
                 semi_implicit_update(x[FIRST_WHEEL_STATE + wheel], rate, rate_derivative, dt);

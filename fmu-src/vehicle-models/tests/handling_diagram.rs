@@ -65,7 +65,7 @@ fn handling_diagram<T: TyreModel>(
     model: &SingleTrackModel<T>,
     accelerations: &[f64],
 ) -> Vec<SteadyState> {
-    let r_w = model.vehicle.chassis.wheel_radius;
+    let r_w = model.vehicle.chassis.front_wheel_radius;
     let wheelbase =
         model.vehicle.chassis.cog_to_front_axle + model.vehicle.chassis.cog_to_rear_axle;
     let first_speed = (accelerations[0] * RADIUS).sqrt();

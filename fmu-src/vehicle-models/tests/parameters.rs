@@ -68,8 +68,9 @@ fn model_a_defaults_are_table_5_1() {
         [
             p.chassis.front_wheel_load,
             p.chassis.rear_wheel_load,
-            p.chassis.wheel_radius
+            p.chassis.front_wheel_radius,
+            p.chassis.rear_wheel_radius
         ],
-        [3492.0, 3374.0, 0.3]
+        [3492.0, 3374.0, 0.3, 0.3]
     );
 }

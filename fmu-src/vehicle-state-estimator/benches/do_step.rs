@@ -110,7 +110,7 @@ fn bare_step_a(name: &str) -> impl FnMut() -> (bool, bool) {
     };
     let mut filter = bare_filter::<ModelA, 5, 5, 5>(&variables);
     // The seed's four rows; no speed measurement (ax_valid = 0, vx row masked out).
-    let input = ModelA::extend_input(&SVector::<f64, 3>::new(0.05, 0.0, 0.0), None);
+    let input = ModelA::extend_input(&SVector::<f64, 3>::new(0.05, 0.0, 0.0), 0.0, None);
     let [r, ay, front, rear] = MEASUREMENT;
     let measurement = SVector::<f64, 5>::from([r, ay, front, rear, f64::NAN]);
     move || {

@@ -43,7 +43,7 @@
 //! parameters. LKF (seed 001's linear single-track comparison filter about straight driving at
 //! `lkf_vx`), EKF, both UKFs and the particle filter run on it; the Luenberger observer has no
 //! design for it (seed 002 covers model A only) and is refused at initialisation. The speed input
-//! is `vx_meas`, else `wheel_radius` times the mean wheel speed; without either above
+//! is `vx_meas`, else the mean of the wheels' rolling speeds `r ω` (per-axle radii); without either above
 //! `min_speed` the filter holds (bit 32). Outputs: vx_est = the speed input, vy_est =
 //! vx·tan(sideslip), wheel speeds passed through, stds as the XML states.
 #![allow(non_snake_case)] // the crate is named after the modelIdentifier
@@ -86,6 +86,10 @@ pub mod status {
     /// An input outside its declared range was clamped by fmi2SetReal/fmi2SetInteger (which
     /// answered fmi2Warning) since the previous doStep (`CoSimulationModel::value_adjusted`).
     pub const INPUT_CLAMPED: i32 = 1024;
+    /// `adaptive_process_noise` has scaled `Q` up (issue 17 point 3).
+    pub const ADAPTING: i32 = 4096;
+    /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band (issue 17 point 3).
+    pub const INCONSISTENT: i32 = 8192;
 }
 
 /// The runner of the selected estimation model.
@@ -208,7 +212,12 @@ impl CoSimulationModel for VehicleStateEstimator {
 
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome {
         let v = &self.variables;
-        let driver = [v.steering_angle, v.drive_torque, v.brake_torque];
+        let driver = [
+            v.steering_angle,
+            v.drive_torque,
+            v.brake_torque,
+            v.drive_torque_rear,
+        ];
         let sensors = Sensors::of(v);
         let Some(runner) = self.runner.as_mut() else {
             return StepOutcome::Error(String::from("the estimator was not initialised"));

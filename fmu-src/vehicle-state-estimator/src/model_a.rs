@@ -13,12 +13,16 @@ use estimation::models::single_track::{
 use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::SVector;
+use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{measurement_index, state_index, SingleTrackParams, STATE_DIM};
 use vehicle_models::{HsriTyre, SingleTrackModel};
 
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
-use crate::runner::{finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors};
+use crate::runner::{
+    finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors, WheelRadii,
+    REAR_DRIVE_TORQUE,
+};
 use crate::status;
 
 /// Model A as the filters see it.
@@ -180,7 +184,11 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
                 sensors.omega_rear,
                 vx.unwrap_or(f64::NAN),
             ]),
-            input: ModelA::extend_input(&runner.input, ax),
+            input: ModelA::extend_input(
+                &runner.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
+                runner.input[REAR_DRIVE_TORQUE],
+                ax,
+            ),
             offered,
             bits,
         })
@@ -226,7 +234,9 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         // One model evaluation for every derived output: its ay is v̇y + vx r (000: 5.40), the
         // measurement function h(x, u) of the ay row in exact arithmetic, so evaluating h again
         // would only repeat the tyre forces.
-        let derived = self.vehicle().outputs(&x, &u);
+        let derived = self
+            .vehicle()
+            .outputs(&x, &u.fixed_rows::<INPUT_DIM>(0).into_owned());
         let std = |i: usize| variances[i].max(0.0).sqrt();
         // First-order propagation of P through atan2(vy, vx).
         let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
@@ -277,11 +287,11 @@ fn reseed(runner: &mut RunnerA, sensors: &Sensors) -> bool {
 }
 
 /// The start from one sample's sensors: `vx` = `vx_meas` (with `use_speed_measurements`), else
-/// `r_w · mean(ωF, ωR)` over the plausible wheel speeds; `vy = 0`; `r` = measured yaw rate;
-/// wheel speeds as measured (free rolling where missing); the initial covariance of the
-/// parameters. `None` unless that speed is at least `min_speed`.
+/// the mean of `r_F ωF`, `r_R ωR` over the plausible wheel speeds; `vy = 0`; `r` = measured yaw
+/// rate; wheel speeds as measured (free rolling on each axle's radius where missing); the
+/// initial covariance of the parameters. `None` unless that speed is at least `min_speed`.
 fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
-    let wheel_radius = runner.parameters.wheel_radius;
+    let radii = WheelRadii::of(&runner.parameters);
     let plausible_wheel = |omega: f64| {
         if omega.abs() <= MAX_PLAUSIBLE_WHEEL_SPEED {
             omega
@@ -295,18 +305,18 @@ fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate
         ..*sensors
     };
     let (measured_vx, _) = speed_measurements(&runner.parameters, sensors);
-    let speed = measured_vx.or_else(|| wheels.wheel_speed(wheel_radius))?;
+    let speed = measured_vx.or_else(|| wheels.wheel_speed(radii))?;
     if !(speed >= runner.min_speed && speed.is_finite()) {
         return None;
     }
-    let free_rolling = speed / wheel_radius;
+    let [front_rolling, rear_rolling] = radii.free_rolling(speed);
     let mut initial = ModelA::initial_estimate(&runner.parameters).ok()?;
     initial.state = StateA::from([
         speed,
         0.0,
         finite_or(sensors.yaw_rate, 0.0),
-        finite_or(wheels.omega_front, free_rolling),
-        finite_or(wheels.omega_rear, free_rolling),
+        finite_or(wheels.omega_front, front_rolling),
+        finite_or(wheels.omega_rear, rear_rolling),
     ]);
     Some(initial)
 }

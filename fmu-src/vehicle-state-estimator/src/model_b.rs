@@ -16,7 +16,9 @@ use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 use crate::model_a::MAX_PLAUSIBLE_AY;
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
-use crate::runner::{finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors};
+use crate::runner::{
+    finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors, WheelRadii,
+};
 use crate::status;
 
 /// Model B as the filters see it.
@@ -96,14 +98,13 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     /// free rolling at that speed until they are measured.
     fn start_extra(v: &Variables, min_speed: f64) -> PassedThrough {
         let sensors = Sensors::of(v);
-        let speed = sensors
-            .speed(v.wheel_radius, min_speed)
-            .unwrap_or(v.vx_initial);
-        let free_rolling = speed / v.wheel_radius;
+        let radii = WheelRadii::of(v);
+        let speed = sensors.speed(radii, min_speed).unwrap_or(v.vx_initial);
+        let [front_rolling, rear_rolling] = radii.free_rolling(speed);
         PassedThrough {
             speed,
-            omega_front: finite_or(sensors.omega_front, free_rolling),
-            omega_rear: finite_or(sensors.omega_rear, free_rolling),
+            omega_front: finite_or(sensors.omega_front, front_rolling),
+            omega_rear: finite_or(sensors.omega_rear, rear_rolling),
         }
     }
 
@@ -119,7 +120,8 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         if sensors.omega_rear.is_finite() {
             passed.omega_rear = sensors.omega_rear;
         }
-        let Some(speed) = sensors.speed(runner.parameters.wheel_radius, runner.min_speed) else {
+        let radii = WheelRadii::of(&runner.parameters);
+        let Some(speed) = sensors.speed(radii, runner.min_speed) else {
             // Model B divides by the speed: hold the estimate until a speed is measured again.
             return Err(status::BELOW_MIN_SPEED);
         };
@@ -146,7 +148,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     /// the parameters, once a speed is measured.
     fn measured_start(runner: &RunnerB, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
         let v = &runner.parameters;
-        sensors.speed(v.wheel_radius, runner.min_speed)?;
+        sensors.speed(WheelRadii::of(v), runner.min_speed)?;
         let mut initial = Self::initial_estimate(v).ok()?;
         let ay = Some(sensors.ay).filter(|ay| ay.abs() <= MAX_PLAUSIBLE_AY);
         initial.state = StateB::from([
@@ -173,11 +175,11 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let vx = passed.speed;
         let (sideslip, yaw_rate) = (x[state_index::SIDESLIP], x[state_index::YAW_RATE]);
         let vy = derived.lateral_velocity;
-        // Longitudinal slip (ω r_w − vxW) / vxW with the wheel-centre speed along the wheel
-        // (000: 5.65; front wheel turned by δ, as in model A).
+        // Longitudinal slip (ω r − vxW) / vxW with the wheel-centre speed along the wheel and the
+        // axle's radius (000: 5.65; front wheel turned by δ, as in model A).
         let front_along_wheel =
             vx * steering.cos() + (vy + v.cog_to_front_axle * yaw_rate) * steering.sin();
-        let slip = |omega: f64, along: f64| (omega * v.wheel_radius - along) / along;
+        let slip = |omega: f64, radius: f64, along: f64| (omega * radius - along) / along;
         let std = |i: usize| variances[i].max(0.0).sqrt();
         let cos_sideslip = sideslip.cos();
         RealOutputs {
@@ -190,8 +192,8 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             ay_est: x[state_index::LATERAL_ACCELERATION],
             slip_angle_front_est: derived.slip_angle_front,
             slip_angle_rear_est: derived.slip_angle_rear,
-            slip_front_est: slip(passed.omega_front, front_along_wheel),
-            slip_rear_est: slip(passed.omega_rear, vx),
+            slip_front_est: slip(passed.omega_front, v.wheel_radius_front, front_along_wheel),
+            slip_rear_est: slip(passed.omega_rear, v.wheel_radius_rear, vx),
             vx_std: v.measurement_noise_std_vx,
             // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
             vy_std: vx * std(state_index::SIDESLIP) / (cos_sideslip * cos_sideslip),

@@ -5,11 +5,12 @@
 
 use std::fmt::Debug;
 
+use estimation::adaptive::NoiseAdaptation;
 use estimation::kalman::InitialEstimate;
 use estimation::registry::{
     self, BoxedEstimator, EstimatorChoice, EstimatorSettings, RegistryModel,
 };
-use estimation::FilterIssue;
+use estimation::{FilterIssue, UpdateReport};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
@@ -19,8 +20,15 @@ use crate::parameters::{self, positive};
 use crate::state::{Sink, Source};
 use crate::status;
 
-/// The driver input `[steering_angle, drive_torque, brake_torque]`.
-pub type InputVector = SVector<f64, INPUT_DIM>;
+/// Number of driver inputs: the models' `[steering_angle, drive_torque, brake_torque]`
+/// ([`vehicle_models::driver_input`]) and `drive_torque_rear`.
+pub const DRIVER_DIM: usize = INPUT_DIM + 1;
+
+/// Position of `drive_torque_rear` in [`InputVector`].
+pub const REAR_DRIVE_TORQUE: usize = INPUT_DIM;
+
+/// The driver input `[steering_angle, drive_torque, brake_torque, drive_torque_rear]`.
+pub type InputVector = SVector<f64, DRIVER_DIM>;
 
 /// The sensor inputs of one doStep (XML: the `*_meas` inputs the estimator reads).
 #[derive(Clone, Copy, Debug)]
@@ -55,24 +63,49 @@ impl Sensors {
             && !(self.vx.is_finite() && self.vx != 0.0)
     }
 
-    /// `r_w` times the mean of the finite wheel speeds, if any.
-    pub fn wheel_speed(&self, wheel_radius: f64) -> Option<f64> {
-        let (sum, count) = [self.omega_front, self.omega_rear]
+    /// The mean of the finite wheels' rolling speeds `r_F ωF` and `r_R ωR`, if any. Written as
+    /// `r_F` times the mean of front-wheel-equivalent speeds (`ωR r_R / r_F`), so that equal
+    /// radii give `r_w · mean(ω)` to the bit, as before the radii were split.
+    pub fn wheel_speed(&self, radii: WheelRadii) -> Option<f64> {
+        let rear_to_front = radii.rear / radii.front;
+        let (sum, count) = [self.omega_front, self.omega_rear * rear_to_front]
             .into_iter()
             .filter(|w| w.is_finite())
             .fold((0.0, 0u32), |(sum, count), w| (sum + w, count + 1));
-        (count > 0).then(|| wheel_radius * sum / f64::from(count))
+        (count > 0).then(|| radii.front * sum / f64::from(count))
     }
 
     /// The measured speed: `vx_meas`, else the wheel-speed fallback, each only when finite and
     /// at least `min_speed` (XML: vx_meas).
-    pub fn speed(&self, wheel_radius: f64, min_speed: f64) -> Option<f64> {
+    pub fn speed(&self, radii: WheelRadii, min_speed: f64) -> Option<f64> {
         let usable = |speed: f64| speed.is_finite() && speed >= min_speed;
         if usable(self.vx) {
             Some(self.vx)
         } else {
-            self.wheel_speed(wheel_radius).filter(|&s| usable(s))
+            self.wheel_speed(radii).filter(|&s| usable(s))
         }
+    }
+}
+
+/// The rolling radii of the front and rear wheels (XML: `wheel_radius_front`,
+/// `wheel_radius_rear`), m.
+#[derive(Clone, Copy, Debug)]
+pub struct WheelRadii {
+    pub front: f64,
+    pub rear: f64,
+}
+
+impl WheelRadii {
+    pub fn of(v: &Variables) -> Self {
+        Self {
+            front: v.wheel_radius_front,
+            rear: v.wheel_radius_rear,
+        }
+    }
+
+    /// The wheel speeds `[ωF, ωR]` of free rolling at `speed`.
+    pub fn free_rolling(&self, speed: f64) -> [f64; 2] {
+        [speed / self.front, speed / self.rear]
     }
 }
 
@@ -237,6 +270,8 @@ where
     /// that is not finite keeps its previous value, so the samples since the last publish are
     /// kept and a non-finite output is looked up in the older ones, newest first.
     pending: Vec<OutputSample<N, Model::Extra>>,
+    /// The adaptive process noise (`adaptive_process_noise`; FMU state).
+    adaptation: Option<NoiseAdaptation>,
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
@@ -244,6 +279,7 @@ where
     Model: EstimationModel<N, M, U>,
 {
     pub fn build(v: &Variables, start_time: f64) -> Result<Self, String> {
+        let v = &parameters::with_spectral_densities(v)?;
         let model = Model::from_parameters(v)?;
         let initial = Model::initial_estimate(v)?;
         let (kind, choice) = parameters::estimator_choice(v)?;
@@ -288,6 +324,7 @@ where
                 finite_or(v.steering_angle, 0.0),
                 finite_or(v.drive_torque, 0.0),
                 finite_or(v.brake_torque, 0.0),
+                finite_or(v.drive_torque_rear, 0.0),
             ),
             min_speed,
             nis: 0.0,
@@ -298,6 +335,10 @@ where
             started: !v.start_from_measurements,
             parameters: Box::new(v.clone()),
             pending: Vec::with_capacity(PENDING_CAPACITY),
+            adaptation: parameters::adaptation(v)?
+                .map(NoiseAdaptation::new)
+                .transpose()
+                .map_err(|e| e.0)?,
         })
     }
 
@@ -375,7 +416,21 @@ where
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
         }
-        bits
+        bits | self.adapt(&report)
+    }
+
+    /// The adaptive process noise (`adaptive_process_noise`): the update's NIS into the window,
+    /// the prior just predicted inflated by `(s − 1) Q`; returns status bits 4096 and 8192.
+    fn adapt(&mut self, report: &UpdateReport<M>) -> i32 {
+        let Some(adaptation) = self.adaptation.as_mut() else {
+            return 0;
+        };
+        let state = adaptation.observe(report);
+        if let Some(extra) = adaptation.inflation(&self.model.process_noise()) {
+            self.filter.inflate_covariance(&extra);
+        }
+        let adapting = i32::from(state.adapting) * status::ADAPTING;
+        adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
     }
 
     /// A sample on which the filter holds its estimate.
@@ -518,6 +573,9 @@ where
         for count in self.gated_samples {
             writer.u64(count);
         }
+        if let Some(adaptation) = &self.adaptation {
+            adaptation.save(&mut Sink(writer));
+        }
     }
 
     pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
@@ -542,6 +600,11 @@ where
         runner.started = reader.bool("started")?;
         for count in &mut runner.gated_samples {
             *count = reader.u64("gated samples")?;
+        }
+        if let Some(adaptation) = runner.adaptation.as_mut() {
+            adaptation
+                .restore(&mut Source(reader))
+                .map_err(|e| StateError::new(e.0))?;
         }
         Ok(runner)
     }

@@ -7,6 +7,8 @@
 //! from the axle split), as model A with the seed's HSRI tyre. The truth is model A with that car,
 //! driven with a drive torque the estimator is not told, and series-production sensor noise.
 
+mod car;
+
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::{Fmi2Api, Slave};
@@ -35,7 +37,8 @@ fn escort() -> Chassis {
         front_wheel_inertia: 3.4,
         rear_wheel_inertia: 3.4,
         brake_split_front: 0.76,
-        wheel_radius: 0.344,
+        front_wheel_radius: 0.344,
+        rear_wheel_radius: 0.344,
         front_wheel_load: axle_load(rear),
         rear_wheel_load: axle_load(front),
         ..Chassis::default()
@@ -119,23 +122,8 @@ fn estimator(kind: i32) -> Slave {
 /// [`estimator`] with more settings before initialisation.
 fn estimator_with(kind: i32, settings: impl FnOnce(&mut Slave)) -> Slave {
     let mut s = Slave::instantiate(api(), "robust", GUID).expect("instantiate");
-    let car = escort();
-    let parameters = [
-        (vr::MASS, car.mass),
-        (vr::YAW_INERTIA, car.yaw_inertia),
-        (vr::COG_TO_FRONT_AXLE, car.cog_to_front_axle),
-        (vr::COG_TO_REAR_AXLE, car.cog_to_rear_axle),
-        (vr::WHEEL_INERTIA_FRONT, car.front_wheel_inertia),
-        (vr::WHEEL_INERTIA_REAR, car.rear_wheel_inertia),
-        (vr::WHEEL_RADIUS, car.wheel_radius),
-        (vr::WHEEL_LOAD_FRONT, car.front_wheel_load),
-        (vr::WHEEL_LOAD_REAR, car.rear_wheel_load),
-        (vr::BRAKE_DISTRIBUTION_FRONT, car.brake_split_front),
-        (vr::SAMPLE_TIME, STEP),
-    ];
-    for (reference, value) in parameters {
-        assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
-    }
+    car::set_car(&mut s, &escort());
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, STEP), Fmi2Status::Ok);
     assert_eq!(s.set_integer(vr::ESTIMATOR, kind), Fmi2Status::Ok);
     assert_eq!(s.set_integer(vr::PARTICLE_COUNT, 200), Fmi2Status::Ok);
     settings(&mut s);
@@ -361,7 +349,7 @@ fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
     // Sensors of a car that decelerates from 10 m/s to a stop in 5 s, stands 10 s, pulls away
     // to 5 m/s in 5 s and then reverses at -1 m/s (speed sensors only: the estimator has no
     // torques, and model A is not simulated through standstill).
-    let radius = escort().wheel_radius;
+    let radius = escort().front_wheel_radius;
     let speed = |t: f64| match t {
         t if t < 5.0 => 10.0 - 2.0 * t,
         t if t < 15.0 => 0.0,

@@ -180,6 +180,78 @@ impl SingleTrackEstimationModel<HsriTyre> {
     }
 }
 
+/// Model A's transition with an optional drive torque on the rear axle
+/// ([`SingleTrackModel::step_with_rear_drive`]): `None` is seed 000's front-driven model, which
+/// the [`StateSpaceModel`] implementation is; [`SpeedAnchoredModel`] passes its rear drive
+/// torque input.
+impl<T: TyreModel> SingleTrackEstimationModel<T> {
+    fn step<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        rear: Option<S>,
+    ) -> [S; STATE_DIM] {
+        self.vehicle
+            .step_with_rear_drive(x, u, rear, self.sample_time, self.integrator)
+    }
+
+    /// `f(x, u)` with the rear drive torque `rear`, N·m.
+    pub fn transition_with_rear_drive(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+        rear: Option<f64>,
+    ) -> SVector<f64, STATE_DIM> {
+        let next = self.step(&as_array(state), &as_array(input), rear.map(Remembering));
+        SVector::from(next.map(|v| v.0))
+    }
+
+    /// One dual-number pass: its value parts are `f(x, u)` (the same operations on the same
+    /// numbers as [`Self::transition_with_rear_drive`]), its gradients `∂f/∂x`.
+    pub fn transition_and_jacobian_with_rear_drive(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+        rear: Option<f64>,
+    ) -> (SVector<f64, STATE_DIM>, SMatrix<f64, STATE_DIM, STATE_DIM>) {
+        let x = as_array(state);
+        let u = as_array(input);
+        let xs: [StateDual; STATE_DIM] = core::array::from_fn(|i| Dual::variable(x[i], i));
+        let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
+        let rear = rear.map(|torque| Dual::from_value(Remembering(torque)));
+        let next = self.step(&xs, &us, rear);
+        (
+            SVector::from_fn(|i, _| next[i].value.0),
+            SMatrix::from_fn(|i, j| next[i].gradient[j].0),
+        )
+    }
+
+    /// `∂f/∂u` over the `K` input directions: the driver input's, and with `K = INPUT_DIM + 1`
+    /// the rear drive torque's as the last column.
+    pub fn input_jacobian_with_rear_drive<const K: usize>(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+        rear: Option<f64>,
+    ) -> SMatrix<f64, STATE_DIM, K> {
+        let x = as_array(state);
+        let u = as_array(input);
+        let xs: [Dual<Remembering, K>; STATE_DIM] =
+            core::array::from_fn(|i| Dual::from_value(x[i]));
+        let us: [Dual<Remembering, K>; INPUT_DIM] =
+            core::array::from_fn(|j| Dual::variable(u[j], j));
+        let rear = rear.map(|torque| {
+            if K > INPUT_DIM {
+                Dual::variable(Remembering(torque), INPUT_DIM)
+            } else {
+                Dual::from_value(Remembering(torque))
+            }
+        });
+        let next = self.step(&xs, &us, rear);
+        SMatrix::from_fn(|i, j| next[i].gradient[j].0)
+    }
+}
+
 type StateDual = Dual<Remembering, STATE_DIM>;
 type InputDual = Dual<Remembering, INPUT_DIM>;
 
@@ -310,13 +382,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, INPUT_DIM>,
     ) -> SVector<f64, STATE_DIM> {
-        let next = self.vehicle.step_generic(
-            &as_array(state),
-            &as_array(input),
-            self.sample_time,
-            self.integrator,
-        );
-        SVector::from(next.map(|v| v.0))
+        self.transition_with_rear_drive(state, input, None)
     }
 
     fn transition_jacobian(
@@ -335,17 +401,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, INPUT_DIM>,
     ) -> (SVector<f64, STATE_DIM>, SMatrix<f64, STATE_DIM, STATE_DIM>) {
-        let x = as_array(state);
-        let u = as_array(input);
-        let xs: [StateDual; STATE_DIM] = core::array::from_fn(|i| Dual::variable(x[i], i));
-        let us: [StateDual; INPUT_DIM] = core::array::from_fn(|j| Dual::from_value(u[j]));
-        let next = self
-            .vehicle
-            .step_generic(&xs, &us, self.sample_time, self.integrator);
-        (
-            SVector::from_fn(|i, _| next[i].value.0),
-            SMatrix::from_fn(|i, j| next[i].gradient[j].0),
-        )
+        self.transition_and_jacobian_with_rear_drive(state, input, None)
     }
 
     fn transition_input_jacobian(
@@ -353,14 +409,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, INPUT_DIM>,
     ) -> SMatrix<f64, STATE_DIM, INPUT_DIM> {
-        let x = as_array(state);
-        let u = as_array(input);
-        let xs: [InputDual; STATE_DIM] = core::array::from_fn(|i| Dual::from_value(x[i]));
-        let us: [InputDual; INPUT_DIM] = core::array::from_fn(|j| Dual::variable(u[j], j));
-        let next = self
-            .vehicle
-            .step_generic(&xs, &us, self.sample_time, self.integrator);
-        SMatrix::from_fn(|i, j| next[i].gradient[j].0)
+        self.input_jacobian_with_rear_drive(state, input, None)
     }
 
     fn measurement(
@@ -427,18 +476,25 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
 /// Measurements of the speed-anchored model A: `y = [yaw_rate, ay, omega_front, omega_rear, vx]`.
 pub const ANCHORED_MEASUREMENT_DIM: usize = MEASUREMENT_DIM + 1;
 
-/// Inputs of the speed-anchored model A: `u = [steering_angle, drive_torque, brake_torque, ax,
-/// ax_valid]`, `ax_valid` 1 when `ax` is a measured longitudinal acceleration, else 0.
-pub const ANCHORED_INPUT_DIM: usize = INPUT_DIM + 2;
+/// Inputs of the speed-anchored model A: `u = [steering_angle, drive_torque, brake_torque,
+/// drive_torque_rear, ax, ax_valid]`: the driver input (`drive_torque` on the front axle) with a
+/// drive torque on the rear axle (rear- and all-wheel drive cars, issue 12), and `ax_valid` 1
+/// when `ax` is a measured longitudinal acceleration, else 0.
+pub const ANCHORED_INPUT_DIM: usize = INPUT_DIM + 3;
 
 /// Row of the measured speed `vx` in `y` of [`SpeedAnchoredModel`].
 pub const VX_ROW: usize = MEASUREMENT_DIM;
 
+/// Index of the rear axle's drive torque (N·m, both rear wheels) in `u` of
+/// [`SpeedAnchoredModel`]; it enters the rear wheel dynamics as the front's drive torque enters
+/// the front's (000: 5.45-5.46).
+pub const REAR_DRIVE_INPUT: usize = INPUT_DIM;
+
 /// Index of the measured longitudinal acceleration in `u` of [`SpeedAnchoredModel`].
-pub const AX_INPUT: usize = INPUT_DIM;
+pub const AX_INPUT: usize = INPUT_DIM + 1;
 
 /// Index of the flag that says whether [`AX_INPUT`] holds a measurement.
-pub const AX_VALID_INPUT: usize = INPUT_DIM + 1;
+pub const AX_VALID_INPUT: usize = INPUT_DIM + 2;
 
 /// Model A with a speed anchor (issue 12, point 1): series cars rarely report the drive and
 /// brake torques, and without them model A's `vx` follows the tyre forces of guessed torques
@@ -492,7 +548,8 @@ impl<T: TyreModel> SpeedAnchoredModel<T> {
     }
 
     /// The registry's settings (see [`SingleTrackEstimationModel::estimator_settings`]), the
-    /// operating point's input extended by `ax = 0` and `ax_valid = 1` if `kinematics` (the
+    /// operating point's input extended by no rear drive torque, `ax = 0` and `ax_valid = 1` if
+    /// `kinematics` (the
     /// linear estimators then predict `vx` by the kinematics too, with `ax = 0` when no `ax` is
     /// measured), else `ax_valid = 0` (seed 000's linearisation).
     pub fn estimator_settings(
@@ -505,27 +562,40 @@ impl<T: TyreModel> SpeedAnchoredModel<T> {
         let (state, input) = operating_point;
         let ax = kinematics.then_some(0.0);
         EstimatorSettings {
-            operating_point: Ok((state, Self::extend_input(&input, ax))),
+            operating_point: Ok((state, Self::extend_input(&input, 0.0, ax))),
             scaled_sigma_points,
             observer_design: Ok(self.inner.default_observer_design()),
             particles,
         }
     }
 
-    /// The anchored input from the driver input and the measured `ax`, if any.
+    /// The anchored input from the driver input, the rear axle's drive torque and the
+    /// measured `ax`, if any.
     pub fn extend_input(
         driver: &SVector<f64, INPUT_DIM>,
+        rear_drive_torque: f64,
         ax: Option<f64>,
     ) -> SVector<f64, ANCHORED_INPUT_DIM> {
         let (ax, valid) = match ax {
             Some(ax) if ax.is_finite() => (ax, 1.0),
             _ => (0.0, 0.0),
         };
-        SVector::from([driver[0], driver[1], driver[2], ax, valid])
+        SVector::from([
+            driver[0],
+            driver[1],
+            driver[2],
+            rear_drive_torque,
+            ax,
+            valid,
+        ])
     }
 
     fn driver(input: &SVector<f64, ANCHORED_INPUT_DIM>) -> SVector<f64, INPUT_DIM> {
         input.fixed_rows::<INPUT_DIM>(0).into_owned()
+    }
+
+    fn rear_drive(input: &SVector<f64, ANCHORED_INPUT_DIM>) -> Option<f64> {
+        Some(input[REAR_DRIVE_INPUT])
     }
 
     fn ax(input: &SVector<f64, ANCHORED_INPUT_DIM>) -> Option<f64> {
@@ -570,7 +640,11 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, ANCHORED_INPUT_DIM>,
     ) -> SVector<f64, STATE_DIM> {
-        let mut next = self.inner.transition(state, &Self::driver(input));
+        let mut next = self.inner.transition_with_rear_drive(
+            state,
+            &Self::driver(input),
+            Self::rear_drive(input),
+        );
         if let Some(ax) = Self::ax(input) {
             next[state_index::VX] = self.kinematic_speed(state, ax);
         }
@@ -590,9 +664,11 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, ANCHORED_INPUT_DIM>,
     ) -> (SVector<f64, STATE_DIM>, SMatrix<f64, STATE_DIM, STATE_DIM>) {
-        let (mut next, mut jacobian) = self
-            .inner
-            .transition_and_jacobian(state, &Self::driver(input));
+        let (mut next, mut jacobian) = self.inner.transition_and_jacobian_with_rear_drive(
+            state,
+            &Self::driver(input),
+            Self::rear_drive(input),
+        );
         if let Some(ax) = Self::ax(input) {
             next[state_index::VX] = self.kinematic_speed(state, ax);
             for (j, value) in self.kinematic_row(state).into_iter().enumerate() {
@@ -608,13 +684,13 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED
         state: &SVector<f64, STATE_DIM>,
         input: &SVector<f64, ANCHORED_INPUT_DIM>,
     ) -> SMatrix<f64, STATE_DIM, ANCHORED_INPUT_DIM> {
-        let driver = self
+        let torques: SMatrix<f64, STATE_DIM, { INPUT_DIM + 1 }> = self
             .inner
-            .transition_input_jacobian(state, &Self::driver(input));
+            .input_jacobian_with_rear_drive(state, &Self::driver(input), Self::rear_drive(input));
         let mut jacobian = SMatrix::<f64, STATE_DIM, ANCHORED_INPUT_DIM>::zeros();
         jacobian
-            .fixed_columns_mut::<INPUT_DIM>(0)
-            .copy_from(&driver);
+            .fixed_columns_mut::<{ INPUT_DIM + 1 }>(0)
+            .copy_from(&torques);
         if Self::ax(input).is_some() {
             jacobian.row_mut(state_index::VX).fill(0.0);
             jacobian[(state_index::VX, AX_INPUT)] = self.inner.sample_time();
@@ -767,12 +843,12 @@ mod tests {
         let anchored = SpeedAnchoredModel::new(inner.clone(), 0.01).unwrap();
         let x = SVector::<f64, 5>::from([17.0, -0.4, 0.3, 55.5, 56.0]);
         let driver = SVector::<f64, 3>::from([0.06, 50.0, 800.0]);
-        let off = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, None);
+        let off = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, None);
         assert_eq!(anchored.transition(&x, &off), inner.transition(&x, &driver));
         let y = anchored.measurement(&x, &off);
         assert_eq!(y.fixed_rows::<4>(0), inner.measurement(&x, &driver));
         assert_eq!(y[VX_ROW], 17.0);
-        let on = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, Some(-2.0));
+        let on = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, Some(-2.0));
         // vx(k+1) = vx + T (ax + r vy) = 17 + 0.01 (-2 + 0.3 * -0.4).
         assert_eq!(
             anchored.transition(&x, &on)[0],
@@ -790,11 +866,57 @@ mod tests {
         let numeric = central_difference(|u| anchored.transition(&x, u), &on);
         let analytic = anchored.transition_input_jacobian(&x, &on);
         // The ax_valid switch (last column) has no derivative.
+        let difference = (analytic - numeric).columns(0, 5).amax();
+        assert!(
+            difference < 1e-5 * numeric.amax(),
+            "{analytic} vs {numeric}"
+        );
+    }
+
+    /// A rear drive torque acts on the rear wheels as the front's on the front wheels
+    /// (000: 5.45-5.46): over one step from free rolling each driven wheel gains at most
+    /// `T dt / I` of spin (less by the semi-implicit tyre damping, 000: 6.1-6.2), the other axle's
+    /// wheel nothing, and the Jacobian's rear-torque column is exact.
+    #[test]
+    fn the_rear_drive_torque_spins_up_the_rear_wheels() {
+        let inner = SingleTrackEstimationModel::seed_000(0.001).unwrap();
+        let anchored = SpeedAnchoredModel::new(inner.clone(), 0.01).unwrap();
+        let chassis = &inner.vehicle().vehicle.chassis;
+        // Free rolling at 18 m/s: no tyre force, so the torque alone changes ω.
+        let x = inner.vehicle().straight_rolling_state(18.0);
+        let torque = 300.0;
+        let idle = SVector::<f64, 3>::zeros();
+        let rear = SpeedAnchoredModel::<HsriTyre>::extend_input(&idle, torque, None);
+        let front = SpeedAnchoredModel::<HsriTyre>::extend_input(
+            &SVector::from([0.0, torque, 0.0]),
+            0.0,
+            None,
+        );
+        let gain = |next: SVector<f64, 5>, wheel: usize| next[wheel] - x[wheel];
+        let rear_next = anchored.transition(&x, &rear);
+        let front_next = anchored.transition(&x, &front);
+        let undamped_rear = torque * 0.001 / chassis.rear_wheel_inertia;
+        let rear_gain = gain(rear_next, state_index::OMEGA_REAR);
+        assert!(rear_gain > 0.5 * undamped_rear && rear_gain <= undamped_rear);
+        assert_eq!(gain(rear_next, state_index::OMEGA_FRONT), 0.0);
+        let undamped_front = torque * 0.001 / chassis.front_wheel_inertia;
+        let front_gain = gain(front_next, state_index::OMEGA_FRONT);
+        assert!(front_gain > 0.5 * undamped_front && front_gain <= undamped_front);
+        assert_eq!(gain(front_next, state_index::OMEGA_REAR), 0.0);
+        let u = SpeedAnchoredModel::<HsriTyre>::extend_input(
+            &SVector::from([0.03, 40.0, 100.0]),
+            250.0,
+            None,
+        );
+        let x = SVector::<f64, 5>::from([17.0, -0.4, 0.3, 55.5, 58.0]);
+        let numeric = central_difference(|u| anchored.transition(&x, u), &u);
+        let analytic = anchored.transition_input_jacobian(&x, &u);
         let difference = (analytic - numeric).columns(0, 4).amax();
         assert!(
             difference < 1e-5 * numeric.amax(),
             "{analytic} vs {numeric}"
         );
+        assert!(analytic[(state_index::OMEGA_REAR, REAR_DRIVE_INPUT)] > 0.0);
     }
 
     /// The seeds' runs stay bit-identical: every estimator on the anchored model, with the
@@ -828,7 +950,7 @@ mod tests {
                 let y = SVector::<f64, 4>::from([0.02 * k as f64, 0.3 * k as f64, 60.1, 60.0]);
                 let [r, ay, front, rear] = y.data.0[0];
                 let y5 = SVector::<f64, 5>::from([r, ay, front, rear, f64::NAN]);
-                let u5 = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, None);
+                let u5 = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, None);
                 let a = plain.update(&y, &driver, &[true; 4]).map(|r| r.nis);
                 let b = extended.update(&y5, &u5, &[true; 5]).map(|r| r.nis);
                 assert_eq!(a, b, "{choice:?} k = {k}");

@@ -245,7 +245,7 @@ pub fn initial_state_from_measurement<T: TyreModel>(
 ) -> SVector<f64, STATE_DIM> {
     use vehicle_models::single_track::measurement_index as y;
     let mut state = SVector::<f64, STATE_DIM>::zeros();
-    state[state_index::VX] = measurement[y::OMEGA_REAR] * vehicle.vehicle.chassis.wheel_radius;
+    state[state_index::VX] = measurement[y::OMEGA_REAR] * vehicle.vehicle.chassis.rear_wheel_radius;
     state[state_index::YAW_RATE] = measurement[y::YAW_RATE];
     state[state_index::OMEGA_FRONT] = measurement[y::OMEGA_FRONT];
     state[state_index::OMEGA_REAR] = measurement[y::OMEGA_REAR];

@@ -202,7 +202,7 @@ impl Default for FullVehicleParams {
                 roll_damping_rear: 2_230.0,
             },
             wheels: WheelParams {
-                radius: chassis.wheel_radius,
+                radius: chassis.front_wheel_radius,
                 // the seed's inertias are of both wheels of an axle
                 inertia_front: 0.5 * chassis.front_wheel_inertia,
                 inertia_rear: 0.5 * chassis.rear_wheel_inertia,
