@@ -25,6 +25,7 @@ pub use crate::findings::{fmt, window_mean, window_rmse, Finding, Sources};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
 use crate::consistency::{self, ConsistencyReport};
 use crate::mismatch::{self, MismatchReport};
+use crate::robustness::{RealCars, REAL_CARS_STUDY};
 use fmi_master::plot::{self, Panel, Series};
 use fmi_master::report::Document;
 use fmi_master::runner::{self, Environment, RunOutput};
@@ -356,6 +357,13 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &bar,
         &mut failures,
     );
+    bar.set_message("robustness cases and mismatch campaigns on real cars (issues 12, 13, 17)");
+    let real_cars = keep(
+        REAL_CARS_STUDY,
+        RealCars::run_shipped(&env.fmu_dir, &env.out_dir.join("real_cars"), options.plots),
+        &bar,
+        &mut failures,
+    );
     bar.finish_with_message("all experiments done");
     let findings = findings(Sources {
         runs: &outputs,
@@ -371,6 +379,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
             seed003.as_ref(),
             mismatch.as_ref(),
             consistency.as_ref(),
+            real_cars.as_ref(),
             &findings,
             &failures,
         )?;
@@ -461,6 +470,7 @@ fn write_report(
     seed003: Option<&Outcome>,
     mismatch: Option<&MismatchReport>,
     consistency: Option<&ConsistencyReport>,
+    real_cars: Option<&RealCars>,
     findings: &[Finding],
     failures: &[(String, String)],
 ) -> Result<()> {
@@ -492,6 +502,12 @@ fn write_report(
         Some(report) => consistency::section(&mut doc, report),
         None => doc.paragraph(format!(
             "The {CONSISTENCY_STUDY} failed; the error is listed above."
+        )),
+    }
+    match real_cars {
+        Some(report) => report.sections(&mut doc, out),
+        None => doc.paragraph(format!(
+            "The {REAL_CARS_STUDY} failed; the error is listed above."
         )),
     }
 

@@ -110,9 +110,12 @@ impl CaseFile {
             .with_context(|| format!("reading the case file {}", path.display()))?;
         let mut file: CaseFile =
             toml::from_str(&text).with_context(|| format!("case file {}", path.display()))?;
-        if file.corrupted.len() != file.clean.len() || file.corrupted.is_empty() {
+        if file.corrupted.len() != file.clean.len()
+            || file.corrupted.is_empty()
+            || file.cases.is_empty()
+        {
             bail!(
-                "case file {}: `corrupted` and `clean` must name the same number (at least one) of instances, pairwise twins",
+                "case file {}: `corrupted` and `clean` must name the same number (at least one) of instances, pairwise twins, and at least one [[case]] is needed",
                 path.display()
             );
         }
@@ -279,37 +282,46 @@ pub fn run(case_file: &Path, env: &Environment, plots: bool) -> Result<Robustnes
     let started = Instant::now();
     let file = CaseFile::from_file(case_file)?;
     let _work = WorkFolder::new(env.work_dir());
-    let mut car_file = PathBuf::new();
-    let mut cases = Vec::new();
-    for case in &file.cases {
-        let scenario = file.scenario(case)?;
-        car_file = file.car_file(&scenario, &env.fmu_dir)?;
-        let estimator =
-            car::load_fmu_of(&scenario, &file.corrupted[0], &env.fmu_dir, &env.work_dir())?;
-        let mut overrides = car::estimator_overrides(&car_file, &file.estimators(), &estimator)?;
-        drop(estimator);
-        overrides.extend(parameter_overrides(case)?);
-        let output = run_scenario(scenario, env, &overrides, false, |_| {})
-            .with_context(|| format!("robustness case {:?}", case.name))?;
-        let figures = file
-            .corrupted
-            .iter()
-            .zip(&file.clean)
-            .map(|(corrupted, clean)| figures(&output.result, case, corrupted, clean))
-            .collect::<Result<Vec<_>>>()?;
-        let plot = plots
-            .then(|| draw(&output.scenario, &output.result, case, &env.out_dir))
-            .transpose()?;
-        cases.push(CaseResult {
-            case: case.clone(),
-            figures,
-            plot,
-        });
-    }
+    let cases = file
+        .cases
+        .iter()
+        .map(|case| run_case(&file, case, env, plots))
+        .collect::<Result<Vec<_>>>()?;
     Ok(RobustnessReport {
-        car_file,
+        car_file: file.car_file(&file.scenario(&file.cases[0])?, &env.fmu_dir)?,
         cases,
         seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// One case of `file` through the master: its figures and, with `plots`, its plot.
+pub fn run_case(
+    file: &CaseFile,
+    case: &Case,
+    env: &Environment,
+    plots: bool,
+) -> Result<CaseResult> {
+    let scenario = file.scenario(case)?;
+    let car_file = file.car_file(&scenario, &env.fmu_dir)?;
+    let estimator = car::load_fmu_of(&scenario, &file.corrupted[0], &env.fmu_dir, &env.work_dir())?;
+    let mut overrides = car::estimator_overrides(&car_file, &file.estimators(), &estimator)?;
+    drop(estimator);
+    overrides.extend(parameter_overrides(case)?);
+    let output = run_scenario(scenario, env, &overrides, false, |_| {})
+        .with_context(|| format!("robustness case {:?}", case.name))?;
+    let figures = file
+        .corrupted
+        .iter()
+        .zip(&file.clean)
+        .map(|(corrupted, clean)| figures(&output.result, case, corrupted, clean))
+        .collect::<Result<Vec<_>>>()?;
+    let plot = plots
+        .then(|| draw(&output.scenario, &output.result, case, &env.out_dir))
+        .transpose()?;
+    Ok(CaseResult {
+        case: case.clone(),
+        figures,
+        plot,
     })
 }
 
@@ -371,7 +383,7 @@ fn figures(result: &RunResult, case: &Case, corrupted: &str, clean: &str) -> Res
         effect_sideslip: largest(&sideslip, &twin_sideslip),
         effect_vx: largest(&vx, &twin_vx),
         time_back,
-        vx_error_percent: 100.0 * relative_speed_error(&vx, speed_from),
+        vx_error_percent: 100.0 * vx.max_relative_error_from(speed_from, RELATIVE_SPEED_FLOOR),
         sideslip_rmse: sideslip.rmse(),
         zero_baseline: sideslip.zero_baseline(),
         max_abs_sideslip: sideslip.estimate.iter().fold(0.0f64, |m, v| {
@@ -395,21 +407,6 @@ fn settled(track: &Track, after: f64, within: impl Fn(usize) -> bool) -> Option<
         Some(last) if last + 1 == samples.len() => None,
         Some(last) => Some((track.times[samples[last + 1]] - after).max(0.0)),
     }
-}
-
-/// Largest |vx error| / |vx| from `from` on where |vx| >= 2 m/s; infinite for a non-finite
-/// estimate there.
-fn relative_speed_error(vx: &Track, from: f64) -> f64 {
-    vx.from_time(from)
-        .filter(|&k| vx.truth[k].abs() >= RELATIVE_SPEED_FLOOR)
-        .fold(0.0f64, |m, k| {
-            let e = (vx.error(k) / vx.truth[k]).abs();
-            if e.is_nan() {
-                f64::INFINITY
-            } else {
-                m.max(e)
-            }
-        })
 }
 
 /// One PNG per case: vx and sideslip of the truth and of every instance.
@@ -542,22 +539,55 @@ impl RobustnessReport {
     }
 }
 
+/// The robustness cases and the mismatch campaigns together: the demo's two sections beyond
+/// the seeds that run on real cars' parameter files.
+#[derive(Debug, Clone)]
+pub struct RealCars {
+    pub robustness: RobustnessReport,
+    pub campaigns: crate::campaigns::CampaignReport,
+}
+
+/// How the demo's report and failure list name this part.
+pub const REAL_CARS_STUDY: &str = "robustness cases and mismatch campaigns (harness/scenarios/robustness, harness/scenarios/campaigns)";
+
+impl RealCars {
+    /// Runs both, every file below `out_dir` (plots with `plots`).
+    pub fn run_shipped(fmu_dir: &Path, out_dir: &Path, plots: bool) -> Result<Self> {
+        Ok(RealCars {
+            robustness: run_shipped(fmu_dir, out_dir, plots)?,
+            campaigns: crate::campaigns::run_shipped(fmu_dir, out_dir, plots)?,
+        })
+    }
+
+    /// The sections "Robustness" and "Mismatch campaigns" of a report written in `report_dir`.
+    pub fn sections(&self, doc: &mut Document, report_dir: &Path) {
+        self.robustness.section(doc, report_dir);
+        self.campaigns.section(doc, report_dir);
+    }
+
+    /// Plain-text summary for the terminal.
+    pub fn summary(&self) -> String {
+        format!(
+            "robustness ({:.1} s):\n{}mismatch campaigns ({:.1} s):\n{}",
+            self.robustness.seconds,
+            self.robustness.summary(),
+            self.campaigns.seconds,
+            self.campaigns.summary()
+        )
+    }
+}
+
 /// `harness robustness`: the robustness cases and the mismatch campaigns alone, written as
 /// `report.md` and `report.html` in `out`; returns the terminal summary.
 pub fn run_and_report(fmu_dir: &Path, out: &Path) -> Result<String> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let report = run_shipped(fmu_dir, out, true)?;
+    let both = RealCars::run_shipped(fmu_dir, out, true)?;
     let mut doc = Document::default();
     doc.heading(
         1,
         "Vehicle state estimation: robustness and mismatch campaigns",
     );
-    report.section(&mut doc, out);
-    let summary = format!(
-        "robustness ({:.1} s):\n{}",
-        report.seconds,
-        report.summary()
-    );
+    both.sections(&mut doc, out);
     for (name, text) in [
         ("report.md", doc.to_markdown()),
         (
@@ -571,5 +601,5 @@ pub fn run_and_report(fmu_dir: &Path, out: &Path) -> Result<String> {
         std::fs::rename(&partial, &path)
             .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))?;
     }
-    Ok(summary)
+    Ok(both.summary())
 }

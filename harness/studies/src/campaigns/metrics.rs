@@ -120,6 +120,21 @@ impl<'a> Track<'a> {
         })
     }
 
+    /// Largest |error| / |truth| from `t` on where |truth| >= `floor` (a relative error is
+    /// meaningless near zero); infinite for a non-finite estimate there.
+    pub fn max_relative_error_from(&self, t: f64, floor: f64) -> f64 {
+        self.from_time(t)
+            .filter(|&k| self.truth[k].abs() >= floor)
+            .fold(0.0f64, |m, k| {
+                let e = (self.error(k) / self.truth[k]).abs();
+                if e.is_nan() {
+                    f64::INFINITY
+                } else {
+                    m.max(e)
+                }
+            })
+    }
+
     /// Whether every estimate and std is finite.
     pub fn all_finite(&self) -> bool {
         self.estimate.iter().chain(self.std).all(|v| v.is_finite())

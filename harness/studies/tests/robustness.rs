@@ -1,0 +1,92 @@
+//! Issue 12's robustness section and the mismatch campaigns (issues 13, 17), one case each
+//! through the master and the FMUs: the one-sample ay glitch of the shipped case list, and the
+//! step steer on the Ford Escort of the shipped campaigns.
+//!
+//! Needs the packaged FMUs (`cargo run --release -p packaging`) in
+//! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command.
+
+use std::path::PathBuf;
+
+use fmi_master::runner::{default_fmu_dir, scenario_dir, Environment};
+use harness::campaigns::{Campaign, SHIPPED_CAMPAIGNS};
+use harness::robustness::{run_case, CaseFile, SHIPPED_CASES};
+
+/// Status bit 128 of the estimator: a measurement row was gated.
+const ROW_GATED: u32 = 128;
+
+fn environment(name: &str) -> Environment {
+    let fmu_dir = default_fmu_dir();
+    for archive in ["ReferenceVehicle.fmu", "VehicleStateEstimator.fmu"] {
+        assert!(
+            fmu_dir.join(archive).is_file(),
+            "{} missing: build the FMUs with `cargo run --release -p packaging`",
+            fmu_dir.join(archive).display()
+        );
+    }
+    let out: PathBuf = std::env::temp_dir().join(format!("harness-{name}-{}", std::process::id()));
+    Environment {
+        fmu_dir,
+        out_dir: out,
+    }
+}
+
+#[test]
+fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
+    let env = environment("robustness");
+    let file = CaseFile::from_file(&scenario_dir().join(SHIPPED_CASES)).expect("case file");
+    let case = file
+        .cases
+        .iter()
+        .find(|c| c.name == "glitch_ay")
+        .expect("the shipped cases have glitch_ay");
+    let result = run_case(&file, case, &env, false).expect("glitch_ay runs");
+    let _ = std::fs::remove_dir_all(&env.out_dir);
+    let [defaults, old] = [&result.figures[0], &result.figures[1]];
+    assert_eq!(defaults.estimator, "EKF");
+    assert_eq!(old.estimator, "EKF_old");
+    // Today's EKF rejects the 100 m/s² sample (status bit 128) and its estimate moves by no
+    // more than its own one-sigma (measured 0.95 sigma in sideslip, 0 in vx).
+    assert!(defaults.status & ROW_GATED != 0, "{defaults:?}");
+    assert!(result.verdict(defaults).0, "{defaults:?}");
+    assert!(defaults.vx_error_percent < 2.0, "{defaults:?}");
+    // The old behaviour takes the glitch in: its sideslip jumps by thousands of sigmas.
+    assert!(!result.verdict(old).0, "{old:?}");
+    assert!(old.effect_sideslip > 100.0, "{old:?}");
+}
+
+#[test]
+fn a_step_steer_on_the_escort_is_estimated_better_than_reporting_zero() {
+    let env = environment("campaign");
+    let campaign = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).expect("campaigns");
+    let manoeuvre = campaign
+        .file
+        .manoeuvres
+        .iter()
+        .find(|m| m.name == "step_steer")
+        .expect("the shipped campaigns have step_steer");
+    let car = campaign
+        .file
+        .cars
+        .iter()
+        .find(|c| c.ends_with("ford_escort.ssv"))
+        .map(|c| campaign.file.dir.join(c))
+        .expect("the shipped campaigns drive the Escort");
+    let fmu = campaign.estimator_fmu(&env).expect("estimator FMU");
+    let (_, rows) = campaign
+        .run_one(&car, manoeuvre, manoeuvre.section.clone(), &env, &fmu)
+        .expect("step steer on the Escort runs");
+    drop(fmu);
+    let _ = std::fs::remove_dir_all(&env.out_dir);
+    assert_eq!(rows.len(), campaign.estimators.len());
+    assert!(rows.iter().all(|r| !r.diverged), "{rows:#?}");
+    // Model B's filters beat reporting zero (measured 0.065 deg against 0.129 deg) and meet
+    // issue 17's 0.3 deg; their sideslip sigma covers the error (98 % inside the 95 % bound).
+    for row in rows
+        .iter()
+        .filter(|r| r.estimator == "EKF_B" || r.estimator == "UKF_B")
+    {
+        assert!(!row.worse_than_baseline(), "{row:?}");
+        assert!(row.rmse.to_degrees() < 0.3, "{row:?}");
+        assert!(row.share_inside > 0.9, "{row:?}");
+    }
+}
