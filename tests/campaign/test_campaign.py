@@ -74,7 +74,7 @@ def chunk_files(out: pathlib.Path) -> list[pathlib.Path]:
 
 def test_a_killed_campaign_resumes_with_only_the_missing_cases(
         tmp_path, harness_binary, fmu_dir, dask_scheduler):
-    total = 16
+    total = 12
     path = write_campaign(tmp_path, f'[[axis]]\nseeds = ["vehicle.seed"]\ncount = {total}\n')
     out = tmp_path / "out"
     arguments = [sys.executable, "-m", "vse_campaign", str(path), "--out", str(out), "--chunk", "2",
@@ -183,7 +183,7 @@ def test_grid_random_and_latin_hypercube_expansions(tmp_path):
 def test_a_worker_killed_mid_campaign_loses_only_its_chunk_which_runs_again(
         tmp_path, harness_binary, fmu_dir, dask_scheduler):
     from distributed import Client
-    total = 24
+    total = 16
     path = write_campaign(tmp_path, f'[[axis]]\nseeds = ["vehicle.seed"]\ncount = {total}\n')
     out = tmp_path / "out"
     process = subprocess.Popen(
