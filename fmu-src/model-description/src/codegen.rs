@@ -9,7 +9,8 @@
 //!   (the raw values fmi2SetInteger takes);
 //! - one typed enum per enumeration type (the type's name; a variant per item in upper camel case,
 //!   `lkf` → `Lkf`, discriminant = value) with `ALL`, `name()`, `description()`, `from_name()`,
-//!   `TryFrom<i32>` (its error names the type and lists the valid values) and `From<_> for i32`;
+//!   `from_parameter()` (its error names the parameter), `TryFrom<i32>` (its error names the
+//!   type and lists the valid values) and `From<_> for i32`;
 //! - `Variables::real_by_name`, a Real variable's value by name;
 //! - `struct RealOutputs` with one field per Real output, `finite()`, `fill_from()` and
 //!   `write_where()`, so that an FMU computes and writes its outputs by name, never by position;
@@ -448,7 +449,7 @@ fn typed_enumeration(
     let all: Vec<String> = variants.iter().map(|v| format!("Self::{v}")).collect();
     let _ = writeln!(
         w,
-        "#[allow(dead_code)]\nimpl {type_name} {{\n    /// Every item, in the order of the XML.\n    pub const ALL: &'static [Self] = &[{}];\n\n    /// The item's `name` in the XML.\n    pub const fn name(self) -> &'static str {{\n        match self {{\n{names}        }}\n    }}\n\n    /// The item's `description` in the XML.\n    pub const fn description(self) -> &'static str {{\n        match self {{\n{descriptions}        }}\n    }}\n\n    /// The item with this `name`.\n    pub fn from_name(name: &str) -> Option<Self> {{\n        Self::ALL.iter().copied().find(|item| item.name() == name)\n    }}\n}}\n",
+        "#[allow(dead_code)]\nimpl {type_name} {{\n    /// Every item, in the order of the XML.\n    pub const ALL: &'static [Self] = &[{}];\n\n    /// The item's `name` in the XML.\n    pub const fn name(self) -> &'static str {{\n        match self {{\n{names}        }}\n    }}\n\n    /// The item's `description` in the XML.\n    pub const fn description(self) -> &'static str {{\n        match self {{\n{descriptions}        }}\n    }}\n\n    /// The item with this `name`.\n    pub fn from_name(name: &str) -> Option<Self> {{\n        Self::ALL.iter().copied().find(|item| item.name() == name)\n    }}\n\n    /// The item that parameter `parameter` selects with `value`; the error names the parameter.\n    pub fn from_parameter(parameter: &str, value: i32) -> Result<Self, String> {{\n        <Self as ::core::convert::TryFrom<i32>>::try_from(value).map_err(|error| format!(\"parameter {{parameter}} = {{error}}\"))\n    }}\n}}\n",
         all.join(", ")
     );
     let values: String = items

@@ -41,16 +41,11 @@ pub(crate) enum Vehicle {
     Full(FullVehicle),
 }
 
-/// An enumeration parameter as its typed enum; the message names the parameter.
-pub(crate) fn item<T: TryFrom<i32, Error = String>>(name: &str, value: i32) -> Result<T, String> {
-    T::try_from(value).map_err(|error| format!("parameter {name} = {error}"))
-}
-
 impl Vehicle {
     /// The vehicle the parameters choose, driving straight at `vx0` with freely rolling wheels.
     pub fn build(v: &Variables) -> Result<Self, String> {
         let source = ParameterSource::new(|name| v.real_by_name(name));
-        let kind = match item::<VehicleModelItem>("model", v.model)? {
+        let kind = match VehicleModelItem::from_parameter("model", v.model)? {
             VehicleModelItem::SingleTrackHsri => ReferenceModelKind::SingleTrack,
             VehicleModelItem::TwoTrackMagicFormula => ReferenceModelKind::TwoTrack,
             VehicleModelItem::FullVehicle => {
@@ -78,7 +73,7 @@ impl Vehicle {
         // Seed 001 gives no Magic Formula numbers: the tyre is matched to the HSRI tyre
         // (same stiffnesses and peak friction), as in the vehicle-models crate.
         let magic_formula = MagicFormulaParams::matching_hsri(&hsri);
-        let integrator = match item::<IntegratorItem>("integrator", v.integrator)? {
+        let integrator = match IntegratorItem::from_parameter("integrator", v.integrator)? {
             IntegratorItem::SemiImplicitEuler => Integrator::SemiImplicitEuler,
             IntegratorItem::RungeKutta4 => Integrator::RungeKutta4,
         };

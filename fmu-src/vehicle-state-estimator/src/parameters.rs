@@ -19,26 +19,21 @@ pub fn source(v: &Variables) -> ParameterSource<impl Fn(&str) -> Option<f64> + '
     ParameterSource::new(|name| v.real_by_name(name))
 }
 
-/// An enumeration parameter as its typed enum; the message names the parameter.
-fn item<T: TryFrom<i32, Error = String>>(name: &str, value: i32) -> Result<T, String> {
-    T::try_from(value).map_err(|error| format!("parameter {name} = {error}"))
-}
-
 /// The `model` parameter.
 pub fn estimator_model(v: &Variables) -> Result<EstimatorModel, String> {
-    item("model", v.model)
+    EstimatorModel::from_parameter("model", v.model)
 }
 
 /// The `estimator` parameter, as the registry's choice of the same name.
 pub fn estimator_choice(v: &Variables) -> Result<(EstimatorKind, EstimatorChoice), String> {
-    let kind: EstimatorKind = item("estimator", v.estimator)?;
+    let kind = EstimatorKind::from_parameter("estimator", v.estimator)?;
     let choice = EstimatorChoice::from_name(kind.name()).map_err(|e| e.0)?;
     Ok((kind, choice))
 }
 
 /// The discretisation of the estimator's model.
 pub fn integrator(v: &Variables) -> Result<Integrator, String> {
-    Ok(match item("integrator", v.integrator)? {
+    Ok(match IntegratorItem::from_parameter("integrator", v.integrator)? {
         IntegratorItem::SemiImplicitEuler => Integrator::SemiImplicitEuler,
         IntegratorItem::RungeKutta4 => Integrator::RungeKutta4,
     })
@@ -51,7 +46,8 @@ pub fn scaled_sigma_points(v: &Variables) -> SigmaPoints {
 
 /// The particle filter's configuration (resampling every step, 003: §2.2.4).
 pub fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, SettingsError> {
-    let scheme = match item("particle_resampling", v.particle_resampling).map_err(SettingsError)? {
+    let scheme = match ParticleResampling::from_parameter("particle_resampling", v.particle_resampling)
+        .map_err(SettingsError)? {
         ParticleResampling::Multinomial => ResamplingScheme::Multinomial,
         ParticleResampling::Systematic => ResamplingScheme::Systematic,
         ParticleResampling::Stratified => ResamplingScheme::Stratified,
