@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use fmi_master::cosim::RunResult;
+use fmi_master::recording::partial_name;
 use fmi_master::runner::{run_scenario, workspace_root, Environment};
 use fmi_master::scenario::Scenario;
 use mf4_rs::blocks::common::DataType;
@@ -75,6 +76,13 @@ fn stamp(t: f64, n: usize) -> f64 {
 
 /// The recorded drive.
 pub fn record_drive(fmu_dir: &Path, out_dir: &Path) -> Result<RunResult> {
+    let archive = fmu_dir.join("ReferenceVehicle.fmu");
+    if !archive.is_file() {
+        anyhow::bail!(
+            "{} missing: build the FMUs with `cargo run --release -p packaging`",
+            archive.display()
+        );
+    }
     let scenario =
         Scenario::from_file(&workspace_root().join("harness/logs/record_ford_escort.toml"))?;
     let env = Environment {
@@ -112,20 +120,26 @@ pub fn write_csv(run: &RunResult, dir: &Path, stem: &str) -> Result<PathBuf> {
         text += ",D\n";
     }
     let path = dir.join(format!("{stem}.csv"));
-    std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
-    Ok(path)
+    let partial = partial_name(&path);
+    std::fs::write(&partial, text).with_context(|| format!("writing {}", partial.display()))?;
+    renamed(&partial, &path)
 }
 
 /// Writes the drive as `<stem>.mf4` in `dir` (MDF 4, two channel groups: the 10 ms signals and
 /// the 20 ms wheel speeds, each with its own master channel `time`); returns its path.
 pub fn write_mf4(run: &RunResult, dir: &Path, stem: &str) -> Result<PathBuf> {
     let path = dir.join(format!("{stem}.mf4"));
-    let text_path = path
+    let partial = partial_name(&path);
+    let text_path = partial
         .to_str()
         .ok_or_else(|| anyhow!("{} is not UTF-8", path.display()))?;
     let fail = |e: mf4_rs::error::MdfError| anyhow!("writing {}: {e:?}", path.display());
     let mut writer = MdfWriter::new(text_path).map_err(fail)?;
     writer.init_mdf_file().map_err(fail)?;
+    // A fixed start (2000-01-01 00:00 UTC, a simulated drive has no date): the same drive gives
+    // the same file, byte for byte.
+    const START_NS: u64 = 946_684_800_000_000_000;
+    writer.set_start_time(START_NS, 0, 0, 0, 0).map_err(fail)?;
     let columns = log_columns();
     for slow in [false, true] {
         let group: Vec<&LogColumn> = columns.iter().filter(|c| c.slow == slow).collect();
@@ -162,5 +176,12 @@ pub fn write_mf4(run: &RunResult, dir: &Path, stem: &str) -> Result<PathBuf> {
         writer.finish_data_block(&cg).map_err(fail)?;
     }
     writer.finalize().map_err(fail)?;
-    Ok(path)
+    renamed(&partial, &path)
+}
+
+/// Files are written under a temporary name and renamed when complete.
+fn renamed(partial: &Path, path: &Path) -> Result<PathBuf> {
+    std::fs::rename(partial, path)
+        .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))?;
+    Ok(path.to_path_buf())
 }
