@@ -18,7 +18,9 @@
 //! over one window `s` changes by about `ρ`:
 //!
 //! - `ρ` above the band (innovations larger than the filter believes): `s` grows;
-//! - `ρ < 1` while `s > 1` (the inflated `Q` now over-explains the innovations): `s` shrinks;
+//! - `ρ < 1` while `s > 1` (the inflated `Q` now over-explains the innovations): `s` shrinks,
+//!   ten times more slowly (`ρ^(1/(10 W))` per update), because a model error that shows in the
+//!   innovations only while excited still biases the unmeasured states afterwards;
 //! - otherwise `s` holds (`1 ≤ ρ ≤` the upper band edge is consistent enough);
 //!
 //! bounded to `1 ≤ s ≤ s_max`, so the adaptation never makes the filter more confident than its
@@ -47,9 +49,9 @@ pub struct AdaptationConfig {
 impl AdaptationConfig {
     /// Checks the settings; the error names the one that is wrong.
     pub fn validate(&self) -> Result<(), SettingsError> {
-        if self.window < MIN_WINDOW {
+        if !(MIN_WINDOW..=MAX_WINDOW).contains(&self.window) {
             return Err(SettingsError(format!(
-                "adaptation window of {} updates; expected at least {MIN_WINDOW}",
+                "adaptation window of {} updates; expected {MIN_WINDOW} to {MAX_WINDOW}",
                 self.window
             )));
         }
@@ -66,6 +68,9 @@ impl AdaptationConfig {
 /// Fewer updates than this make the window's band too wide to say anything.
 pub const MIN_WINDOW: usize = 10;
 
+/// The longest window, in updates (its ring is allocated when the filter is built).
+pub const MAX_WINDOW: usize = 1_000_000;
+
 /// What the last observed update said.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct AdaptationStatus {
@@ -75,6 +80,12 @@ pub struct AdaptationStatus {
     /// The window's NIS ratio is outside its 95 % band.
     pub inconsistent: bool,
 }
+
+/// The scale falls this many times slower than it rises (fast attack, slow release): a model
+/// error that shows in the innovations only while it is excited (a tyre law that is wrong in a
+/// transient but fits in steady cornering) still biases the estimate afterwards, so the
+/// inflated `Q` is kept for about this many windows.
+const RELEASE_WINDOWS: f64 = 10.0;
 
 /// The 0.025 and 0.975 quantiles of the standard normal distribution.
 const Z_975: f64 = 1.959_963_984_540_054;
@@ -145,9 +156,12 @@ impl NoiseAdaptation {
         }
         let ratio = self.nis_sum / self.dof_sum;
         let (low, high) = nis_ratio_band(self.dof_sum);
-        let step = ratio.powf(1.0 / self.window.len() as f64);
-        if ratio > high || (ratio < 1.0 && self.scale > 1.0) {
-            self.scale = (self.scale * step).clamp(1.0, self.config.max_scale);
+        let updates = self.window.len() as f64;
+        if ratio > high {
+            self.scale = (self.scale * ratio.powf(1.0 / updates)).min(self.config.max_scale);
+        } else if ratio < 1.0 && self.scale > 1.0 {
+            let release = ratio.powf(1.0 / (RELEASE_WINDOWS * updates));
+            self.scale = (self.scale * release).max(1.0);
         }
         // A scale within the band's width is not told apart from 1 by the window: only a larger
         // one counts as adapting (a consistent filter's scale wanders just above 1).

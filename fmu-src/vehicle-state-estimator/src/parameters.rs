@@ -2,6 +2,7 @@
 //! crate's settings. The vehicle and tyre parameters are shared with the ReferenceVehicle and
 //! read by `vehicle_models::parameters`.
 
+use estimation::adaptive::{AdaptationConfig, MAX_WINDOW};
 use estimation::kalman::{SettingsError, SigmaPoints};
 use estimation::particle::{ParticleFilterConfig, ResamplingPolicy, ResamplingScheme};
 use estimation::registry::EstimatorChoice;
@@ -73,6 +74,59 @@ pub fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, SettingsEr
         policy: ResamplingPolicy::EveryStep,
         seed,
     })
+}
+
+/// The parameters with every per-sample process noise `process_noise_std_*` replaced by the one
+/// its spectral density `process_noise_psd_*` gives where that is above 0: `Q = q T`, the white
+/// noise rate `q` integrated over one sample `T` (first order in `T`; Van Loan, "Computing
+/// integrals involving the matrix exponential", IEEE TAC 23, 1978), so a tuning holds across
+/// sample times. `R` stays per sample: a sampled sensor's noise variance belongs to the sensor,
+/// not to the filter's sample time.
+pub fn with_spectral_densities(v: &Variables) -> Result<Variables, String> {
+    let sample_time = positive("sample_time", v.sample_time)?;
+    // The std per sample the state's density gives, or `std` where the density is 0.
+    let per_sample = |state: &str, std: f64| -> Result<f64, String> {
+        let name = format!("process_noise_psd_{state}");
+        match v.real_by_name(&name).unwrap_or(f64::NAN) {
+            q if q > 0.0 && q.is_finite() => Ok((q * sample_time).sqrt()),
+            0.0 => Ok(std),
+            q => Err(format!(
+                "parameter {name} = {q}; expected a finite value >= 0 (0: process_noise_std_{state})"
+            )),
+        }
+    };
+    Ok(Variables {
+        process_noise_std_vx: per_sample("vx", v.process_noise_std_vx)?,
+        process_noise_std_vy: per_sample("vy", v.process_noise_std_vy)?,
+        process_noise_std_yaw_rate: per_sample("yaw_rate", v.process_noise_std_yaw_rate)?,
+        process_noise_std_omega_front: per_sample("omega_front", v.process_noise_std_omega_front)?,
+        process_noise_std_omega_rear: per_sample("omega_rear", v.process_noise_std_omega_rear)?,
+        process_noise_std_sideslip: per_sample("sideslip", v.process_noise_std_sideslip)?,
+        process_noise_std_ay: per_sample("ay", v.process_noise_std_ay)?,
+        ..v.clone()
+    })
+}
+
+/// The adaptation of `Q` (`adaptive_process_noise`), or `None` when it is off: the window in
+/// samples from `adaptation_window` seconds.
+pub fn adaptation(v: &Variables) -> Result<Option<AdaptationConfig>, String> {
+    if !v.adaptive_process_noise {
+        return Ok(None);
+    }
+    let window = positive("adaptation_window", v.adaptation_window)?;
+    let samples = (window / positive("sample_time", v.sample_time)?).round();
+    let config = AdaptationConfig {
+        // Saturating: NaN gives 0 and a huge window more than MAX_WINDOW, both refused below.
+        window: samples.min(MAX_WINDOW as f64 + 1.0) as usize,
+        max_scale: v.adaptation_max_scale,
+    };
+    config.validate().map_err(|e| {
+        format!(
+            "parameters adaptation_window = {} s with sample_time = {} s and adaptation_max_scale = {}: {}",
+            v.adaptation_window, v.sample_time, v.adaptation_max_scale, e.0
+        )
+    })?;
+    Ok(Some(config))
 }
 
 /// Standard deviations, each a positive parameter, squared: `Q = diag(std²)`, `R = diag(std²)`
