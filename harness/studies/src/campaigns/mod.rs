@@ -277,7 +277,8 @@ fn draw(output: &RunOutput, title: &str, car: &str, out: &Path) -> Result<(Strin
     let path = out.join(format!("{}.png", output.scenario.name));
     let panels = plot::estimate_panels(&output.scenario, &output.result, &["sideslip".into()]);
     let caption = format!("{title} on the {car}: sideslip");
-    plot::draw_panels(&path, &caption, &panels, 1)?;
+    // The full caption is wider than one panel: the plot's own title is the run's name.
+    plot::draw_panels(&path, &output.scenario.name, &panels, 1)?;
     Ok((caption, path))
 }
 
