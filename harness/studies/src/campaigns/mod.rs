@@ -465,6 +465,30 @@ impl CampaignReport {
             .collect()
     }
 
+    /// Issue 17 point 5's targets counted over the rows: the best RMSE at most 0.3 deg, no row
+    /// worse than reporting zero, NEES 0.5-2 with at least 90 % inside the 95 % bound.
+    pub fn verdict(&self) -> String {
+        let summaries = self.run_summaries();
+        let on_target = summaries
+            .iter()
+            .filter(|s| s.best.rmse.to_degrees() <= TARGET_RMSE_DEG)
+            .count();
+        let worse = self.rows.iter().filter(|r| r.worse_than_baseline()).count();
+        let diverged = self.rows.iter().filter(|r| r.diverged).count();
+        let consistent = self
+            .rows
+            .iter()
+            .filter(|r| (0.5..=2.0).contains(&r.mean_nees) && r.share_inside >= 0.9)
+            .count();
+        format!(
+            "Issue 17 point 5: the best RMSE is at most {TARGET_RMSE_DEG} deg in {on_target} of {} runs; \
+             {worse} of {} rows are worse than reporting zero ({diverged} diverged); {consistent} rows meet \
+             issue 17 point 3's NEES 0.5-2 with at least 90 % inside the bound.",
+            summaries.len(),
+            self.rows.len()
+        )
+    }
+
     /// Plain-text summary for the terminal: the best estimator per run and the wins.
     pub fn summary(&self) -> String {
         let mut out = String::new();
@@ -476,7 +500,11 @@ impl CampaignReport {
             .iter()
             .map(|(n, c)| format!("{n} {c}"))
             .collect();
-        out += &format!("  best of a run: {}\n", wins.join(", "));
+        out += &format!(
+            "  best of a run: {}\n  {}\n",
+            wins.join(", "),
+            self.verdict()
+        );
         out
     }
 
@@ -529,7 +557,11 @@ impl CampaignReport {
             .iter()
             .map(|(n, c)| format!("{n} {c}×"))
             .collect();
-        doc.paragraph(format!("Best of a run: {}.", wins.join(", ")));
+        doc.paragraph(format!(
+            "Best of a run: {}. {}",
+            wins.join(", "),
+            self.verdict()
+        ));
         doc.paragraph(
             "Every row: sideslip RMSE and largest error, time-averaged NEES (1 for an honest filter), the share \
              of samples inside the chi-square(1) 95 % bound (issue 17 point 3 asks for NEES 0.5-2 and at least \
