@@ -531,7 +531,8 @@ pub fn identify_from_arrays(
 /// such row.
 fn check_moving(inputs: &[[f64; 3]], params: &RearAxleParams) -> Result<(), Seed003Error> {
     let guard = params.low_speed_guard;
-    match inputs.iter().position(|input| !(input[2] >= guard)) {
+    // The rows are finite here (RecordedRun::from_checked_rows).
+    match inputs.iter().position(|input| input[2] < guard) {
         Some(row) => Err(Seed003Error::Data(format!(
             "data row {} (counting from 0): Vx_ref = {} m/s is below model C's low-speed guard of \
              {guard} m/s; the identification needs a moving vehicle, so cut standstill and \
@@ -570,7 +571,7 @@ fn check_identifiable(
     let bound = cramer_rao_standard_deviations(&parameter_information(&model, run, &initial)?);
     let start = config.start_parameters;
     let undetermined: Vec<String> = (0..4)
-        .filter(|&j| !(bound[j] < LARGEST_RELATIVE_BOUND * start[j].abs()))
+        .filter(|&j| bound[j].is_nan() || bound[j] >= LARGEST_RELATIVE_BOUND * start[j].abs())
         .map(|j| {
             format!(
                 "{} (±{:.3e} around {})",
