@@ -119,6 +119,18 @@ fn process_noise_std(vehicle: &Vehicle, v: &Variables) -> [f64; MAX_STATE_DIM] {
     }
 }
 
+/// The standard deviations of the sensors' white noise, `[r, ay, ωF, ωR, ax, vx]`.
+fn sensor_noise_std(v: &Variables) -> [f64; SENSORS] {
+    [
+        v.noise_std_yaw_rate_meas,
+        v.noise_std_ay_meas,
+        v.noise_std_omega_front_meas,
+        v.noise_std_omega_rear_meas,
+        v.noise_std_ax_meas,
+        v.noise_std_vx_meas,
+    ]
+}
+
 /// Everything that evolves during a simulation, built from the parameters at initialisation.
 #[derive(Clone, Debug)]
 struct Simulation {
@@ -219,14 +231,7 @@ impl Simulation {
             integration_step,
             noise_on: v.noise,
             process_noise_std,
-            sensor_noise_std: [
-                v.noise_std_yaw_rate_meas,
-                v.noise_std_ay_meas,
-                v.noise_std_omega_front_meas,
-                v.noise_std_omega_rear_meas,
-                v.noise_std_ax_meas,
-                v.noise_std_vx_meas,
-            ],
+            sensor_noise_std: sensor_noise_std(v),
             quantum: [
                 v.quantum_yaw_rate_meas,
                 v.quantum_ay_meas,
@@ -723,6 +728,10 @@ impl CoSimulationModel for ReferenceVehicle {
         if changed {
             simulation.resample_at_inputs();
         }
+        // The tunable noise levels (issue 15 point 2) take effect with this doStep: the sample of
+        // t_n above keeps the levels it was drawn with.
+        simulation.sensor_noise_std = sensor_noise_std(&self.variables);
+        simulation.process_noise_std = process_noise_std(&simulation.vehicle, &self.variables);
         // The FMU's own clock follows the master's communication points exactly.
         simulation.time = current_time;
         let steps = ((step_size / simulation.integration_step) * (1.0 - 1e-9))

@@ -6,6 +6,8 @@ use fmi_export::fmi2_api_of;
 use fmi_export::testing::{Fmi2Api, Slave};
 use ReferenceVehicle::model_description::{vr, GUID};
 
+mod common;
+
 fn api() -> Fmi2Api {
     fmi2_api_of!(ReferenceVehicle)
 }
@@ -548,19 +550,7 @@ fn without_noise_the_sensors_equal_the_truth() {
 fn sensor_chain_delays_quantises_and_holds() {
     // Noise on, every standard deviation zero: the chain is deterministic and checkable.
     let mut s = slave();
-    let zero_std = [
-        vr::PROCESS_NOISE_STD_VX,
-        vr::PROCESS_NOISE_STD_VY,
-        vr::PROCESS_NOISE_STD_YAW_RATE,
-        vr::PROCESS_NOISE_STD_OMEGA_FRONT,
-        vr::PROCESS_NOISE_STD_OMEGA_REAR,
-        vr::NOISE_STD_YAW_RATE_MEAS,
-        vr::NOISE_STD_AY_MEAS,
-        vr::NOISE_STD_OMEGA_FRONT_MEAS,
-        vr::NOISE_STD_OMEGA_REAR_MEAS,
-        vr::NOISE_STD_AX_MEAS,
-        vr::NOISE_STD_VX_MEAS,
-    ];
+    let zero_std = common::NOISE_LEVELS;
     assert_eq!(s.set_reals(&zero_std, &[0.0; 11]), Fmi2Status::Ok);
     assert_eq!(s.set_real(vr::SENSOR_LATENCY, 0.02), Fmi2Status::Ok);
     assert_eq!(s.set_real(vr::SENSOR_SAMPLE_PERIOD, 0.01), Fmi2Status::Ok);
