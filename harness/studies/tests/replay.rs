@@ -248,4 +248,29 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
             && text.contains("<ssv:Enumeration value=\"ekf\"/>"),
         "{text}"
     );
+    // And a scenario's parameter_files: the recording scenario with the fitted EKF beside the car.
+    let root = workspace_root();
+    let scenario = std::fs::read_to_string(root.join("harness/logs/record_ford_escort.toml"))
+        .unwrap()
+        .replace("../../fmu-src/", &format!("{}/fmu-src/", root.display()))
+        .replace("variables = [\"vehicle.*\"]", "variables = [\"*.*\"]")
+        + &format!(
+            "\n[[fmu]]\nname = \"EKF\"\npath = \"{{fmu_dir}}/VehicleStateEstimator.fmu\"\nparameter_files = [{:?}]\n\n\
+             [[connection]]\nfrom = \"vehicle\"\nto = \"EKF\"\n\n[[input]]\nsignal = \"steering_angle\"\nto = [\"EKF.steering_angle\"]\n",
+            out.display()
+        );
+    let scenario_path = out.with_file_name("with_fitted_ekf.toml");
+    std::fs::write(&scenario_path, scenario).unwrap();
+    let env = fmi_master::runner::Environment {
+        fmu_dir: default_fmu_dir(),
+        out_dir: out.with_file_name("run"),
+    };
+    let parsed = fmi_master::scenario::Scenario::from_file(&scenario_path).expect("scenario");
+    let run = fmi_master::runner::run_scenario(parsed, &env, &[], false, |_| {})
+        .expect("harness run with the fitted .ssv");
+    let sideslip = run
+        .result
+        .column("EKF.sideslip_est")
+        .expect("the EKF's sideslip");
+    assert!(sideslip.iter().all(|v| v.is_finite()));
 }
