@@ -1,0 +1,125 @@
+//! Issue 17 point 3 through the C ABI: a process noise given as a spectral density is the
+//! per-sample noise `sqrt(q T)`, and `adaptive_process_noise` reports status bits 4096
+//! (adapting) and 8192 (inconsistent) when the model cannot explain the sensors, never when it
+//! is off.
+
+use fmi_export::ffi::Fmi2Status;
+use fmi_export::fmi2_api_of;
+use fmi_export::testing::Slave;
+use VehicleStateEstimator::model_description::{vr, GUID};
+
+const SAMPLE_TIME: f64 = 0.01;
+const ADAPTING: i32 = 4096;
+const INCONSISTENT: i32 = 8192;
+
+fn estimator(configure: impl Fn(&mut Slave)) -> Slave {
+    let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "adaptive", GUID)
+        .expect("instantiate");
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
+    // Every row enters, so the unexplained motion reaches the innovations instead of the gate.
+    assert_eq!(s.set_boolean(vr::GATE_MEASUREMENTS, false), Fmi2Status::Ok);
+    configure(&mut s);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    s
+}
+
+/// Straight driving at 20 m/s with a yaw rate and a lateral acceleration the model does not
+/// explain (no steering), from 2 s on.
+fn sensors(t: f64) -> [f64; 4] {
+    let wheel = 20.0 / 0.3;
+    let (yaw_rate, ay) = if t < 2.0 {
+        (0.0, 0.0)
+    } else {
+        (0.1 * (2.0 * t).sin(), 3.0 * (2.0 * t).sin())
+    };
+    [yaw_rate, ay, wheel, wheel]
+}
+
+/// Runs `steps` samples; returns the outputs `[vy, sideslip_std]` per sample and the union of
+/// the status bits.
+fn run(s: &mut Slave, steps: usize) -> (Vec<[f64; 2]>, i32) {
+    let references = [
+        vr::YAW_RATE_MEAS,
+        vr::AY_MEAS,
+        vr::OMEGA_FRONT_MEAS,
+        vr::OMEGA_REAR_MEAS,
+    ];
+    let mut outputs = Vec::with_capacity(steps);
+    let mut bits = 0;
+    for k in 0..steps {
+        let t = k as f64 * SAMPLE_TIME;
+        assert_eq!(s.set_reals(&references, &sensors(t)), Fmi2Status::Ok);
+        assert_eq!(
+            s.do_step(t, SAMPLE_TIME),
+            Fmi2Status::Ok,
+            "{:?}",
+            s.log.last()
+        );
+        let values = s.reals(&[vr::VY_EST, vr::SIDESLIP_STD]);
+        outputs.push([values[0], values[1]]);
+        bits |= s.get_integer(vr::STATUS).1;
+    }
+    (outputs, bits)
+}
+
+#[test]
+fn a_spectral_density_is_the_per_sample_noise_of_its_sample_time() {
+    // 0.01 m/s per sample at 10 ms, twice the default process_noise_std_vy.
+    let density = 1e-2;
+    let mut by_density = estimator(|s| {
+        assert_eq!(
+            s.set_real(vr::PROCESS_NOISE_PSD_VY, density),
+            Fmi2Status::Ok
+        );
+    });
+    let mut per_sample = estimator(|s| {
+        let std = (density * SAMPLE_TIME).sqrt();
+        assert_eq!(s.set_real(vr::PROCESS_NOISE_STD_VY, std), Fmi2Status::Ok);
+    });
+    let mut default = estimator(|_| {});
+    let (a, _) = run(&mut by_density, 400);
+    let (b, _) = run(&mut per_sample, 400);
+    let (c, _) = run(&mut default, 400);
+    assert!(a == b, "a density differs from its per-sample std");
+    // Not vacuous: the density changed the filter.
+    assert!(a != c, "the density changed nothing");
+}
+
+#[test]
+fn adaptation_reports_its_bits_and_widens_the_uncertainty() {
+    let mut adaptive = estimator(|s| {
+        assert_eq!(
+            s.set_boolean(vr::ADAPTIVE_PROCESS_NOISE, true),
+            Fmi2Status::Ok
+        );
+    });
+    let mut fixed = estimator(|_| {});
+    let (adapted, adaptive_bits) = run(&mut adaptive, 600);
+    let (plain, fixed_bits) = run(&mut fixed, 600);
+    assert_eq!(
+        adaptive_bits & (ADAPTING | INCONSISTENT),
+        ADAPTING | INCONSISTENT
+    );
+    assert_eq!(fixed_bits & (ADAPTING | INCONSISTENT), 0);
+    // After the unexplained motion the adapted filter reports a wider sideslip uncertainty.
+    let (adapted_std, plain_std) = (adapted[599][1], plain[599][1]);
+    assert!(
+        adapted_std > 2.0 * plain_std,
+        "{adapted_std} against {plain_std}"
+    );
+}
+
+#[test]
+fn a_window_shorter_than_ten_samples_is_refused_naming_it() {
+    let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "adaptive", GUID)
+        .expect("instantiate");
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
+    assert_eq!(
+        s.set_boolean(vr::ADAPTIVE_PROCESS_NOISE, true),
+        Fmi2Status::Ok
+    );
+    assert_eq!(s.set_real(vr::ADAPTATION_WINDOW, 0.05), Fmi2Status::Ok);
+    assert_ne!(s.initialize(0.0), Fmi2Status::Ok);
+    let message = format!("{:?}", s.log.lines());
+    assert!(message.contains("adaptation_window"), "{message}");
+}
