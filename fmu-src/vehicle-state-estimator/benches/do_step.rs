@@ -24,11 +24,13 @@
 //! batched fmi2GetReal (18 outputs) and fmi2SetReal (9 inputs) alone.
 
 use divan::Bencher;
+use estimation::models::single_track::{ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM};
 use estimation::registry::{self, BoxedEstimator};
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::{references_of, stepping, variables_of, DoStepOverhead, Slave};
 use fmi_export::{Causality, CoSimulationModel, InstantiationContext, ValueType};
 use nalgebra::SVector;
+use vehicle_models::single_track::STATE_DIM;
 use VehicleStateEstimator::model_a::ModelA;
 use VehicleStateEstimator::model_b::ModelB;
 use VehicleStateEstimator::model_description::estimator_model;
@@ -108,7 +110,8 @@ fn bare_step_a(name: &str) -> impl FnMut() -> (bool, bool) {
         estimator: estimator(name),
         ..Variables::default()
     };
-    let mut filter = bare_filter::<ModelA, 5, 5, 5>(&variables);
+    let mut filter =
+        bare_filter::<ModelA, STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>(&variables);
     // The seed's four rows; no speed measurement (ax_valid = 0, vx row masked out).
     let input = ModelA::extend_input(&SVector::<f64, 3>::new(0.05, 0.0, 0.0), 0.0, None);
     let [r, ay, front, rear] = MEASUREMENT;

@@ -138,6 +138,9 @@ pub struct VehicleStateEstimator {
     status_awaits_publish: bool,
     /// An input was clamped into its range since the last doStep (status bit 1024).
     input_clamped: bool,
+    /// The parameters as set when the filter was built or last retuned (the tunable ones are
+    /// compared with the current values before each doStep).
+    applied: Option<Box<Variables>>,
 }
 
 impl VehicleStateEstimator {
@@ -164,6 +167,44 @@ impl VehicleStateEstimator {
     }
 }
 
+/// The value references of the Real parameters the XML declares `tunable`.
+fn tunable_parameters() -> &'static [u32] {
+    static TUNABLE: std::sync::OnceLock<Vec<u32>> = std::sync::OnceLock::new();
+    TUNABLE.get_or_init(|| {
+        model_description::VARIABLES
+            .iter()
+            .filter(|v| {
+                v.variability == fmi_export::Variability::Tunable
+                    && v.value_type == fmi_export::ValueType::Real
+            })
+            .map(|v| v.value_reference)
+            .collect()
+    })
+}
+
+impl VehicleStateEstimator {
+    /// Tunable parameters set since the filter was built take effect from the next filter
+    /// sample (FMI 2.0 §2.2.7: a tunable parameter may change after initialisation; the XML
+    /// documents the moment): the runner is retuned when any differs from what it runs with.
+    fn apply_tuned_parameters(&mut self) -> Result<(), String> {
+        use fmi_export::VariableStore;
+        let (Some(runner), Some(applied)) = (self.runner.as_mut(), self.applied.as_mut()) else {
+            return Ok(());
+        };
+        let v = &self.variables;
+        let changed = tunable_parameters()
+            .iter()
+            .any(|&vr| v.real(vr).map(f64::to_bits) != applied.real(vr).map(f64::to_bits));
+        if !changed {
+            return Ok(());
+        }
+        on_runner!(runner, r => r.retune(v))
+            .map_err(|error| format!("tunable parameter set during the run: {error}"))?;
+        (**applied).clone_from(v);
+        Ok(())
+    }
+}
+
 impl CoSimulationModel for VehicleStateEstimator {
     type Variables = Variables;
     const MODEL_IDENTIFIER: &'static str = model_description::MODEL_IDENTIFIER;
@@ -183,6 +224,7 @@ impl CoSimulationModel for VehicleStateEstimator {
             runner: None,
             status_awaits_publish: false,
             input_clamped: false,
+            applied: None,
         }
     }
 
@@ -202,6 +244,7 @@ impl CoSimulationModel for VehicleStateEstimator {
 
     fn initialize(&mut self, start_time: f64) -> Result<(), String> {
         self.runner = Some(ModelRunner::build(&self.variables, start_time)?);
+        self.applied = Some(Box::new(self.variables.clone()));
         self.variables.status = 0;
         self.defer_publish();
         self.status_awaits_publish = true;
@@ -211,6 +254,9 @@ impl CoSimulationModel for VehicleStateEstimator {
     }
 
     fn do_step(&mut self, current_time: f64, step_size: f64) -> StepOutcome {
+        if let Err(message) = self.apply_tuned_parameters() {
+            return StepOutcome::Error(message);
+        }
         let v = &self.variables;
         let driver = [
             v.steering_angle,
@@ -268,6 +314,11 @@ impl CoSimulationModel for VehicleStateEstimator {
         } else {
             None
         };
+        // The restored filter was built from the restored parameters.
+        self.applied = self
+            .runner
+            .as_ref()
+            .map(|_| Box::new(self.variables.clone()));
         Ok(())
     }
 }

@@ -342,6 +342,32 @@ where
         })
     }
 
+    /// Takes the tunable parameters of `v` (XML variability `tunable`: the noise levels, the
+    /// gate, the cornering-stiffness scales) from the next sample on: the model, the settings
+    /// and the gate are built from `v` as at initialisation, and the filter continues from its
+    /// current estimate and covariance (the particle filter redraws its particles from them).
+    /// The linear estimators keep the operating point they run at.
+    pub fn retune(&mut self, v: &Variables) -> Result<(), String> {
+        let tuned = Self::build(v, self.start_time)?;
+        let current = InitialEstimate {
+            state: *self.filter.state(),
+            covariance: *self.filter.covariance(),
+        };
+        let operating_point = self.settings.operating_point.clone();
+        self.model = tuned.model;
+        self.settings = tuned.settings;
+        self.settings.operating_point = operating_point;
+        self.gate = tuned.gate;
+        self.parameters = tuned.parameters;
+        if self.rebuild(&current) {
+            Ok(())
+        } else {
+            Err(String::from(
+                "the estimator cannot continue from its estimate with the tuned parameters",
+            ))
+        }
+    }
+
     /// The running filter (for tests and benchmarks).
     pub fn filter(&self) -> &BoxedEstimator<N, M, U> {
         &self.filter

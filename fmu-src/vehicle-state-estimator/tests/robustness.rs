@@ -52,14 +52,7 @@ const SENSOR_STD: [f64; 6] = [0.0035, 0.1, 0.1, 0.1, 0.1, 0.05];
 /// `[yaw_rate, ay, omega_front, omega_rear, ax, vx]` measured.
 type Sensors = [f64; 6];
 
-const SENSORS: [u32; 6] = [
-    vr::YAW_RATE_MEAS,
-    vr::AY_MEAS,
-    vr::OMEGA_FRONT_MEAS,
-    vr::OMEGA_REAR_MEAS,
-    vr::AX_MEAS,
-    vr::VX_MEAS,
-];
+use car::SENSORS;
 
 struct Truth {
     model: SingleTrackHsri,

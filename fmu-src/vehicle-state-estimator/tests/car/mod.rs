@@ -1,10 +1,12 @@
-//! The estimator's car parameters from a model-A [`Chassis`], shared by the integration tests.
+//! What the integration tests share: the estimator's car parameters from a model-A [`Chassis`]
+//! and the sensor inputs in one order.
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::Slave;
 use vehicle_models::Chassis;
 use VehicleStateEstimator::model_description::vr;
 
+#[allow(dead_code)] // not every test file uses it
 /// Sets the FMU's vehicle parameters to `car` (the steering ratio has no FMU parameter).
 pub fn set_car(s: &mut Slave, car: &Chassis) {
     let parameters = [
@@ -24,3 +26,14 @@ pub fn set_car(s: &mut Slave, car: &Chassis) {
         assert_eq!(s.set_real(reference, value), Fmi2Status::Ok, "{reference}");
     }
 }
+
+/// The sensor inputs `[yaw_rate, ay, omega_front, omega_rear, ax, vx]`.
+#[allow(dead_code)] // not every test file uses it
+pub const SENSORS: [u32; 6] = [
+    vr::YAW_RATE_MEAS,
+    vr::AY_MEAS,
+    vr::OMEGA_FRONT_MEAS,
+    vr::OMEGA_REAR_MEAS,
+    vr::AX_MEAS,
+    vr::VX_MEAS,
+];
