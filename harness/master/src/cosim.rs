@@ -347,8 +347,8 @@ fn load_instances(
         for (name, value) in &section.parameters {
             let field = format!("scenario {source}: fmu[{i}].parameters.{name}");
             let var = settable(&fmus[fmu], name).with_context(|| field.clone())?;
-            let value = convert_scenario_value(&fmus[fmu], var, value)
-                .with_context(|| field.clone())?;
+            let value =
+                convert_scenario_value(&fmus[fmu], var, value).with_context(|| field.clone())?;
             parameters.push((var.clone(), value));
         }
         instances.push(InstancePlan {
@@ -567,6 +567,106 @@ fn check_connections(edges: &[Edge], instances: &[InstancePlan]) -> Result<Drive
     Ok(driven)
 }
 
+/// The three variables of `[manoeuvre.feedback]`, in the order the driver reads them.
+const FEEDBACK_FIELDS: [&str; 3] = ["longitudinal_velocity", "lateral_velocity", "yaw_rate"];
+
+/// Every "inst.variable" reference of the scenario and every channel name, parsed once in the
+/// resolve step; the bind steps take them as they are (a malformed one is refused here, naming
+/// its field, though `Scenario::validate` has refused it already).
+struct ScenarioRefs {
+    /// `[[input]]`: the channel and its targets.
+    inputs: Vec<(Channel, Vec<VarRef>)>,
+    /// `[[override]]` targets.
+    overrides: Vec<Vec<VarRef>>,
+    /// `[manoeuvre.feedback]`, in [`FEEDBACK_FIELDS`] order.
+    feedback: Option<[VarRef; 3]>,
+    /// `[record] variables` patterns.
+    record: Vec<VarRef>,
+    scores: Vec<ScoreRefs>,
+    /// `[[nis]]`: the NIS variable and, when given by name, its degrees of freedom.
+    nis: Vec<(VarRef, Option<VarRef>)>,
+}
+
+struct ScoreRefs {
+    truth: VarRef,
+    estimate: VarRef,
+    std: Option<VarRef>,
+}
+
+impl ScenarioRefs {
+    fn parse(scenario: &Scenario) -> Result<Self> {
+        let source = scenario.source.display();
+        let parse = |field: String, text: &str| {
+            VarRef::parse(text).ok_or_else(|| {
+                anyhow!("scenario {source}: {field}: {text:?}: expected \"instance.variable\"")
+            })
+        };
+        let list = |field: &str, texts: &[String]| -> Result<Vec<VarRef>> {
+            let parse = &parse;
+            texts
+                .iter()
+                .enumerate()
+                .map(|(j, text)| parse(format!("{field}[{j}]"), text))
+                .collect()
+        };
+        let mut inputs = Vec::new();
+        for (i, input) in scenario.inputs.iter().enumerate() {
+            let channel = Channel::from_name(&input.signal).ok_or_else(|| {
+                anyhow!(
+                    "scenario {source}: input[{i}].signal: no channel {:?}",
+                    input.signal
+                )
+            })?;
+            inputs.push((channel, list(&format!("input[{i}].to"), &input.to)?));
+        }
+        let overrides = (scenario.overrides.iter().enumerate())
+            .map(|(i, o)| list(&format!("override[{i}].to"), &o.to))
+            .collect::<Result<_>>()?;
+        let feedback = match scenario
+            .manoeuvre
+            .as_ref()
+            .and_then(|m| m.feedback.as_ref())
+        {
+            Some(fb) => {
+                let field = |k: usize| format!("manoeuvre.feedback.{}", FEEDBACK_FIELDS[k]);
+                Some([
+                    parse(field(0), &fb.longitudinal_velocity)?,
+                    parse(field(1), &fb.lateral_velocity)?,
+                    parse(field(2), &fb.yaw_rate)?,
+                ])
+            }
+            None => None,
+        };
+        let mut scores = Vec::new();
+        for (i, s) in scenario.scores.iter().enumerate() {
+            scores.push(ScoreRefs {
+                truth: parse(format!("score[{i}].truth"), &s.truth)?,
+                estimate: parse(format!("score[{i}].estimate"), &s.estimate)?,
+                std: match &s.std {
+                    Some(std) => Some(parse(format!("score[{i}].std"), std)?),
+                    None => None,
+                },
+            });
+        }
+        let mut nis = Vec::new();
+        for (i, n) in scenario.nis.iter().enumerate() {
+            let dof = match &n.dof {
+                toml::Value::String(dof) => Some(parse(format!("nis[{i}].dof"), dof)?),
+                _ => None,
+            };
+            nis.push((parse(format!("nis[{i}].nis"), &n.nis)?, dof));
+        }
+        Ok(ScenarioRefs {
+            inputs,
+            overrides,
+            feedback,
+            record: list("record.variables", &scenario.record.variables)?,
+            scores,
+            nis,
+        })
+    }
+}
+
 impl Plan {
     /// Load the scenario's FMUs (extracted under `work_dir`) and resolve every name: load the
     /// FMUs, resolve the connections, order the instances, bind inputs, feedback and recording.
@@ -574,6 +674,7 @@ impl Plan {
         let manoeuvre = scenario.manoeuvre()?;
         let (fmus, instances) = load_instances(&scenario, fmu_dir, work_dir)?;
         let (edges, mut driven) = resolve_connections(&scenario, &fmus, &instances)?;
+        let refs = ScenarioRefs::parse(&scenario)?;
         let mut plan = Plan {
             manoeuvre,
             order: topological_order(instances.len(), &edges),
@@ -586,10 +687,10 @@ impl Plan {
             scenario,
         };
         plan.bind_connections(&edges);
-        plan.bind_manoeuvre_inputs(&mut driven)?;
-        plan.bind_overrides()?;
-        plan.bind_feedback()?;
-        plan.bind_recording()?;
+        plan.bind_manoeuvre_inputs(&refs, &mut driven)?;
+        plan.bind_overrides(&refs)?;
+        plan.bind_feedback(&refs)?;
+        plan.bind_recording(&refs)?;
         Ok(plan)
     }
 
@@ -614,17 +715,15 @@ impl Plan {
     }
 
     /// `[[input]]`: manoeuvre channels to Real inputs (each step) or parameters (before init).
-    fn bind_manoeuvre_inputs(&mut self, driven: &mut Drivers) -> Result<()> {
+    fn bind_manoeuvre_inputs(&mut self, refs: &ScenarioRefs, driven: &mut Drivers) -> Result<()> {
         let source = self.source();
-        let inputs = self.scenario.inputs.clone();
-        for (i, input) in inputs.iter().enumerate() {
-            let channel = Channel::from_name(&input.signal).expect("validated");
-            for (j, target) in input.to.iter().enumerate() {
+        for (i, (channel, targets)) in refs.inputs.iter().enumerate() {
+            let channel = *channel;
+            for (j, r) in targets.iter().enumerate() {
                 let field = format!("scenario {source}: input[{i}].to[{j}]");
-                let r = VarRef::parse(target).expect("validated");
-                let matches = self.matching(&r, |v| v.is_input() || v.is_parameter());
+                let matches = self.matching(r, |v| v.is_input() || v.is_parameter());
                 if matches.is_empty() {
-                    bail!("{field}: {target:?} names no input or parameter of any FMU");
+                    bail!("{field}: \"{r}\" names no input or parameter of any FMU");
                 }
                 for (instance, var) in matches {
                     self.bind_channel(instance, var, channel, &field, driven)?;
@@ -671,7 +770,7 @@ impl Plan {
     }
 
     /// `[[override]]`: each target must be a Real input some connection or `[[input]]` drives.
-    fn bind_overrides(&mut self) -> Result<()> {
+    fn bind_overrides(&mut self, refs: &ScenarioRefs) -> Result<()> {
         let source = self.source();
         let (t0, h) = (self.scenario.start_time, self.scenario.step);
         for (i, section) in self.scenario.overrides.clone().iter().enumerate() {
@@ -680,12 +779,11 @@ impl Plan {
                 self.scenario.time_of(first) - 0.5 * h,
                 self.scenario.time_of(last) + 0.5 * h,
             );
-            for (j, target) in section.to.iter().enumerate() {
+            for (j, r) in refs.overrides[i].iter().enumerate() {
                 let field = format!("scenario {source}: override[{i}].to[{j}]");
-                let r = VarRef::parse(target).expect("validated");
-                let matches = self.matching(&r, |v| v.is_input());
+                let matches = self.matching(r, |v| v.is_input());
                 if matches.is_empty() {
-                    bail!("{field}: {target:?} names no input of any FMU");
+                    bail!("{field}: \"{r}\" names no input of any FMU");
                 }
                 for (instance, var) in matches {
                     let plan = &mut self.instances[instance];
@@ -715,28 +813,16 @@ impl Plan {
     }
 
     /// `[manoeuvre.feedback]`: the three Real variables of one FMU a closed-loop driver reads.
-    fn bind_feedback(&mut self) -> Result<()> {
+    fn bind_feedback(&mut self, refs: &ScenarioRefs) -> Result<()> {
         let source = self.source();
-        let Some(fb) = self
-            .scenario
-            .manoeuvre
-            .as_ref()
-            .and_then(|m| m.feedback.clone())
-        else {
+        let Some(feedback) = &refs.feedback else {
             return Ok(());
         };
         let mut vrs = [0u32; 3];
-        let mut instance_of = None;
-        for (k, (field, text)) in [
-            ("longitudinal_velocity", &fb.longitudinal_velocity),
-            ("lateral_velocity", &fb.lateral_velocity),
-            ("yaw_rate", &fb.yaw_rate),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            let r = VarRef::parse(text).expect("validated");
-            let instance = plan_instance(self, &r.instance);
+        let mut instances = [0usize; 3];
+        for (k, (field, r)) in FEEDBACK_FIELDS.iter().zip(feedback).enumerate() {
+            let instance =
+                self.instance_index(&r.instance, &format!("manoeuvre.feedback.{field}"))?;
             let var = self
                 .var(instance, &r.variable)
                 .filter(|v| v.var_type == VariableType::Real)
@@ -747,22 +833,37 @@ impl Plan {
                         r.variable
                     )
                 })?;
-            if instance_of.is_some_and(|i| i != instance) {
-                bail!("scenario {source}: manoeuvre.feedback: all three variables must come from one FMU");
-            }
-            instance_of = Some(instance);
+            instances[k] = instance;
             vrs[k] = var.value_reference;
         }
+        if instances.iter().any(|&i| i != instances[0]) {
+            bail!(
+                "scenario {source}: manoeuvre.feedback: all three variables must come from one FMU"
+            );
+        }
         self.feedback = Some(Feedback {
-            instance: instance_of.expect("three variables"),
+            instance: instances[0],
             value_references: vrs,
         });
         Ok(())
     }
 
+    /// The instance called `name`; `field` names the reference for the message.
+    fn instance_index(&self, name: &str, field: &str) -> Result<usize> {
+        self.instances
+            .iter()
+            .position(|p| p.name == name)
+            .ok_or_else(|| {
+                anyhow!(
+                    "scenario {}: {field}: no FMU instance {name:?}",
+                    self.source()
+                )
+            })
+    }
+
     /// Recorded columns: the manoeuvre's signals, the driver's pose, then the `[record]`
     /// patterns and everything scores and NIS need, each column once.
-    fn bind_recording(&mut self) -> Result<()> {
+    fn bind_recording(&mut self, refs: &ScenarioRefs) -> Result<()> {
         if let Some(m) = self.manoeuvre.clone() {
             for channel in [
                 Channel::SteeringAngle,
@@ -781,19 +882,14 @@ impl Plan {
                 self.add_column("driver.yaw".into(), Slot::PoseYaw);
             }
         }
-        let mut wanted = self.recorded_patterns()?;
-        wanted.extend(self.score_variables()?);
-        wanted.extend(self.nis_variables()?);
-        for (instance_name, variable) in wanted {
-            let column = format!("{instance_name}.{variable}");
+        let mut wanted = self.recorded_patterns(refs)?;
+        wanted.extend(self.score_variables(refs)?);
+        wanted.extend(self.nis_variables(refs)?);
+        for (instance, var) in wanted {
+            let column = format!("{}.{}", self.instances[instance].name, var.name);
             if self.columns.contains(&column) {
                 continue;
             }
-            let instance = plan_instance(self, &instance_name);
-            let var = self
-                .var(instance, &variable)
-                .expect("resolved above")
-                .clone();
             let slot = self.read_slot(instance, &var);
             self.add_column(column, Slot::Read { instance, slot });
         }
@@ -801,11 +897,10 @@ impl Plan {
     }
 
     /// `(instance, variable)` of every `[record] variables` pattern (`inst.*`: all outputs).
-    fn recorded_patterns(&self) -> Result<Vec<(String, String)>> {
+    fn recorded_patterns(&self, refs: &ScenarioRefs) -> Result<Vec<(usize, VariableInfo)>> {
         let source = self.source();
         let mut wanted = Vec::new();
-        for (i, pattern) in self.scenario.record.variables.iter().enumerate() {
-            let r = VarRef::parse(pattern).expect("validated");
+        for (i, r) in refs.record.iter().enumerate() {
             let matches = if r.variable == "*" {
                 let mut all = Vec::new();
                 for instance in self.instance_indices(&r.instance) {
@@ -817,86 +912,80 @@ impl Plan {
                 }
                 all
             } else {
-                self.matching(&r, |v| v.var_type != VariableType::String)
+                self.matching(r, |v| v.var_type != VariableType::String)
             };
             if matches.is_empty() {
-                bail!("scenario {source}: record.variables[{i}]: {pattern:?} matches no variable");
+                bail!("scenario {source}: record.variables[{i}]: \"{r}\" matches no variable");
             }
-            for (instance, var) in matches {
-                wanted.push((self.instances[instance].name.clone(), var.name.clone()));
-            }
+            wanted.extend(matches);
         }
         Ok(wanted)
     }
 
     /// The truth, estimate and standard-deviation variables of every `[[score]]`.
-    fn score_variables(&self) -> Result<Vec<(String, String)>> {
+    fn score_variables(&self, refs: &ScenarioRefs) -> Result<Vec<(usize, VariableInfo)>> {
         let source = self.source();
         let mut wanted = Vec::new();
-        for (i, s) in self.scenario.scores.iter().enumerate() {
+        for (i, score) in refs.scores.iter().enumerate() {
             let field = format!("scenario {source}: score[{i}]");
-            let truth = VarRef::parse(&s.truth).expect("validated");
-            let t_inst = plan_instance(self, &truth.instance);
-            self.var(t_inst, &truth.variable).ok_or_else(|| {
+            let truth = &score.truth;
+            let t_inst = self.instance_index(&truth.instance, &format!("score[{i}].truth"))?;
+            let var = self.var(t_inst, &truth.variable).ok_or_else(|| {
                 anyhow!(
                     "{field}.truth: FMU '{}' has no variable {:?}",
                     truth.instance,
                     truth.variable
                 )
             })?;
-            wanted.push((truth.instance.clone(), truth.variable.clone()));
-            let est = VarRef::parse(&s.estimate).expect("validated");
-            let matches = self.matching(&est, |_| true);
+            wanted.push((t_inst, var.clone()));
+            let matches = self.matching(&score.estimate, |_| true);
             if matches.is_empty() {
-                bail!("{field}.estimate: {:?} matches no variable", s.estimate);
+                bail!(
+                    "{field}.estimate: \"{}\" matches no variable",
+                    score.estimate
+                );
             }
             for (instance, var) in matches {
-                let name = self.instances[instance].name.clone();
-                if let Some(std) = &s.std {
-                    let std_ref = VarRef::parse(std).expect("validated");
-                    if std_ref.instance != "*" && std_ref.instance != name {
-                        bail!("{field}.std: {std:?} must belong to the estimate's instance '{name}' (or use '*')");
+                let name = &self.instances[instance].name;
+                if let Some(std_ref) = &score.std {
+                    if std_ref.instance != "*" && std_ref.instance != *name {
+                        bail!("{field}.std: \"{std_ref}\" must belong to the estimate's instance '{name}' (or use '*')");
                     }
-                    self.var(instance, &std_ref.variable).ok_or_else(|| {
+                    let std = self.var(instance, &std_ref.variable).ok_or_else(|| {
                         anyhow!(
                             "{field}.std: FMU '{name}' has no variable {:?}",
                             std_ref.variable
                         )
                     })?;
-                    wanted.push((name.clone(), std_ref.variable.clone()));
+                    wanted.push((instance, std.clone()));
                 }
-                wanted.push((name, var.name));
+                wanted.push((instance, var));
             }
         }
         Ok(wanted)
     }
 
     /// The NIS (and degrees-of-freedom) variables of every `[[nis]]`.
-    fn nis_variables(&self) -> Result<Vec<(String, String)>> {
+    fn nis_variables(&self, refs: &ScenarioRefs) -> Result<Vec<(usize, VariableInfo)>> {
         let source = self.source();
         let mut wanted = Vec::new();
-        for (i, n) in self.scenario.nis.iter().enumerate() {
-            let r = VarRef::parse(&n.nis).expect("validated");
-            let matches = self.matching(&r, |_| true);
+        for (i, (nis, dof)) in refs.nis.iter().enumerate() {
+            let matches = self.matching(nis, |_| true);
             if matches.is_empty() {
-                bail!(
-                    "scenario {source}: nis[{i}].nis: {:?} matches no variable",
-                    n.nis
-                );
+                bail!("scenario {source}: nis[{i}].nis: \"{nis}\" matches no variable");
             }
             for (instance, var) in matches {
-                let name = self.instances[instance].name.clone();
-                if let toml::Value::String(dof) = &n.dof {
-                    let d = VarRef::parse(dof).expect("validated");
-                    self.var(instance, &d.variable).ok_or_else(|| {
+                if let Some(d) = dof {
+                    let dof_var = self.var(instance, &d.variable).ok_or_else(|| {
                         anyhow!(
-                            "scenario {source}: nis[{i}].dof: FMU '{name}' has no variable {:?}",
+                            "scenario {source}: nis[{i}].dof: FMU '{}' has no variable {:?}",
+                            self.instances[instance].name,
                             d.variable
                         )
                     })?;
-                    wanted.push((name.clone(), d.variable.clone()));
+                    wanted.push((instance, dof_var.clone()));
                 }
-                wanted.push((name, var.name));
+                wanted.push((instance, var));
             }
         }
         Ok(wanted)
@@ -1312,13 +1401,6 @@ impl Plan {
         }
         Ok(())
     }
-}
-
-fn plan_instance(plan: &Plan, name: &str) -> usize {
-    plan.instances
-        .iter()
-        .position(|p| p.name == name)
-        .expect("instance names are validated")
 }
 
 struct InstanceBuffers {
