@@ -123,3 +123,49 @@ fn a_window_shorter_than_ten_samples_is_refused_naming_it() {
     let message = format!("{:?}", s.log.lines());
     assert!(message.contains("adaptation_window"), "{message}");
 }
+
+/// Runs samples `first..first + count` (the sensors of their instants).
+fn run_from(s: &mut Slave, first: usize, count: usize) -> Vec<u64> {
+    let references = [
+        vr::YAW_RATE_MEAS,
+        vr::AY_MEAS,
+        vr::OMEGA_FRONT_MEAS,
+        vr::OMEGA_REAR_MEAS,
+    ];
+    let mut bits = Vec::new();
+    for k in first..first + count {
+        let t = k as f64 * SAMPLE_TIME;
+        assert_eq!(s.set_reals(&references, &sensors(t)), Fmi2Status::Ok);
+        assert_eq!(
+            s.do_step(t, SAMPLE_TIME),
+            Fmi2Status::Ok,
+            "{:?}",
+            s.log.last()
+        );
+        let values = s.reals(&[vr::VY_EST, vr::SIDESLIP_STD, vr::NIS]);
+        bits.extend(values.iter().map(|v| v.to_bits()));
+        bits.push(s.get_integer(vr::STATUS).1 as u64);
+    }
+    bits
+}
+
+#[test]
+fn the_adaptation_is_part_of_the_fmu_state() {
+    let mut s = estimator(|s| {
+        assert_eq!(
+            s.set_boolean(vr::ADAPTIVE_PROCESS_NOISE, true),
+            Fmi2Status::Ok
+        );
+    });
+    run_from(&mut s, 0, 300);
+    let (status, mut state) = s.get_state();
+    assert_eq!(status, Fmi2Status::Ok);
+    let first = run_from(&mut s, 300, 100);
+    assert_eq!(s.set_state(&state), Fmi2Status::Ok);
+    let again = run_from(&mut s, 300, 100);
+    assert!(
+        first == again,
+        "the continuation differs after restoring the state"
+    );
+    assert_eq!(s.free_state(&mut state), Fmi2Status::Ok);
+}
