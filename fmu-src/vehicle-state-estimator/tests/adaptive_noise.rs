@@ -35,29 +35,38 @@ fn sensors(t: f64) -> [f64; 4] {
     [yaw_rate, ay, wheel, wheel]
 }
 
-/// Runs `steps` samples; returns the outputs `[vy, sideslip_std]` per sample and the union of
-/// the status bits.
-fn run(s: &mut Slave, steps: usize) -> (Vec<[f64; 2]>, i32) {
+/// Sample `k`: its sensors in, one doStep; returns `[vy, sideslip_std, nis]` and the status.
+fn sample(s: &mut Slave, k: usize) -> ([f64; 3], i32) {
     let references = [
         vr::YAW_RATE_MEAS,
         vr::AY_MEAS,
         vr::OMEGA_FRONT_MEAS,
         vr::OMEGA_REAR_MEAS,
     ];
+    let t = k as f64 * SAMPLE_TIME;
+    assert_eq!(s.set_reals(&references, &sensors(t)), Fmi2Status::Ok);
+    assert_eq!(
+        s.do_step(t, SAMPLE_TIME),
+        Fmi2Status::Ok,
+        "{:?}",
+        s.log.last()
+    );
+    let values = s.reals(&[vr::VY_EST, vr::SIDESLIP_STD, vr::NIS]);
+    (
+        [values[0], values[1], values[2]],
+        s.get_integer(vr::STATUS).1,
+    )
+}
+
+/// Runs `steps` samples; returns the outputs `[vy, sideslip_std]` per sample and the union of
+/// the status bits.
+fn run(s: &mut Slave, steps: usize) -> (Vec<[f64; 2]>, i32) {
     let mut outputs = Vec::with_capacity(steps);
     let mut bits = 0;
     for k in 0..steps {
-        let t = k as f64 * SAMPLE_TIME;
-        assert_eq!(s.set_reals(&references, &sensors(t)), Fmi2Status::Ok);
-        assert_eq!(
-            s.do_step(t, SAMPLE_TIME),
-            Fmi2Status::Ok,
-            "{:?}",
-            s.log.last()
-        );
-        let values = s.reals(&[vr::VY_EST, vr::SIDESLIP_STD]);
+        let (values, status) = sample(s, k);
         outputs.push([values[0], values[1]]);
-        bits |= s.get_integer(vr::STATUS).1;
+        bits |= status;
     }
     (outputs, bits)
 }
@@ -124,27 +133,13 @@ fn a_window_shorter_than_ten_samples_is_refused_naming_it() {
     assert!(message.contains("adaptation_window"), "{message}");
 }
 
-/// Runs samples `first..first + count` (the sensors of their instants).
+/// Runs samples `first..first + count`; returns every output's bits and status.
 fn run_from(s: &mut Slave, first: usize, count: usize) -> Vec<u64> {
-    let references = [
-        vr::YAW_RATE_MEAS,
-        vr::AY_MEAS,
-        vr::OMEGA_FRONT_MEAS,
-        vr::OMEGA_REAR_MEAS,
-    ];
     let mut bits = Vec::new();
     for k in first..first + count {
-        let t = k as f64 * SAMPLE_TIME;
-        assert_eq!(s.set_reals(&references, &sensors(t)), Fmi2Status::Ok);
-        assert_eq!(
-            s.do_step(t, SAMPLE_TIME),
-            Fmi2Status::Ok,
-            "{:?}",
-            s.log.last()
-        );
-        let values = s.reals(&[vr::VY_EST, vr::SIDESLIP_STD, vr::NIS]);
+        let (values, status) = sample(s, k);
         bits.extend(values.iter().map(|v| v.to_bits()));
-        bits.push(s.get_integer(vr::STATUS).1 as u64);
+        bits.push(status as u64);
     }
     bits
 }
