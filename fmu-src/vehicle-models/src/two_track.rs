@@ -137,14 +137,23 @@ impl TwoTrackParams {
     }
 
     /// Wheel loads `[FL, FR, RL, RR]` with the lateral load transfer of `ay` distributed by the
-    /// roll-moment share (001: text before eq 1).
+    /// roll-moment share (001: text before eq 1). A transfer larger than an axle's static wheel
+    /// load would make the inner wheel's load negative (a light car at about 10 m/s²): the
+    /// inner wheel has lifted, so the transfer is clamped at the static load (inner wheel 0, the
+    /// outer carries the axle; [`Self::wheel_lifted`]). Below that the loads are seed 001's.
     #[inline(always)]
     pub fn wheel_loads<S: Scalar>(&self, lateral_acceleration: S) -> [S; WHEELS] {
         // roll moment m ay h, carried by the axles as ξ and 1 − ξ over the track width
         let transfer_per_share =
             lateral_acceleration * (self.chassis.mass * self.cog_height / self.track_width);
-        let front = transfer_per_share * self.front_roll_moment_share;
-        let rear = transfer_per_share * (1.0 - self.front_roll_moment_share);
+        let front = clamp_transfer(
+            transfer_per_share * self.front_roll_moment_share,
+            self.chassis.front_wheel_load,
+        );
+        let rear = clamp_transfer(
+            transfer_per_share * (1.0 - self.front_roll_moment_share),
+            self.chassis.rear_wheel_load,
+        );
         // in a left turn (ay > 0) the right (outer) wheels gain load
         [
             -front + self.chassis.front_wheel_load,
@@ -152,6 +161,16 @@ impl TwoTrackParams {
             -rear + self.chassis.rear_wheel_load,
             rear + self.chassis.rear_wheel_load,
         ]
+    }
+
+    /// Whether the lateral load transfer of `ay` lifts an inner wheel (its load clamped at 0 in
+    /// [`Self::wheel_loads`]).
+    pub fn wheel_lifted(&self, lateral_acceleration: f64) -> bool {
+        let transfer_per_share =
+            (lateral_acceleration * self.chassis.mass * self.cog_height / self.track_width).abs();
+        transfer_per_share * self.front_roll_moment_share > self.chassis.front_wheel_load
+            || transfer_per_share * (1.0 - self.front_roll_moment_share)
+                > self.chassis.rear_wheel_load
     }
 
     /// Whether wheel `i` is on the (steered) front axle.
@@ -168,6 +187,19 @@ impl TwoTrackParams {
         } else {
             self.chassis.rear_wheel_radius
         }
+    }
+}
+
+/// An axle's load transfer limited to its static wheel load (the inner wheel lifts at most to
+/// zero load). Unchanged, with its derivatives, inside the limit.
+#[inline(always)]
+fn clamp_transfer<S: Scalar>(transfer: S, static_load: f64) -> S {
+    if transfer.value() > static_load {
+        S::constant(static_load)
+    } else if transfer.value() < -static_load {
+        S::constant(-static_load)
+    } else {
+        transfer
     }
 }
 
@@ -525,5 +557,54 @@ impl<T: TyreModel> TwoTrackModel<T> {
             slip_front: mean(w.slip[FRONT_LEFT], w.slip[FRONT_RIGHT]),
             slip_rear: mean(w.slip[REAR_LEFT], w.slip[REAR_RIGHT]),
         }
+    }
+}
+
+#[cfg(test)]
+mod wheel_load_tests {
+    use super::*;
+
+    /// A light car: 700 kg with the seed car's axle distances, static loads from its axle split,
+    /// CoG height 0.7 m, track 1.3 m. At 10 m/s² the front transfer m ay h ξ / s = 2262 N
+    /// exceeds the front static wheel load of 1745 N: the inner wheel would go negative.
+    fn light_car() -> TwoTrackParams {
+        let mut chassis = Chassis {
+            mass: 700.0,
+            ..Chassis::default()
+        };
+        (chassis.front_wheel_load, chassis.rear_wheel_load) = chassis.static_wheel_loads(9.81);
+        TwoTrackParams {
+            chassis,
+            cog_height: 0.7,
+            track_width: 1.3,
+            ..TwoTrackParams::default()
+        }
+    }
+
+    #[test]
+    fn a_light_car_at_10_m_s2_lifts_its_inner_wheel_instead_of_a_negative_load() {
+        let car = light_car();
+        for ay in [10.0, -10.0] {
+            let loads = car.wheel_loads(ay);
+            assert!(loads.iter().all(|&load| load >= 0.0), "{loads:?}");
+            // The axles keep their static load: the outer wheel carries what the inner lost.
+            assert_eq!(loads[0] + loads[1], 2.0 * car.chassis.front_wheel_load);
+            assert!(car.wheel_lifted(ay));
+        }
+        let unclamped = 10.0 * car.chassis.mass * car.cog_height / car.track_width
+            * car.front_roll_moment_share;
+        assert!(unclamped > car.chassis.front_wheel_load);
+    }
+
+    #[test]
+    fn below_the_lift_the_loads_are_seed_001s() {
+        let car = TwoTrackParams::default();
+        let ay = 5.0;
+        let transfer = ay * car.chassis.mass * car.cog_height / car.track_width;
+        let front = transfer * car.front_roll_moment_share;
+        let loads = car.wheel_loads(ay);
+        assert_eq!(loads[0], -front + car.chassis.front_wheel_load);
+        assert_eq!(loads[1], front + car.chassis.front_wheel_load);
+        assert!(!car.wheel_lifted(ay));
     }
 }

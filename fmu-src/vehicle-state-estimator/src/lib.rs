@@ -86,6 +86,9 @@ pub mod status {
     /// An input outside its declared range was clamped by fmi2SetReal/fmi2SetInteger (which
     /// answered fmi2Warning) since the previous doStep (`CoSimulationModel::value_adjusted`).
     pub const INPUT_CLAMPED: i32 = 1024;
+    /// Model B: the load transfer at the estimated ay lifts an inner wheel, whose load is
+    /// clamped at 0 (`TwoTrackParams::wheel_loads`, issue 17 point 4).
+    pub const WHEEL_LIFTED: i32 = 2048;
     /// `adaptive_process_noise` has scaled `Q` up (issue 17 point 3).
     pub const ADAPTING: i32 = 4096;
     /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band (issue 17 point 3).

@@ -42,10 +42,13 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         let source = parameters::source(v);
-        // The same car as model A; track width, CoG height and roll-moment split keep the
-        // two-track defaults (SPEC §4).
+        // The same car as model A with model B's geometry (issue 17 point 4; the defaults are
+        // the two-track model's, SPEC §4).
         let vehicle = TwoTrackParams {
             chassis: source.chassis()?,
+            track_width: positive("track_width", v.track_width)?,
+            cog_height: v.cog_height,
+            front_roll_moment_share: v.roll_moment_distribution_front,
             ..TwoTrackParams::default()
         };
         let tyre = MagicFormulaTyre::new(MagicFormulaParams::matching_hsri(&source.hsri()?));
@@ -126,6 +129,10 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             return Err(status::BELOW_MIN_SPEED);
         };
         let mut bits = 0;
+        let predicted_ay = runner.filter.state()[state_index::LATERAL_ACCELERATION];
+        if runner.model.vehicle().vehicle.wheel_lifted(predicted_ay) {
+            bits |= status::WHEEL_LIFTED;
+        }
         if !sensors.vx.is_finite() {
             // vx_meas is missing and the wheel-speed fallback stands in for it.
             bits |= status::ROW_SKIPPED;
