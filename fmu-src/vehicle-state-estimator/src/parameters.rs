@@ -34,10 +34,12 @@ pub fn estimator_choice(v: &Variables) -> Result<(EstimatorKind, EstimatorChoice
 
 /// The discretisation of the estimator's model.
 pub fn integrator(v: &Variables) -> Result<Integrator, String> {
-    Ok(match IntegratorItem::from_parameter("integrator", v.integrator)? {
-        IntegratorItem::SemiImplicitEuler => Integrator::SemiImplicitEuler,
-        IntegratorItem::RungeKutta4 => Integrator::RungeKutta4,
-    })
+    Ok(
+        match IntegratorItem::from_parameter("integrator", v.integrator)? {
+            IntegratorItem::SemiImplicitEuler => Integrator::SemiImplicitEuler,
+            IntegratorItem::RungeKutta4 => Integrator::RungeKutta4,
+        },
+    )
 }
 
 /// The scaled UKF's sigma points (`ukf_alpha`, `ukf_beta`, `ukf_kappa`).
@@ -47,12 +49,14 @@ pub fn scaled_sigma_points(v: &Variables) -> SigmaPoints {
 
 /// The particle filter's configuration (resampling every step, 003: §2.2.4).
 pub fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, SettingsError> {
-    let scheme = match ParticleResampling::from_parameter("particle_resampling", v.particle_resampling)
-        .map_err(SettingsError)? {
-        ParticleResampling::Multinomial => ResamplingScheme::Multinomial,
-        ParticleResampling::Systematic => ResamplingScheme::Systematic,
-        ParticleResampling::Stratified => ResamplingScheme::Stratified,
-    };
+    let scheme =
+        match ParticleResampling::from_parameter("particle_resampling", v.particle_resampling)
+            .map_err(SettingsError)?
+        {
+            ParticleResampling::Multinomial => ResamplingScheme::Multinomial,
+            ParticleResampling::Systematic => ResamplingScheme::Systematic,
+            ParticleResampling::Stratified => ResamplingScheme::Stratified,
+        };
     let particle_count = usize::try_from(v.particle_count)
         .ok()
         .filter(|&n| n >= 2)

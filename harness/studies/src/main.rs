@@ -133,16 +133,6 @@ enum Command {
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
     },
-    /// Issue 12's robustness cases and the mismatch campaigns (issues 13, 17) on real cars'
-    /// parameter files, the demo's sections "Robustness" and "Mismatch campaigns" on their own
-    Robustness {
-        /// Output folder (report.md, report.html, CSV and plots).
-        #[arg(long, default_value = "out/robustness")]
-        out: PathBuf,
-        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
-        #[arg(long)]
-        fmu_dir: Option<PathBuf>,
-    },
     /// Replay a recorded drive (CSV or ASAM MDF4 .mf4) through the estimator FMU: estimates CSV,
     /// plots against the log's reference channels, score table (format: harness/logs/README.md)
     Replay {
