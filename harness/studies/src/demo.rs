@@ -21,9 +21,9 @@ use estimation::identification::EmSchedule;
 use estimation::models::rear_axle::PARAMETER_NAMES;
 use estimation::particle::Proposal;
 
+use crate::consistency::{self, ConsistencyReport};
 pub use crate::findings::{fmt, window_mean, window_rmse, Finding, Sources};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
-use crate::consistency::{self, ConsistencyReport};
 use crate::mismatch::{self, MismatchReport};
 use crate::robustness::{RealCars, REAL_CARS_STUDY};
 use fmi_master::plot::{self, Panel, Series};
