@@ -94,6 +94,21 @@ impl ModelDescription {
     pub fn unit(&self, name: &str) -> Option<&Unit> {
         self.unit_definitions.iter().find(|unit| unit.name == name)
     }
+
+    /// Names of the Real and Integer parameters that lack `min` or `max` (issue 15 point 2: a
+    /// master can only check a value against bounds that are declared).
+    pub fn unbounded_parameters(&self) -> Vec<&str> {
+        self.variables
+            .iter()
+            .filter(|v| v.causality == Causality::Parameter)
+            .filter(|v| match &v.value {
+                VariableValue::Real { min, max, .. } => min.is_none() || max.is_none(),
+                VariableValue::Integer { min, max, .. } => min.is_none() || max.is_none(),
+                _ => false,
+            })
+            .map(|v| v.name.as_str())
+            .collect()
+    }
 }
 
 /// The `<CoSimulation>` element: capability flags.
