@@ -12,6 +12,7 @@ use std::sync::OnceLock;
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::fit::{fit, FitModel, FitOptions};
+use harness::replay::friction::FrictionFit;
 use harness::replay::{estimator_path, prepare, record, replay, ReplayOptions};
 
 /// The recorded drive as CSV and MF4 in a temporary folder, made once per test binary.
@@ -248,6 +249,21 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
             && text.contains("<ssv:Enumeration value=\"ekf\"/>"),
         "{text}"
     );
+    // The example drive stays below half the friction limit (where the HSRI tyre begins to
+    // slide): no peak friction is fitted, said so, and none written.
+    match fitted.friction {
+        Some(FrictionFit::NotIdentifiable(reach)) => {
+            assert!(
+                reach.high_ay > 0.5 && reach.high_ay < reach.sliding_ay,
+                "{reach:?}"
+            )
+        }
+        other => panic!("the example log stays linear, yet the friction step gave {other:?}"),
+    }
+    assert!(fitted
+        .summary()
+        .contains("peak friction not identifiable: max |ay|"));
+    assert!(!text.contains("tyre_f00"), "{text}");
     // And a scenario's parameter_files: the recording scenario with the fitted EKF beside the car.
     let root = workspace_root();
     let scenario = std::fs::read_to_string(root.join("harness/logs/record_ford_escort.toml"))

@@ -13,10 +13,14 @@
 //!    with `Q`, `R` and `P0` all multiplied by `s²` the Kalman gains do not change and every
 //!    innovation covariance is `s² S`, so the innovation likelihood is maximised by
 //!    `s² = Σ NIS / Σ dof` over the updates, which one FMU run on the training segment reports.
-//! 3. **Held-out score**: the FMU replays the validation segment with the starting parameters
+//! 3. **Peak friction** (model A): `tyre_f00`, only where the training segment reaches the
+//!    friction limit, by the innovation likelihood with the scales and noise fixed
+//!    ([`super::friction`], which states the rule); otherwise the default stays and is not
+//!    written.
+//! 4. **Held-out score**: the FMU replays the validation segment with the starting parameters
 //!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
 //!    freedom (1 for a consistent filter) when the log has no reference.
-//! 4. The `.ssv` holds every parameter the map and `--parameters` set (the car's basic data) and
+//! 5. The `.ssv` holds every parameter the map and `--parameters` set (the car's basic data) and
 //!    the fitted values; `harness run` (`parameter_files`), `replay --parameters` and fmpy
 //!    (`start_values`) read it.
 
@@ -105,6 +109,8 @@ pub struct FitOutcome {
     pub noise_factors: (f64, f64),
     /// Model A: the likelihood search behind them.
     pub noise_fit: Option<super::noise::NoiseFit>,
+    /// Model A: peak friction, fitted where the training segment reaches the limit.
+    pub friction: Option<super::friction::FrictionFit>,
     pub train_rows: Range<usize>,
     pub validate_rows: Range<usize>,
     pub step: f64,
@@ -185,6 +191,17 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
             real_value(&fmu, &with_scales, name)? * factor,
         ));
     }
+    let friction = match options.model {
+        FitModel::A => {
+            let with_noise = with_reals(&fmu, &start, &fitted)?;
+            let found = fit_friction(&fmu, &prepared, &with_noise, train_rows.clone())?;
+            if let super::friction::FrictionFit::Fitted { f00, .. } = found {
+                fitted.push(("tyre_f00".to_string(), f00));
+            }
+            Some(found)
+        }
+        FitModel::B => None,
+    };
     let final_parameters = with_reals(&fmu, &start, &fitted)?;
 
     let (validation_grid, validation_feeds) = segment(&prepared, validate_rows.clone());
@@ -199,6 +216,7 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         scales,
         noise_factors,
         noise_fit,
+        friction,
         step: prepared.grid.step,
         before: report::scores(&references, &before, 0..validation_grid.rows),
         after: report::scores(&references, &after, 0..validation_grid.rows),
@@ -233,6 +251,24 @@ fn fit_noise_a(
     rows: Range<usize>,
 ) -> Result<super::noise::NoiseFit> {
     let (inputs, measurements) = training_rows(prepared, rows);
+    let vehicle = vehicle(fmu, values)?;
+    super::noise::fit_noise(&noise_problem(
+        fmu,
+        prepared,
+        values,
+        &vehicle,
+        (&inputs, &measurements),
+    )?)
+}
+
+/// Model A's likelihood problem on training rows with the noise `values` set.
+fn noise_problem<'a>(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    vehicle: &'a SingleTrackHsri,
+    (inputs, measurements): (&'a [[f64; 3]], &'a [[f64; 4]]),
+) -> Result<super::noise::NoiseProblem<'a>> {
     let std = |names: &[&str]| {
         names
             .iter()
@@ -241,8 +277,8 @@ fn fit_noise_a(
     };
     let process = std(&NOISE_PARAMETERS[..5])?;
     let measurement = std(&NOISE_PARAMETERS[7..11])?;
-    super::noise::fit_noise(&super::noise::NoiseProblem {
-        vehicle: &vehicle(fmu, values)?,
+    Ok(super::noise::NoiseProblem {
+        vehicle,
         sample_time: prepared.grid.step,
         process_std: [process[0], process[1], process[2], process[3], process[4]],
         measurement_std: [
@@ -252,8 +288,47 @@ fn fit_noise_a(
             measurement[3],
         ],
         initial_std: crate::mismatch::identification_config().initial_std,
-        inputs: &inputs,
-        measurements: &measurements,
+        inputs,
+        measurements,
+    })
+}
+
+/// Model A: `tyre_f00` where the training rows reach the friction limit
+/// ([`super::friction`]), with the fitted scales and noise in `values`.
+fn fit_friction(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    rows: Range<usize>,
+) -> Result<super::friction::FrictionFit> {
+    use super::friction::{golden_section, reach, FrictionFit, F00_RANGE, F00_TOLERANCE};
+    let (inputs, measurements) = training_rows(prepared, rows);
+    let f00_start = real_value(fmu, values, "tyre_f00")?;
+    // f0 at the reference load, q = 1 (000: 5.67).
+    let f0 = f00_start - real_value(fmu, values, "tyre_f01")?;
+    let ay: Vec<f64> = measurements.iter().map(|y| y[1]).collect();
+    let reach = reach(&ay, f0);
+    if !reach.identifiable() {
+        return Ok(FrictionFit::NotIdentifiable(reach));
+    }
+    let data = (inputs.as_slice(), measurements.as_slice());
+    let likelihood = |f00: f64| -> Result<f64> {
+        let trial = with_reals(fmu, values, &[("tyre_f00".to_string(), f00)])?;
+        let vehicle = vehicle(fmu, &trial)?;
+        super::noise::negative_log_likelihood(
+            &noise_problem(fmu, prepared, &trial, &vehicle, data)?,
+            1.0,
+            1.0,
+        )
+    };
+    let negative_log_likelihood_start = likelihood(f00_start)?;
+    let (f00, negative_log_likelihood) = golden_section(likelihood, F00_RANGE, F00_TOLERANCE)?;
+    Ok(FrictionFit::Fitted {
+        reach,
+        f00,
+        f00_start,
+        negative_log_likelihood,
+        negative_log_likelihood_start,
     })
 }
 
@@ -555,6 +630,9 @@ impl FitOutcome {
                 )
             }
             None => text += " (model B: sqrt of the training NIS per degree of freedom)\n",
+        }
+        if let Some(friction) = self.friction {
+            text += &friction.summary();
         }
         text += &format!("  held-out NIS per degree of freedom: {:.2} with the starting parameters, {:.2} fitted\n", self.nis_before, self.nis_after);
         text += "  held-out scores, starting parameters:\n";

@@ -12,6 +12,7 @@
 pub mod align;
 pub mod drive;
 pub mod fit;
+pub mod friction;
 pub mod log;
 pub mod map;
 pub mod noise;

@@ -69,7 +69,11 @@ pub fn fit_noise(problem: &NoiseProblem) -> Result<NoiseFit> {
 }
 
 /// `−log L` per used sample with the noise standard deviations scaled.
-fn negative_log_likelihood(problem: &NoiseProblem, process: f64, measurement: f64) -> Result<f64> {
+pub(super) fn negative_log_likelihood(
+    problem: &NoiseProblem,
+    process: f64,
+    measurement: f64,
+) -> Result<f64> {
     let squared = |std: f64, factor: f64| (std * factor).powi(2);
     let model = SingleTrackEstimationModel::new(
         problem.vehicle.clone(),
