@@ -15,7 +15,7 @@ use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 
-use crate::model_description::{RealOutputs, Variables};
+use crate::model_description::{EstimatorModel, RealOutputs, Variables};
 use crate::parameters::{self, positive};
 use crate::state::{Sink, Source};
 use crate::status;
@@ -199,6 +199,43 @@ pub struct OutputSample<const N: usize, Extra> {
     pub rows_used: i32,
     /// The filter held its estimate in this sample (low speed, or waiting for a measured speed).
     pub holding: bool,
+    /// The speed the sensors measured in a held sample, if any.
+    pub held_speed: Option<MeasuredSpeed>,
+}
+
+/// A speed as the sensors measure it, without the filter: what a held sample reports as vx_est.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasuredSpeed {
+    pub speed: f64,
+    /// The measurement's standard deviation, m/s.
+    pub std: f64,
+}
+
+impl MeasuredSpeed {
+    /// `vx_meas` if finite (negative when reversing) and the model reads it (model B always,
+    /// model A with `use_speed_measurements`; XML: vx_meas), else the wheels' rolling speed
+    /// `r ω` with the larger wheel noise `r σ_ω`; no threshold, since the held sample is below
+    /// `min_speed` (issue 12, point 4).
+    pub fn of(sensors: &Sensors, v: &Variables) -> Option<Self> {
+        let reads_vx_meas = v.use_speed_measurements
+            || matches!(
+                parameters::estimator_model(v),
+                Ok(EstimatorModel::TwoTrack3State)
+            );
+        if reads_vx_meas && sensors.vx.is_finite() {
+            return Some(Self {
+                speed: sensors.vx,
+                std: v.measurement_noise_std_vx,
+            });
+        }
+        let radii = WheelRadii::of(v);
+        let wheel_std = (radii.front * v.measurement_noise_std_omega_front)
+            .max(radii.rear * v.measurement_noise_std_omega_rear);
+        sensors.wheel_speed(radii).map(|speed| Self {
+            speed,
+            std: wheel_std,
+        })
+    }
 }
 
 /// The sideslip's standard deviation reported while the filter holds at low speed: about 6°, the
@@ -255,6 +292,8 @@ where
     /// The last sample held the estimate (for its outputs; not part of the FMU state, whose
     /// outputs are published before it is taken).
     holding: bool,
+    /// The measured speed of the last held sample (for its outputs, like `holding`).
+    held_speed: Option<MeasuredSpeed>,
     gate: Option<Gate>,
     /// Samples in a row for which each plausible row was gated (FMU state).
     gated_samples: [u64; M],
@@ -330,6 +369,7 @@ where
             nis: 0.0,
             rows_used: 0,
             holding: false,
+            held_speed: None,
             gate,
             gated_samples: [0; M],
             started: !v.start_from_measurements,
@@ -409,12 +449,12 @@ where
                     self.started = true;
                     bits |= status::INITIALISING;
                 }
-                _ => return self.hold(status::INITIALISING),
+                _ => return self.hold(sensors, status::INITIALISING),
             }
         }
         let sample = match Model::sample(self, sensors) {
             Ok(sample) => sample,
-            Err(hold_bits) => return self.hold(bits | hold_bits),
+            Err(hold_bits) => return self.hold(sensors, bits | hold_bits),
         };
         bits |= sample.bits;
         let offered_rows = sample.offered.iter().zip(sample.measurement.iter());
@@ -460,10 +500,11 @@ where
     }
 
     /// A sample on which the filter holds its estimate.
-    fn hold(&mut self, bits: i32) -> i32 {
+    fn hold(&mut self, sensors: &Sensors, bits: i32) -> i32 {
         self.nis = 0.0;
         self.rows_used = 0;
         self.holding = true;
+        self.held_speed = MeasuredSpeed::of(sensors, &self.parameters);
         bits
     }
 
@@ -546,6 +587,7 @@ where
             nis: self.nis,
             rows_used: self.rows_used,
             holding: self.holding,
+            held_speed: self.held_speed,
         });
     }
 
@@ -567,10 +609,7 @@ where
             values.fill_from(&self.model.outputs(sample, &self.parameters), &mut finite);
         }
         if newest.holding {
-            // The held estimate's sideslip is stale and its std overconfident: the steering
-            // geometry's sideslip with a std that says it is a guess.
-            values.sideslip_est = kinematic_sideslip(newest.input[0], &self.parameters);
-            values.sideslip_std = LOW_SPEED_SIDESLIP_STD;
+            self.honest_held_outputs(newest, &mut values);
         }
         values.write_where(&finite, variables);
         variables.rows_used = newest.rows_used;
@@ -578,6 +617,19 @@ where
             variables.status |= status::STATE_RESET;
         }
         self.pending.clear();
+    }
+
+    /// A held sample's estimate is stale and its stds overconfident (issue 12, point 4): the
+    /// sideslip of the steering geometry with a std that says it is a guess, and the measured
+    /// speed (0 standing, negative reversing) with at least the measurement's std.
+    fn honest_held_outputs(&self, held: &OutputSample<N, Model::Extra>, values: &mut RealOutputs) {
+        values.sideslip_est = kinematic_sideslip(held.input[0], &self.parameters);
+        values.sideslip_std = LOW_SPEED_SIDESLIP_STD;
+        if let Some(measured) = held.held_speed {
+            values.vx_est = measured.speed;
+            values.vx_std = values.vx_std.max(measured.std);
+            values.vy_est = measured.speed * values.sideslip_est.tan();
+        }
     }
 
     /// Forgets the outputs not yet computed (they were published before a state was taken).

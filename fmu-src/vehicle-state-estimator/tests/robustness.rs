@@ -438,3 +438,50 @@ fn model_b_gates_glitches_and_starts_from_the_measurements_too() {
         }
     }
 }
+
+#[test]
+fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_away_reseeds() {
+    // Sensors of a car that brakes from 3 m/s to a stop, stands 3 s, reverses to -2 m/s, holds
+    // it, and drives forward through standstill to 4 m/s (issue 12, point 4). While held, vx_est
+    // is the measured speed of this sample (the filter's outputs are one sample ahead), so it
+    // lags by one sample, 0.01 m/s at these accelerations.
+    let radius = escort().front_wheel_radius;
+    let speed = |t: f64| match t {
+        t if t < 3.0 => 3.0 - t,
+        t if t < 6.0 => 0.0,
+        t if t < 8.0 => -(t - 6.0),
+        t if t < 10.0 => -2.0,
+        t if t < 16.0 => -2.0 + (t - 10.0),
+        _ => 4.0,
+    };
+    let mut s = estimator(estimator_kind::EKF);
+    let (mut stood, mut reversed, mut pulled_away) = (false, false, false);
+    for k in 0..1800 {
+        let t = k as f64 * STEP;
+        let v = speed(t);
+        let ax = (speed(t + STEP) - v) / STEP;
+        s.set_reals(&SENSORS, &[0.0, 0.0, v / radius, v / radius, ax, v]);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok);
+        let [vx, vx_std, sideslip_std] = s.reals(&[vr::VX_EST, vr::VX_STD, vr::SIDESLIP_STD])[..]
+        else {
+            unreachable!()
+        };
+        let held = s.get_integer(vr::STATUS).1 & status::BELOW_MIN_SPEED != 0;
+        assert!((vx - v).abs() < 0.2, "t = {t}: vx_est {vx} vs {v}");
+        if (3.5..6.0).contains(&t) {
+            // Standing: the measured 0, with at least vx_meas's std (0.1 m/s, the default of
+            // measurement_noise_std_vx) and a sideslip std of at least 5°.
+            assert!(held, "t = {t}");
+            assert!(vx.abs() < 1e-9 && vx_std >= 0.1, "t = {t}: {vx} ± {vx_std}");
+            assert!(sideslip_std >= 5f64.to_radians(), "t = {t}: {sideslip_std}");
+            stood = true;
+        }
+        reversed |= (8.5..10.0).contains(&t) && held && (vx + 2.0).abs() < 1e-9;
+        if t >= 13.5 {
+            // Forward above min_speed again: the filter was re-seeded and runs.
+            assert!(!held, "t = {t}: still held at {vx}");
+            pulled_away = true;
+        }
+    }
+    assert!(stood && reversed && pulled_away);
+}
