@@ -8,13 +8,13 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 
 use crate::cosim::{ParameterValue, Plan, RunOptions, RunResult};
 use crate::fmu::VariableType;
 use crate::scenario::VarRef;
-use crate::scoring::{self, chi_square_quantile, matching_columns, RunScores};
+use crate::scoring::{self, average_band, chi_square_quantile, matching_columns, Band, RunScores};
 
 /// Mean and sample standard deviation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -134,11 +134,200 @@ fn check_seed_variable(plan: &Plan, r: &VarRef) -> Result<()> {
 /// One run of `plan` with `options`, scored: every Monte Carlo run goes through here, and so
 /// does every case of a campaign chunk (`harness cases`), so both give the same bits.
 pub fn scored_run(plan: &Plan, options: &RunOptions) -> Result<(RunScores, NeesSeries)> {
+    scored_run_with(plan, options, &|_| Ok(())).map(|(scores, nees, ())| (scores, nees))
+}
+
+/// [`scored_run`] that also hands the recording to `read` before it is recycled, for what a
+/// study needs beyond the scores (a trajectory, an error series).
+pub fn scored_run_with<T>(
+    plan: &Plan,
+    options: &RunOptions,
+    read: &dyn Fn(&RunResult) -> Result<T>,
+) -> Result<(RunScores, NeesSeries, T)> {
     let result = plan.run(options, |_| {})?;
     let scores = scoring::score_run(&plan.scenario, &result);
     let nees = nees_series(plan, &result);
+    let read = read(&result);
     plan.recycle(result);
-    Ok((scores, nees))
+    Ok((scores, nees, read?))
+}
+
+/// The scenario's `[montecarlo] seeds` and `extra_seeds`, each checked to be an Integer
+/// parameter; at least one.
+pub fn seed_variables(plan: &Plan, extra_seeds: &[VarRef]) -> Result<Vec<VarRef>> {
+    let mut seed_vars: Vec<VarRef> = plan
+        .scenario
+        .montecarlo
+        .seeds
+        .iter()
+        .filter_map(|s| VarRef::parse(s))
+        .collect();
+    seed_vars.extend(extra_seeds.iter().cloned());
+    for r in &seed_vars {
+        check_seed_variable(plan, r)?;
+    }
+    if seed_vars.is_empty() {
+        bail!(
+            "scenario {}: no seed parameter to vary: add [montecarlo] seeds = [\"inst.seed\"] or pass --seed-var",
+            plan.scenario.source.display()
+        );
+    }
+    Ok(seed_vars)
+}
+
+/// Run `index`'s options: every seed variable set to `seed`, instance names suffixed with the
+/// index (unique per worker thread).
+pub fn seeded_options(seed_vars: &[VarRef], index: usize, seed: i32) -> RunOptions {
+    RunOptions {
+        instance_suffix: format!("#run{index}"),
+        overrides: seed_vars
+            .iter()
+            .map(|r| (r.clone(), ParameterValue::Integer(seed)))
+            .collect(),
+    }
+}
+
+/// One run of [`stream_runs`]: its index, scores, NEES series and what the study read.
+pub struct ScoredRun<T> {
+    pub index: usize,
+    pub scores: RunScores,
+    pub nees: NeesSeries,
+    pub read: T,
+}
+
+/// Runs seeds `first_seed ..` of `plan` like [`run`], but a few at a time (two per worker
+/// thread) and hands each to `consume` in run order as soon as its batch is done: a study that
+/// keeps sums instead of every run holds one batch of recordings at a time, and gets the same
+/// bits for any thread count.
+pub fn stream_runs<T: Send>(
+    plan: &Plan,
+    runs: usize,
+    first_seed: i32,
+    read: &(dyn Fn(&RunResult) -> Result<T> + Sync),
+    consume: &mut dyn FnMut(ScoredRun<T>) -> Result<()>,
+) -> Result<()> {
+    let seed_vars = seed_variables(plan, &[])?;
+    let batch = 2 * rayon::current_num_threads();
+    for start in (0..runs).step_by(batch) {
+        let done: Vec<Result<ScoredRun<T>>> = (start..(start + batch).min(runs))
+            .into_par_iter()
+            .map(|index| {
+                let seed = first_seed.wrapping_add(index as i32);
+                let options = seeded_options(&seed_vars, index, seed);
+                let (scores, nees, read) = scored_run_with(plan, &options, read)
+                    .with_context(|| format!("Monte Carlo run {index} (seed {seed})"))?;
+                Ok(ScoredRun {
+                    index,
+                    scores,
+                    nees,
+                    read,
+                })
+            })
+            .collect();
+        for run in done {
+            consume(run?)?;
+        }
+    }
+    Ok(())
+}
+
+/// The 95 % band of a NEES (one degree of freedom) averaged over `runs` runs at one instant:
+/// chi-square(N)/N (Bar-Shalom et al., ch. 5.4).
+pub fn run_averaged_band(runs: usize) -> Band {
+    average_band(runs as f64, runs)
+}
+
+/// One state's NEES series of every run, summed instant by instant in run order.
+#[derive(Debug, Clone, Default)]
+pub struct NeesOverRuns {
+    sums: Vec<f64>,
+    /// Whether every run's NEES was finite at the instant.
+    finite: Vec<bool>,
+    runs: usize,
+}
+
+impl NeesOverRuns {
+    /// Adds one run's series (the same instants as the runs before).
+    pub fn add(&mut self, nees: &[f64]) {
+        if self.runs == 0 {
+            self.sums = nees.to_vec();
+            self.finite = nees.iter().map(|v| v.is_finite()).collect();
+        } else {
+            for ((sum, finite), v) in self.sums.iter_mut().zip(&mut self.finite).zip(nees) {
+                *sum += v;
+                *finite &= v.is_finite();
+            }
+        }
+        self.runs += 1;
+    }
+
+    /// ANEES (the run-averaged NEES averaged over time) and the share of instants whose
+    /// run-averaged NEES is inside [`run_averaged_band`], over the instants where every run's
+    /// NEES is finite; NaN for both when there is none (or no run).
+    pub fn consistency(&self) -> (f64, f64) {
+        if self.runs == 0 {
+            return (f64::NAN, f64::NAN);
+        }
+        let n = self.runs as f64;
+        let band = run_averaged_band(self.runs);
+        let (mut total, mut counted, mut inside) = (0.0, 0usize, 0usize);
+        for (sum, _) in self.sums.iter().zip(&self.finite).filter(|(_, f)| **f) {
+            let mean = sum / n;
+            total += mean;
+            counted += 1;
+            if mean >= band.0 && mean <= band.1 {
+                inside += 1;
+            }
+        }
+        if counted == 0 {
+            (f64::NAN, f64::NAN)
+        } else {
+            (total / counted as f64, inside as f64 / counted as f64)
+        }
+    }
+}
+
+/// One estimator's NIS and rows used (its degrees of freedom) of every run, summed instant by
+/// instant in run order: for a consistent filter the run-summed NIS of an instant is
+/// chi-square with the run-summed rows (Bar-Shalom et al., ch. 5.4).
+#[derive(Debug, Clone, Default)]
+pub struct NisOverRuns {
+    sums: Vec<(f64, f64)>,
+}
+
+impl NisOverRuns {
+    /// Adds one run's `(NIS, rows used)` per instant.
+    pub fn add(&mut self, nis: &[(f64, f64)]) {
+        if self.sums.is_empty() {
+            self.sums = nis.to_vec();
+        } else {
+            for (sum, (value, dof)) in self.sums.iter_mut().zip(nis) {
+                *sum = (sum.0 + value, sum.1 + dof);
+            }
+        }
+    }
+
+    /// The time average of the run-summed NIS per run-summed row (1 when consistent) and the
+    /// share of instants inside the 95 % band of chi-square(run-summed rows), over the instants
+    /// with a row in some run (the others had no update).
+    pub fn consistency(&self) -> (f64, f64) {
+        let used: Vec<&(f64, f64)> = self.sums.iter().filter(|(_, dof)| *dof > 0.0).collect();
+        let inside = used
+            .iter()
+            .filter(|(value, dof)| {
+                let band = (
+                    chi_square_quantile(0.025, *dof),
+                    chi_square_quantile(0.975, *dof),
+                );
+                (band.0..=band.1).contains(value)
+            })
+            .count();
+        let count = used.len().max(1) as f64;
+        (
+            used.iter().map(|(v, d)| v / d).sum::<f64>() / count,
+            inside as f64 / count,
+        )
+    }
 }
 
 /// Run `runs` seeds of `plan` in parallel; run i sets every `montecarlo.seeds` parameter (and
@@ -157,36 +346,13 @@ pub fn run(
     if i32::try_from(last_seed).is_err() {
         bail!("--first-seed {first_seed} with {runs} runs gives seeds beyond the 32-bit Integer range");
     }
-    let mut seed_vars: Vec<VarRef> = plan
-        .scenario
-        .montecarlo
-        .seeds
-        .iter()
-        .filter_map(|s| VarRef::parse(s))
-        .collect();
-    seed_vars.extend(extra_seeds.iter().cloned());
-    for r in &seed_vars {
-        check_seed_variable(plan, r)?;
-    }
-    if seed_vars.is_empty() {
-        bail!(
-            "scenario {}: no seed parameter to vary: add [montecarlo] seeds = [\"inst.seed\"] or pass --seed-var",
-            plan.scenario.source.display()
-        );
-    }
+    let seed_vars = seed_variables(plan, extra_seeds)?;
     let finished = AtomicUsize::new(0);
     let outcomes: Vec<Result<(RunScores, NeesSeries)>> = (0..runs)
         .into_par_iter()
         .map(|i| {
             let seed = first_seed.wrapping_add(i as i32); // In range: checked above.
-            let options = RunOptions {
-                instance_suffix: format!("#run{i}"),
-                overrides: seed_vars
-                    .iter()
-                    .map(|r| (r.clone(), ParameterValue::Integer(seed)))
-                    .collect(),
-            };
-            let outcome = scored_run(plan, &options);
+            let outcome = scored_run(plan, &seeded_options(&seed_vars, i, seed));
             finished.fetch_add(1, Ordering::Relaxed);
             on_done();
             outcome.map_err(|e| e.context(format!("Monte Carlo run {i} (seed {seed})")))
@@ -196,11 +362,7 @@ pub fn run(
     for outcome in outcomes {
         per_run.push(outcome?);
     }
-    let n = runs as f64;
-    let band = (
-        chi_square_quantile(0.025, n) / n,
-        chi_square_quantile(0.975, n) / n,
-    );
+    let band = run_averaged_band(runs);
     let first = &per_run[0].0;
     let mut states = Vec::new();
     for (index, s) in first.states.iter().enumerate() {
@@ -219,30 +381,11 @@ pub fn run(
             .iter()
             .position(|(k, _)| *k == key)
             .map(|series_index| {
-                let length = per_run[0].1[series_index].1.len();
-                let mut inside = 0usize;
-                let mut counted = 0usize;
-                let mut total = 0.0;
-                for k in 0..length {
-                    let values: Vec<f64> = per_run
-                        .iter()
-                        .map(|(_, series)| series[series_index].1[k])
-                        .collect();
-                    if values.iter().any(|v| !v.is_finite()) {
-                        continue;
-                    }
-                    let mean = values.iter().sum::<f64>() / n;
-                    total += mean;
-                    counted += 1;
-                    if mean >= band.0 && mean <= band.1 {
-                        inside += 1;
-                    }
+                let mut over_runs = NeesOverRuns::default();
+                for (_, series) in &per_run {
+                    over_runs.add(&series[series_index].1);
                 }
-                if counted == 0 {
-                    (f64::NAN, f64::NAN)
-                } else {
-                    (total / counted as f64, inside as f64 / counted as f64)
-                }
+                over_runs.consistency()
             });
         states.push(StateSummary {
             label: s.label.clone(),
@@ -341,4 +484,33 @@ pub fn to_markdown(summary: &MonteCarloSummary) -> String {
         md += &format!("| {name} | {:.2} ± {:.2} |\n", s.mean * 1e6, s.std * 1e6);
     }
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nees_over_runs_leaves_out_instants_with_a_non_finite_run() {
+        let mut over_runs = NeesOverRuns::default();
+        over_runs.add(&[1.0, f64::NAN, 9.0]);
+        over_runs.add(&[1.0, 2.0, 9.0]);
+        // Instants 0 and 2: run averages 1 and 9; chi-square(2)/2's 95 % band is
+        // [0.025, 3.69], so only the first is inside.
+        let band = run_averaged_band(2);
+        assert!(band.0 < 1.0 && band.1 < 9.0, "{band:?}");
+        assert_eq!(over_runs.consistency(), (5.0, 0.5));
+        assert!(NeesOverRuns::default().consistency().0.is_nan());
+    }
+
+    #[test]
+    fn nis_over_runs_tests_the_summed_nis_against_the_summed_rows() {
+        let mut over_runs = NisOverRuns::default();
+        let run = [(2.0, 2.0), (0.0, 0.0), (100.0, 2.0)];
+        over_runs.add(&run);
+        over_runs.add(&run);
+        // Summed: (4, 4), no update, (200, 4); per row 1 and 50; chi-square(4)'s 95 % band is
+        // [0.48, 11.1]: the first inside, the last not, the instant without rows left out.
+        assert_eq!(over_runs.consistency(), (25.5, 0.5));
+    }
 }

@@ -64,6 +64,30 @@ pub fn default_fmu_dir() -> PathBuf {
     }
 }
 
+/// The archives `cargo run --release -p packaging` writes into [`default_fmu_dir`].
+pub const PACKAGED_FMUS: [&str; 2] = ["ReferenceVehicle.fmu", "VehicleStateEstimator.fmu"];
+
+/// `dir` when it holds every one of [`PACKAGED_FMUS`]; otherwise an error naming the missing
+/// archive and the command that builds it.
+pub fn packaged_fmus_in(dir: &Path) -> Result<PathBuf> {
+    for archive in PACKAGED_FMUS {
+        let path = dir.join(archive);
+        if !path.is_file() {
+            bail!(
+                "{} missing: build the FMUs with `cargo run --release -p packaging`",
+                path.display()
+            );
+        }
+    }
+    Ok(dir.to_path_buf())
+}
+
+/// [`default_fmu_dir`] once the packaged FMUs are in it ([`packaged_fmus_in`]): the check every
+/// test that runs the FMUs makes first.
+pub fn packaged_fmu_dir() -> Result<PathBuf> {
+    packaged_fmus_in(&default_fmu_dir())
+}
+
 /// The workspace this binary was built from (this crate sits in `<workspace>/harness/master`).
 pub fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -357,4 +381,33 @@ pub fn scores_table(scores: &RunScores) -> String {
         out += &format!("doStep wall time {instance:<14} {:.2} us\n", seconds * 1e6);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_archive_is_named_with_the_command_that_builds_it() {
+        let dir = std::env::temp_dir().join(format!("runner-packaged-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let missing = format!("{:#}", packaged_fmus_in(&dir).unwrap_err());
+        assert!(
+            missing.contains("ReferenceVehicle.fmu missing"),
+            "{missing}"
+        );
+        assert!(
+            missing.contains("cargo run --release -p packaging"),
+            "{missing}"
+        );
+        std::fs::write(dir.join(PACKAGED_FMUS[0]), b"").unwrap();
+        let missing = format!("{:#}", packaged_fmus_in(&dir).unwrap_err());
+        assert!(
+            missing.contains("VehicleStateEstimator.fmu missing"),
+            "{missing}"
+        );
+        std::fs::write(dir.join(PACKAGED_FMUS[1]), b"").unwrap();
+        assert_eq!(packaged_fmus_in(&dir).unwrap(), dir);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -5,8 +5,7 @@ use std::path::{Path, PathBuf};
 
 use fmi_master::fmu::{platform_folder, FmuError, LoadedFmu};
 
-mod common;
-use common::{write_zip, Scratch};
+use crate::common::{write_zip, Scratch};
 
 const DESCRIPTION: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="Tiny" guid="{00000000-0000-0000-0000-000000000001}" variableNamingConvention="flat" numberOfEventIndicators="0">

@@ -16,8 +16,7 @@ use fmi_master::montecarlo;
 use fmi_master::runner::{self, default_fmu_dir, Environment, WorkFolder};
 use fmi_master::scenario::{Scenario, VarRef, MAX_STEPS};
 
-mod common;
-use common::{write_zip, Scratch, GOOD};
+use crate::common::{write_zip, Scratch, GOOD};
 
 fn parse(text: &str) -> Result<Scenario, String> {
     Scenario::from_str_at(text, Path::new("probe.toml"), Path::new(".")).map_err(|e| e.to_string())

@@ -11,8 +11,7 @@ use fmi_master::cosim::{Plan, RunOptions};
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use fmi_master::scenario::Scenario;
 
-mod common;
-use common::Scratch;
+use crate::common::Scratch;
 
 fn cars_dir() -> PathBuf {
     workspace_root().join("fmu-src/reference-vehicle/cars")

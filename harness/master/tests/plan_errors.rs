@@ -11,8 +11,7 @@ use fmi_master::cosim::Plan;
 use fmi_master::runner::default_fmu_dir;
 use fmi_master::scenario::Scenario;
 
-mod common;
-use common::GOOD;
+use crate::common::GOOD;
 
 fn plan_error(text: &str) -> String {
     let fmu_dir = default_fmu_dir();

@@ -1,8 +1,5 @@
 //! Helpers shared by the integration tests: a scratch folder, a zip writer, a scenario.
 
-// Each test binary compiles this module and uses only part of it.
-#![allow(dead_code)]
-
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
