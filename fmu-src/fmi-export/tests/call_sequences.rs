@@ -1,9 +1,9 @@
 //! The FMI call-sequence driver of the fuzz targets (`fmi_export::fuzzing`) on the toy model,
 //! with pseudo-random inputs: a bounded, deterministic run in the test suite. Longer runs:
-//! `FUZZ_CASES=1000000 cargo test --release -p fmi-export --test call_sequences -- --nocapture`;
+//! `FUZZ_CASES=1000000 cargo test --release -p fmi-export --test integration call_sequences:: -- --nocapture`;
 //! coverage-guided runs on the real FMUs: see fmu-src/fmi-export/fuzz/README.md.
 
-mod toy;
+use crate::toy;
 
 use fmi_export::fuzzing::drive_calls;
 use fmi_export::CoSimulationModel;

@@ -2,7 +2,7 @@
 //! categories (issue 15 point 3, issue 12 point 5): fmi2Warning with a log line, every other
 //! value of the call applied, the instance usable afterwards.
 
-mod toy;
+use crate::toy;
 
 use fmi_export::ffi::{Fmi2Status, FMI2_TRUE};
 use fmi_export::testing::Slave;

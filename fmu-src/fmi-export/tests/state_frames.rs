@@ -3,7 +3,7 @@
 //! never hangs or crashes the instance (issue 15, point 4). Deterministic and bounded: a few
 //! thousand cases in well under a second.
 
-mod toy;
+use crate::toy;
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::Slave;

@@ -2,7 +2,7 @@
 //! would make a step loop without bound is refused at initialisation (point 2): the toy takes
 //! at most 1000 internal steps per call.
 
-mod toy;
+use crate::toy;
 
 use fmi_export::ffi::Fmi2Status;
 use toy::vr;

@@ -6,7 +6,7 @@ use fmi_export::fmi2_api_of;
 use fmi_export::testing::{Fmi2Api, Slave};
 use ReferenceVehicle::model_description::{vr, GUID};
 
-mod common;
+use crate::common;
 
 fn api() -> Fmi2Api {
     fmi2_api_of!(ReferenceVehicle)

@@ -1,7 +1,7 @@
 //! The car files of vehicle-models (`fmu-src/vehicle-models/cars/*.toml`, each car's values in
 //! one place) as SSP parameter-value files for the ReferenceVehicle (`cars/*.ssv` of this crate):
 //! generated, kept current by this test (`UPDATE_CAR_PARAMETER_SETS=1 cargo test -p
-//! reference-vehicle --test car_parameter_sets` rewrites them), every name a parameter of the FMU.
+//! reference-vehicle --test integration car_parameter_sets::` rewrites them), every name a parameter of the FMU.
 
 use std::path::{Path, PathBuf};
 
@@ -49,7 +49,7 @@ fn every_car_file_has_a_current_parameter_value_file() {
         let stored = std::fs::read_to_string(ssv_path(stem)).unwrap_or_default();
         assert_eq!(
             stored, generated,
-            "{stem}.ssv is stale: run UPDATE_CAR_PARAMETER_SETS=1 cargo test -p reference-vehicle --test car_parameter_sets"
+            "{stem}.ssv is stale: run UPDATE_CAR_PARAMETER_SETS=1 cargo test -p reference-vehicle --test integration car_parameter_sets::"
         );
     }
 }

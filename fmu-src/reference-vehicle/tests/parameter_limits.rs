@@ -8,7 +8,7 @@ use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use ReferenceVehicle::model_description::{vr, GUID};
 
-mod common;
+use crate::common;
 use common::NOISE_LEVELS;
 
 const XML: &str = concat!(

@@ -209,8 +209,6 @@ impl CoSimulationModel for Toy {
 fmi_export::export_fmi2!(Toy);
 
 /// A fresh instance of the toy, driven through its C ABI.
-// Each test binary compiles this module; call_sequences.rs drives the toy without it.
-#[allow(dead_code)]
 pub fn slave() -> fmi_export::testing::Slave {
     let api = fmi_export::fmi2_api_of!(crate::toy);
     fmi_export::testing::Slave::instantiate(api, "toy", Toy::GUID).expect("instantiate")

@@ -1,0 +1,9 @@
+//! The crate's integration tests, one module per file, in one test binary: the crate and its
+//! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
+//! `cargo test -p fmi-export --test integration <module>::` runs one file's tests.
+
+mod toy;
+mod call_sequences;
+mod setters_and_logging;
+mod state_frames;
+mod work_per_call;
