@@ -2,8 +2,8 @@
 //! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
 //! `cargo test -p fmi-export --test integration <module>::` runs one file's tests.
 
-mod toy;
 mod call_sequences;
 mod setters_and_logging;
 mod state_frames;
+mod toy;
 mod work_per_call;

@@ -2,9 +2,9 @@
 //! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
 //! `cargo test -p reference-vehicle --test integration <module>::` runs one file's tests.
 
-mod common;
 mod c_api;
 mod car_parameter_sets;
+mod common;
 mod feed_through;
 mod load_unload;
 mod parameter_limits;
