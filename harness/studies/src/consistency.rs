@@ -28,15 +28,15 @@ use anyhow::{anyhow, bail, Context, Result};
 use estimation::models::single_track::SingleTrackEstimationModel;
 use estimation::pcrlb::PosteriorCramerRao;
 use nalgebra::{SMatrix, SVector};
-use rayon::prelude::*;
 
-use fmi_master::cosim::{ParameterValue, Plan, RunOptions, RunResult};
-use fmi_master::montecarlo::Spread;
+use fmi_master::cosim::{Plan, RunResult};
+use fmi_master::montecarlo::{
+    run_averaged_band, stream_runs, NeesOverRuns, NisOverRuns, ScoredRun, Spread,
+};
 use fmi_master::plot::{draw_panels, Panel, Series};
 use fmi_master::report::Document;
 use fmi_master::runner::{scenario_dir, Environment};
-use fmi_master::scenario::{Scenario, VarRef};
-use fmi_master::scoring::chi_square_quantile;
+use fmi_master::scenario::{Scenario, ScoreSection};
 
 /// Model A's states as the FMUs publish them: label, truth variable of the ReferenceVehicle,
 /// estimate and one-sigma outputs of the estimator. The first five are the filter state
@@ -149,14 +149,14 @@ pub struct ConsistencyReport {
     pub settle_time: f64,
 }
 
-/// One run's truth and per-instant errors.
+/// What the study reads from one run's recording besides the master's scores and NEES: the
+/// truth for the bound, the squared errors for the RMSE, the NIS per instant.
 struct RunData {
     /// `[x (5), u (3)]` per instant.
     truth: Vec<[f64; FILTER_STATES + 3]>,
-    /// `[estimator][state]`: squared errors and NEES per instant.
+    /// `[estimator][state]`: squared errors per instant from the settle time on.
     squared_errors: Vec<Vec<Vec<f64>>>,
-    nees: Vec<Vec<Vec<f64>>>,
-    /// `[estimator]`: NIS and rows used per instant.
+    /// `[estimator]`: NIS and rows used per instant from the settle time on.
     nis: Vec<Vec<(f64, f64)>>,
     /// The first estimator's published variances at the start, `P(0)`'s diagonal.
     initial_variances: [f64; FILTER_STATES],
@@ -166,8 +166,10 @@ struct RunData {
 struct Sums {
     truths: Vec<Vec<[f64; FILTER_STATES + 3]>>,
     squared_errors: Vec<Vec<Vec<f64>>>,
-    nees: Vec<Vec<Vec<f64>>>,
-    nis: Vec<Vec<(f64, f64)>>,
+    /// `[estimator][state]`: the master's NEES series from the settle time on.
+    nees: Vec<Vec<NeesOverRuns>>,
+    /// `[estimator]`.
+    nis: Vec<NisOverRuns>,
     run_mse: Vec<Vec<Vec<f64>>>,
     initial_variances: [f64; FILTER_STATES],
 }
@@ -178,7 +180,7 @@ fn column<'a>(result: &'a RunResult, name: &str) -> Result<&'a [f64]> {
         .ok_or_else(|| anyhow!("consistency study: the run recorded no column {name}"))
 }
 
-/// The scenario with only the vehicle and the chosen estimators.
+/// The scenario with only the vehicle and the chosen estimators, scored on [`STATES`].
 fn plan(study: &ConsistencyStudy, env: &Environment) -> Result<Plan> {
     let mut scenario = Scenario::from_file(&study.scenario)?;
     let keep = |name: &String| *name == study.vehicle || study.estimators.contains(name);
@@ -194,10 +196,28 @@ fn plan(study: &ConsistencyStudy, env: &Environment) -> Result<Plan> {
             );
         }
     }
+    scenario.scores = score_sections(&study.vehicle);
     Plan::new(scenario, &env.fmu_dir, &env.work_dir())
 }
 
-/// Reads one run's truth, errors, NEES and NIS.
+/// One `[[score]]` per state with its one-sigma output: the master's NEES series
+/// ([`fmi_master::montecarlo::scored_run_with`]) are those of [`STATES`].
+fn score_sections(vehicle: &str) -> Vec<ScoreSection> {
+    STATES
+        .iter()
+        .map(|(label, truth, estimate, std)| ScoreSection {
+            label: (*label).to_string(),
+            unit: String::new(),
+            truth: format!("{vehicle}.{truth}"),
+            estimate: format!("*.{estimate}"),
+            std: Some(format!("*.{std}")),
+            display_scale: None,
+            display_unit: None,
+        })
+        .collect()
+}
+
+/// Reads one run's truth, squared errors and NIS.
 fn run_data(study: &ConsistencyStudy, result: &RunResult) -> Result<RunData> {
     let vehicle = |name: &str| column(result, &format!("{}.{name}", study.vehicle));
     let truth_columns: Vec<&[f64]> = STATES
@@ -209,7 +229,7 @@ fn run_data(study: &ConsistencyStudy, result: &RunResult) -> Result<RunData> {
         .map(|name| column(result, name))
         .collect::<Result<_>>()?;
     let rows = result.times.len();
-    let first = settle_rows(study, result.times.len());
+    let first = settle_rows(study, rows);
     let truth = (0..rows)
         .map(|k| {
             let mut row = [0.0; FILTER_STATES + 3];
@@ -225,33 +245,27 @@ fn run_data(study: &ConsistencyStudy, result: &RunResult) -> Result<RunData> {
     let mut data = RunData {
         truth,
         squared_errors: Vec::new(),
-        nees: Vec::new(),
         nis: Vec::new(),
         initial_variances: [0.0; FILTER_STATES],
     };
     for (index, estimator) in study.estimators.iter().enumerate() {
         let output = |name: &str| column(result, &format!("{estimator}.{name}"));
-        let (mut squared, mut nees) = (Vec::new(), Vec::new());
+        let mut squared = Vec::new();
         for (state, (_, _, estimate, std)) in STATES.iter().enumerate() {
-            let (estimate, std, truth) = (output(estimate)?, output(std)?, truth_columns[state]);
-            let errors: Vec<f64> = (first..rows)
-                .map(|k| (estimate[k] - truth[k]).powi(2))
-                .collect();
-            nees.push(
+            let (estimate, truth) = (output(estimate)?, truth_columns[state]);
+            squared.push(
                 (first..rows)
-                    .map(|k| errors[k - first] / std[k].powi(2))
+                    .map(|k| (estimate[k] - truth[k]).powi(2))
                     .collect(),
             );
-            squared.push(errors);
             if index == 0 && state < FILTER_STATES {
-                data.initial_variances[state] = std[0].powi(2);
+                data.initial_variances[state] = output(std)?[0].powi(2);
             }
         }
         let (nis, dof) = (output("nis")?, output("rows_used")?);
         data.nis
             .push((first..rows).map(|k| (nis[k], dof[k])).collect());
         data.squared_errors.push(squared);
-        data.nees.push(nees);
     }
     Ok(data)
 }
@@ -272,8 +286,33 @@ fn accumulate(a: &mut [Vec<Vec<f64>>], b: &[Vec<Vec<f64>>]) {
 }
 
 impl Sums {
-    fn add(&mut self, run: RunData) {
-        let mse = run
+    fn new(estimators: usize) -> Self {
+        Self {
+            truths: Vec::new(),
+            squared_errors: Vec::new(),
+            nees: vec![vec![NeesOverRuns::default(); STATES.len()]; estimators],
+            nis: vec![NisOverRuns::default(); estimators],
+            run_mse: Vec::new(),
+            initial_variances: [0.0; FILTER_STATES],
+        }
+    }
+
+    /// Adds one run: its NEES from the master's series, the rest from what the study read.
+    fn add(&mut self, study: &ConsistencyStudy, run: ScoredRun<RunData>) -> Result<()> {
+        let data = run.read;
+        let first = settle_rows(study, data.truth.len());
+        for (e, estimator) in study.estimators.iter().enumerate() {
+            for (s, (label, ..)) in STATES.iter().enumerate() {
+                let series = run
+                    .nees
+                    .iter()
+                    .find(|((l, instance), _)| l == label && instance == estimator)
+                    .ok_or_else(|| anyhow!("consistency study: no NEES of {estimator} {label}"))?;
+                self.nees[e][s].add(&series.1[first..]);
+            }
+            self.nis[e].add(&data.nis[e]);
+        }
+        let mse = data
             .squared_errors
             .iter()
             .map(|states| {
@@ -285,69 +324,27 @@ impl Sums {
             .collect();
         self.run_mse.push(mse);
         if self.truths.is_empty() {
-            self.initial_variances = run.initial_variances;
-            self.squared_errors = run.squared_errors;
-            self.nees = run.nees;
-            self.nis = run.nis;
+            self.initial_variances = data.initial_variances;
+            self.squared_errors = data.squared_errors;
         } else {
-            accumulate(&mut self.squared_errors, &run.squared_errors);
-            accumulate(&mut self.nees, &run.nees);
-            for (a, b) in self.nis.iter_mut().zip(&run.nis) {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x = (x.0 + y.0, x.1 + y.1);
-                }
-            }
+            accumulate(&mut self.squared_errors, &data.squared_errors);
         }
-        self.truths.push(run.truth);
+        self.truths.push(data.truth);
+        Ok(())
     }
 }
 
-/// Runs the campaign: runs in parallel a few at a time, summed in run order (bit-identical for
-/// any thread count), each recording handed back for the next run.
+/// Runs the campaign through the master ([`stream_runs`]: a batch at a time, summed in run
+/// order, bit-identical for any thread count).
 fn campaign(study: &ConsistencyStudy, plan: &Plan) -> Result<Sums> {
-    let seeds: Vec<VarRef> = plan
-        .scenario
-        .montecarlo
-        .seeds
-        .iter()
-        .filter_map(|s| VarRef::parse(s))
-        .collect();
-    if seeds.is_empty() {
-        bail!("consistency study: the scenario names no [montecarlo] seeds");
-    }
-    let mut sums = Sums {
-        truths: Vec::new(),
-        squared_errors: Vec::new(),
-        nees: Vec::new(),
-        nis: Vec::new(),
-        run_mse: Vec::new(),
-        initial_variances: [0.0; FILTER_STATES],
-    };
-    let batch = 2 * rayon::current_num_threads();
-    for start in (0..study.runs).step_by(batch) {
-        let runs: Vec<Result<RunData>> = (start..(start + batch).min(study.runs))
-            .into_par_iter()
-            .map(|i| {
-                let seed = study.first_seed.wrapping_add(i as i32);
-                let options = RunOptions {
-                    instance_suffix: format!("#consistency{i}"),
-                    overrides: seeds
-                        .iter()
-                        .map(|r| (r.clone(), ParameterValue::Integer(seed)))
-                        .collect(),
-                };
-                let result = plan
-                    .run(&options, |_| {})
-                    .with_context(|| format!("consistency run {i} (seed {seed})"))?;
-                let data = run_data(study, &result);
-                plan.recycle(result);
-                data
-            })
-            .collect();
-        for run in runs {
-            sums.add(run?);
-        }
-    }
+    let mut sums = Sums::new(study.estimators.len());
+    stream_runs(
+        plan,
+        study.runs,
+        study.first_seed,
+        &|result| run_data(study, result),
+        &mut |run| sums.add(study, run),
+    )?;
     Ok(sums)
 }
 
@@ -420,12 +417,8 @@ pub fn run(study: &ConsistencyStudy, env: &Environment) -> Result<ConsistencyRep
     let first = settle_rows(study, bound.len());
     bound.drain(..first);
     let times = &times[first..];
-    let n = study.runs as f64;
-    let nees_band = (
-        chi_square_quantile(0.025, n) / n,
-        chi_square_quantile(0.975, n) / n,
-    );
-    let states = state_rows(study, &sums, &bound, nees_band);
+    let nees_band = run_averaged_band(study.runs);
+    let states = state_rows(study, &sums, &bound);
     let nis = nis_rows(study, &sums);
     let plot_path = env.out_dir.join("consistency.png");
     draw_panels(
@@ -458,23 +451,15 @@ fn plan_times(plan: &Plan, rows: usize) -> Vec<f64> {
         .collect()
 }
 
-fn state_rows(
-    study: &ConsistencyStudy,
-    sums: &Sums,
-    bound: &[[f64; 6]],
-    band: (f64, f64),
-) -> Vec<StateRow> {
+/// Per estimator and state: NEES over the runs (the master's aggregation) and RMSE against
+/// the bound.
+fn state_rows(study: &ConsistencyStudy, sums: &Sums, bound: &[[f64; 6]]) -> Vec<StateRow> {
     let n = study.runs as f64;
     let rows = bound.len() as f64;
     let mut out = Vec::new();
     for (e, estimator) in study.estimators.iter().enumerate() {
         for (s, (label, ..)) in STATES.iter().enumerate() {
-            let nees = &sums.nees[e][s];
-            let averaged = nees.iter().map(|v| v / n);
-            let inside = averaged
-                .clone()
-                .filter(|v| (band.0..=band.1).contains(v))
-                .count();
+            let (anees, share_in_band) = sums.nees[e][s].consistency();
             let bound_ms = bound.iter().map(|b| b[s]).sum::<f64>() / rows;
             let efficiency: Vec<f64> = sums
                 .run_mse
@@ -484,8 +469,8 @@ fn state_rows(
             out.push(StateRow {
                 estimator: estimator.clone(),
                 state: (*label).to_string(),
-                anees: averaged.sum::<f64>() / rows,
-                share_in_band: inside as f64 / rows,
+                anees,
+                share_in_band,
                 rmse: (sums.squared_errors[e][s].iter().sum::<f64>() / (n * rows)).sqrt(),
                 bound_rms: bound_ms.sqrt(),
                 efficiency: Spread::of(&efficiency),
@@ -495,29 +480,19 @@ fn state_rows(
     out
 }
 
+/// Per estimator: the run-summed NIS against chi-square with the run-summed rows (the master's
+/// aggregation).
 fn nis_rows(study: &ConsistencyStudy, sums: &Sums) -> Vec<NisRow> {
     study
         .estimators
         .iter()
         .zip(&sums.nis)
         .map(|(estimator, nis)| {
-            // Instants without an update (no row used in any run) carry no NIS.
-            let used: Vec<&(f64, f64)> = nis.iter().filter(|(_, dof)| *dof > 0.0).collect();
-            let inside = used
-                .iter()
-                .filter(|(value, dof)| {
-                    let band = (
-                        chi_square_quantile(0.025, *dof),
-                        chi_square_quantile(0.975, *dof),
-                    );
-                    (band.0..=band.1).contains(value)
-                })
-                .count();
-            let count = used.len().max(1) as f64;
+            let (mean_nis_per_row, share_in_band) = nis.consistency();
             NisRow {
                 estimator: estimator.clone(),
-                mean_nis_per_row: used.iter().map(|(v, d)| v / d).sum::<f64>() / count,
-                share_in_band: inside as f64 / count,
+                mean_nis_per_row,
+                share_in_band,
             }
         })
         .collect()
