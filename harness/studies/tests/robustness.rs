@@ -3,11 +3,12 @@
 //! step steer on the Ford Escort of the shipped campaigns.
 //!
 //! Needs the packaged FMUs (`cargo run --release -p packaging`) in
-//! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command.
+//! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command
+//! (`fmi_master::runner::packaged_fmu_dir`).
 
 use std::path::PathBuf;
 
-use fmi_master::runner::{default_fmu_dir, scenario_dir, Environment};
+use fmi_master::runner::{packaged_fmu_dir, scenario_dir, Environment};
 use harness::campaigns::{Campaign, SHIPPED_CAMPAIGNS};
 use harness::robustness::{run_case, CaseFile, SHIPPED_CASES};
 
@@ -15,14 +16,7 @@ use harness::robustness::{run_case, CaseFile, SHIPPED_CASES};
 const ROW_GATED: u32 = 128;
 
 fn environment(name: &str) -> Environment {
-    let fmu_dir = default_fmu_dir();
-    for archive in ["ReferenceVehicle.fmu", "VehicleStateEstimator.fmu"] {
-        assert!(
-            fmu_dir.join(archive).is_file(),
-            "{} missing: build the FMUs with `cargo run --release -p packaging`",
-            fmu_dir.join(archive).display()
-        );
-    }
+    let fmu_dir = packaged_fmu_dir().expect("packaged FMUs");
     let out: PathBuf = std::env::temp_dir().join(format!("harness-{name}-{}", std::process::id()));
     Environment {
         fmu_dir,
