@@ -1,5 +1,6 @@
 //! `harness`: the co-simulation master's command line. `harness --help` lists the commands.
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -211,10 +212,16 @@ enum Command {
     },
 }
 
+/// Every command writes its output through `stdout` and returns write errors, so a reader that
+/// goes away (`harness ... | head -1`) ends it with an `io::Error` of kind BrokenPipe (Rust
+/// ignores SIGPIPE) instead of a panic in `println!`; that is no failure, the exit code is 0.
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match execute(cli) {
+    let mut stdout = std::io::stdout();
+    let outcome = execute(cli, &mut stdout).and_then(|()| Ok(stdout.flush()?));
+    match outcome {
         Ok(()) => ExitCode::SUCCESS,
+        Err(error) if runner::is_broken_pipe(&error) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
             ExitCode::FAILURE
@@ -222,7 +229,7 @@ fn main() -> ExitCode {
     }
 }
 
-fn execute(cli: Cli) -> Result<()> {
+fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
     match cli.command {
         Command::Demo {
             out,
@@ -241,9 +248,9 @@ fn execute(cli: Cli) -> Result<()> {
                 plots: true,
             };
             let (findings, outputs) = demo::run(&options)?;
-            print!("{}", demo::summary_table(&findings, &outputs));
-            println!("\nreport: {}", out.join("report.md").display());
-            println!("        {}", out.join("report.html").display());
+            write!(stdout, "{}", demo::summary_table(&findings, &outputs))?;
+            writeln!(stdout, "\nreport: {}", out.join("report.md").display())?;
+            writeln!(stdout, "        {}", out.join("report.html").display())?;
             Ok(())
         }
         Command::Consistency { out, runs, fmu_dir } => {
@@ -259,7 +266,7 @@ fn execute(cli: Cli) -> Result<()> {
             let report = harness::consistency::run(&study, &env)?;
             let mut doc = fmi_master::report::Document::default();
             harness::consistency::section(&mut doc, &report);
-            print!("{}", doc.to_markdown());
+            write!(stdout, "{}", doc.to_markdown())?;
             Ok(())
         }
         Command::Mismatch { out, fmu_dir } => {
@@ -268,16 +275,20 @@ fn execute(cli: Cli) -> Result<()> {
             // As `demo`: the project's own FMUs are packaged when missing or stale.
             demo::ensure_fmus(&fmu_dir, !custom_dir)?;
             let report = harness::mismatch::run_shipped(&fmu_dir, &out)?;
-            print!("{}", report.summary());
-            println!("csv: {}", out.display());
+            write!(stdout, "{}", report.summary())?;
+            writeln!(stdout, "csv: {}", out.display())?;
             Ok(())
         }
         Command::Robustness { out, fmu_dir } => {
             let custom_dir = fmu_dir.is_some();
             let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
             demo::ensure_fmus(&fmu_dir, !custom_dir)?;
-            print!("{}", harness::robustness::run_and_report(&fmu_dir, &out)?);
-            println!("report: {}", out.join("report.md").display());
+            write!(
+                stdout,
+                "{}",
+                harness::robustness::run_and_report(&fmu_dir, &out)?
+            )?;
+            writeln!(stdout, "report: {}", out.join("report.md").display())?;
             Ok(())
         }
         Command::Run {
@@ -305,15 +316,16 @@ fn execute(cli: Cli) -> Result<()> {
             bar.finish_and_clear();
             drop(work);
             let output = output?;
-            println!(
+            writeln!(
+                stdout,
                 "scenario {} ({} steps)",
                 output.scenario.name,
                 output.result.times.len() - 1
-            );
-            print!("{}", runner::scores_table(&output.scores));
-            println!("csv: {}", output.csv.display());
+            )?;
+            write!(stdout, "{}", runner::scores_table(&output.scores))?;
+            writeln!(stdout, "csv: {}", output.csv.display())?;
             for p in &output.plots {
-                println!("plot: {}", p.display());
+                writeln!(stdout, "plot: {}", p.display())?;
             }
             Ok(())
         }
@@ -364,9 +376,9 @@ fn execute(cli: Cli) -> Result<()> {
             std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
             let runs_csv = env.out_dir.join("runs.csv");
             cases::write_runs_csv(&runs_csv, first_seed, &summary.per_run)?;
-            print!("{md}");
-            println!("\nsummary: {}", path.display());
-            println!("every run's scores: {}", runs_csv.display());
+            write!(stdout, "{md}")?;
+            writeln!(stdout, "\nsummary: {}", path.display())?;
+            writeln!(stdout, "every run's scores: {}", runs_csv.display())?;
             Ok(())
         }
         Command::Identify {
@@ -395,14 +407,15 @@ fn execute(cli: Cli) -> Result<()> {
                 identify::JobData::Simulated => job.config.noise_seeds.len(),
                 identify::JobData::Recorded { .. } => 1,
             };
-            println!(
+            writeln!(
+                stdout,
                 "{}: model C, {} samples at {} s, {} particles, start p0 = {:?}",
                 job.name,
                 job.config.samples,
                 job.config.sample_time,
                 job.config.filter.particle_count,
                 job.config.start_parameters.as_slice()
-            );
+            )?;
             let bar = progress_bar(runs as u64);
             bar.set_message(format!(
                 "identifying ({runs} data set{})",
@@ -411,16 +424,16 @@ fn execute(cli: Cli) -> Result<()> {
             let outcome = identify::run(&job, &|| bar.inc(1));
             bar.finish_and_clear();
             let outcome = outcome?;
-            print!("{}", outcome.history_text());
-            print!("{}", outcome.summary_text());
+            write!(stdout, "{}", outcome.history_text())?;
+            write!(stdout, "{}", outcome.summary_text())?;
             let written = identify::write_outputs(&outcome, &out)?;
-            println!();
-            println!("plot:    {}", written.convergence_png.display());
-            println!("history: {}", written.history_csv.display());
-            println!("updates: {}", written.updates_csv.display());
-            println!("summary: {}", written.summary_txt.display());
+            writeln!(stdout)?;
+            writeln!(stdout, "plot:    {}", written.convergence_png.display())?;
+            writeln!(stdout, "history: {}", written.history_csv.display())?;
+            writeln!(stdout, "updates: {}", written.updates_csv.display())?;
+            writeln!(stdout, "summary: {}", written.summary_txt.display())?;
             for data in &written.data_csv {
-                println!("data:    {}", data.display());
+                writeln!(stdout, "data:    {}", data.display())?;
             }
             Ok(())
         }
@@ -442,14 +455,19 @@ fn execute(cli: Cli) -> Result<()> {
                 plots: !no_plots,
             };
             let outcome = harness::replay::replay(&options)?;
-            println!(
+            writeln!(
+                stdout,
                 "replayed {} rows every {:.6} s in {:.2} s (reading, aligning, FMU)",
                 outcome.prepared.grid.rows, outcome.prepared.grid.step, outcome.seconds
-            );
-            print!("{}", harness::replay::report::score_table(&outcome.scores));
-            println!("csv: {}", outcome.csv.display());
+            )?;
+            write!(
+                stdout,
+                "{}",
+                harness::replay::report::score_table(&outcome.scores)
+            )?;
+            writeln!(stdout, "csv: {}", outcome.csv.display())?;
             if let Some(plot) = outcome.plot {
-                println!("plot: {}", plot.display());
+                writeln!(stdout, "plot: {}", plot.display())?;
             }
             Ok(())
         }
@@ -483,17 +501,13 @@ fn execute(cli: Cli) -> Result<()> {
                 out,
             };
             let outcome = harness::replay::fit::fit(&options)?;
-            print!("{}", outcome.summary());
-            println!("parameters: {}", options.out.display());
+            write!(stdout, "{}", outcome.summary())?;
+            writeln!(stdout, "parameters: {}", options.out.display())?;
             Ok(())
         }
         Command::Inspect { fmu, out } => {
             let work = runner::WorkFolder::new(out.join(".fmu-work"));
-            let mut stdout = std::io::stdout().lock();
-            match runner::inspect(&fmu, work.path(), &mut stdout) {
-                Err(e) if runner::is_broken_pipe(&e) => Ok(()),
-                other => other,
-            }
+            runner::inspect(&fmu, work.path(), stdout)
         }
         Command::Cases {
             chunk,
@@ -501,14 +515,15 @@ fn execute(cli: Cli) -> Result<()> {
             threads,
         } => {
             let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
-            cases::run_chunk(&chunk, &fmu_dir, threads, &mut std::io::stdout())
+            cases::run_chunk(&chunk, &fmu_dir, threads, stdout)
         }
         Command::Manoeuvres => {
             for name in manoeuvres::LIBRARY {
-                println!(
+                writeln!(
+                    stdout,
                     "{name}\n    {}",
                     manoeuvres::describe(name).unwrap_or_default()
-                );
+                )?;
             }
             Ok(())
         }

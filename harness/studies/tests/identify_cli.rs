@@ -1,7 +1,8 @@
 //! `harness identify`: the command on a small simulated data set recovers model C's parameters,
 //! a recorded CSV (the same data, columns shuffled) gives the same result, parallel noise seeds
 //! equal single runs, and bad CSV files and identification files are refused with a message
-//! naming the file, the line/column or field and what was expected.
+//! naming the file, the line/column or field and what was expected. Also: every command ends
+//! quietly when its output pipe is closed (issue 11).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -634,4 +635,43 @@ fn truth_on_the_command_line_gives_relative_errors_for_a_recorded_set() {
     // Row 0 is the start, 5 % below the truth.
     let start_error: f64 = rows[0][column].parse().unwrap();
     assert!((start_error - 100.0 * (START[0] - TRUTH[0]) / TRUTH[0]).abs() < 1e-9);
+}
+
+/// The command's exit status and error output when its reader has gone before it writes: the
+/// read end of its stdout pipe is closed right after the start (the child holds only the write
+/// end), so its first write fails with EPIPE.
+fn into_a_closed_pipe(args: &[&str]) -> Output {
+    let mut child = Command::new(HARNESS)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the harness binary starts");
+    drop(child.stdout.take());
+    child.wait_with_output().expect("the harness binary ends")
+}
+
+#[test]
+fn a_closed_pipe_ends_the_command_quietly() {
+    // Two commands with their own output code: the library listing and the identification
+    // (its header line); every command writes through the one handle main.rs checks for
+    // BrokenPipe. Before issue 11 both panicked in `println!` with exit status 101.
+    let dir = tempfile::tempdir().unwrap();
+    let file = small_identification_file(dir.path(), "pipe", "[4]");
+    let out = dir.path().join("out");
+    let identify = [
+        "identify",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    for args in [&["manoeuvres"][..], &identify[..]] {
+        let output = into_a_closed_pipe(args);
+        assert!(output.status.success(), "{args:?}: {}", stderr(&output));
+        assert!(
+            !stderr(&output).contains("panicked"),
+            "{args:?}: {}",
+            stderr(&output)
+        );
+    }
 }
