@@ -3,18 +3,21 @@
 # checks formatting and lints, packages the FMUs, runs every Rust test and the Python tests
 # (fmpy, filterpy, cross-tool, docs) against the packaged FMUs.
 #
-# Built once: clippy checks in the release profile, so the build scripts and proc macros it compiles
-# (bindgen, serde_derive, clap_derive, ...: build-override, opt-level 0) are the ones the release
-# build reuses; in the dev profile they were compiled a second time, and optimised (the dev
-# profile's `package."*"` opt-level 2), which made clippy take 172 s instead of 91 s on a fresh
-# target directory (issue 11). Then everything is compiled in one release build of every workspace target that `cargo test --workspace --release`
-# needs. Packaging builds the shipped Linux libraries for glibc 2.17 with cargo zigbuild (another
-# target, so a second release build of the two FMU packages, about two minutes; issue 15); with
-# --host-glibc it would take them from that build (--with-workspace-targets). The Rust
-# tests run in it, and the Python tests use its binaries (tests/conftest.py asks cargo for the
-# same selection, which then compiles nothing). Cargo unifies dependency features per invocation,
-# so a different selection (`-p packaging`, `-p harness`, a dev-profile example) would compile the
-# dependencies again; that was most of the 22-30 minutes this took before (issue 11).
+# Built once, linted while it is built: clippy-driver compiles the workspace's own crates
+# (RUSTC_WORKSPACE_WRAPPER, the mechanism `cargo clippy` itself uses) in the one release build of
+# every workspace target, so the crates are type-checked once instead of twice (a separate
+# `cargo clippy` pass took 91-218 s; issue 11 point 7); dependencies are compiled by rustc.
+# CLIPPY_ARGS is cargo-clippy's way of passing `-D warnings` to the driver. The variables stay
+# exported for the rest of the script, so every later cargo call (packaging's host-side lookup,
+# `cargo test`, tests/conftest.py asking cargo for the same binaries) sees the same compiler and
+# compiles nothing again; a plain `cargo build --release` afterwards recompiles the workspace's
+# crates. The shipped libraries are not built by the driver: packaging builds them for glibc 2.17
+# with cargo zigbuild (another target, so a second release build of the two FMU packages; issue
+# 15) with the wrapper removed (packaging/src/cargo.rs), since clippy-driver is not meant to
+# produce release artefacts. The Rust tests run in the one build, and the Python tests use its
+# binaries. Cargo unifies dependency features per invocation, so a different selection
+# (`-p packaging`, `-p harness`, a dev-profile example) would compile the dependencies again;
+# that was most of the 22-30 minutes this took before (issue 11).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -32,8 +35,14 @@ phase() {
 }
 
 phase cargo fmt --all --check
-phase cargo clippy --release --workspace --all-targets -- -D warnings
-phase cargo build --release --workspace --lib --bins --tests --examples
+clippy_driver="$(rustc --print sysroot)/bin/clippy-driver"
+if [ ! -x "$clippy_driver" ]; then
+    echo "tests/run.sh: $clippy_driver not found; install clippy: rustup component add clippy" >&2
+    exit 1
+fi
+export RUSTC_WORKSPACE_WRAPPER="$clippy_driver"
+export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
+phase cargo build --release --workspace --all-targets
 target=$("$root/.venv/bin/python" -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])' \
     < <(cargo metadata --format-version 1 --no-deps))
 phase "$target/release/packaging" --with-workspace-targets
