@@ -7,7 +7,7 @@
 
 use crate::full_vehicle::{CarData, FullVehicleParams};
 use crate::single_track::Chassis;
-use crate::tyre::HsriParams;
+use crate::tyre::{HsriParams, MagicFormulaParams};
 
 pub use crate::checks::positive;
 
@@ -15,6 +15,27 @@ pub use crate::checks::positive;
 pub const WHEEL_RADIUS_FRONT: &str = "wheel_radius_front";
 /// The FMU parameter of the rear rolling radius.
 pub const WHEEL_RADIUS_REAR: &str = "wheel_radius_rear";
+
+/// The per-axle tyre parameters (issue 17 point 4), `(front, rear)` FMU names: factors on the
+/// shared tyre law (`tyre_*`) of each axle, Pacejka's user scaling factors (`λμy`, `λFz0`;
+/// [`crate::tyre::AxleTyreScaling`]), for both estimator models, and model B's Magic Formula
+/// shape and curvature per axle. An FMU that does not declare them (the ReferenceVehicle) gets
+/// the seed car's one tyre: factor 1, `MagicFormulaParams::matching_hsri`'s shape and curvature.
+pub const TYRE_FRICTION_SCALE: (&str, &str) =
+    ("tyre_front_friction_scale", "tyre_rear_friction_scale");
+/// `λFz0` per axle (see [`TYRE_FRICTION_SCALE`]).
+pub const TYRE_REFERENCE_LOAD_SCALE: (&str, &str) = (
+    "tyre_front_reference_load_scale",
+    "tyre_rear_reference_load_scale",
+);
+/// Model B's Magic Formula lateral shape factor `C_y` per axle (001: eq 3).
+pub const TYRE_LATERAL_SHAPE: (&str, &str) =
+    ("tyre_front_lateral_shape", "tyre_rear_lateral_shape");
+/// Model B's Magic Formula lateral curvature factor `E_y` per axle (001: eq 3).
+pub const TYRE_LATERAL_CURVATURE: (&str, &str) = (
+    "tyre_front_lateral_curvature",
+    "tyre_rear_lateral_curvature",
+);
 
 /// Reads the FMU's Real parameters by name.
 pub struct ParameterSource<F: Fn(&str) -> Option<f64>> {
@@ -52,8 +73,59 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
             rear_wheel_radius,
             front_wheel_load: self.positive("wheel_load_front")?,
             rear_wheel_load: self.positive("wheel_load_rear")?,
+            front_tyre_friction_scale: self.positive_or(TYRE_FRICTION_SCALE.0, 1.0)?,
+            rear_tyre_friction_scale: self.positive_or(TYRE_FRICTION_SCALE.1, 1.0)?,
+            front_tyre_reference_load_scale: self.positive_or(TYRE_REFERENCE_LOAD_SCALE.0, 1.0)?,
+            rear_tyre_reference_load_scale: self.positive_or(TYRE_REFERENCE_LOAD_SCALE.1, 1.0)?,
             ..Chassis::default()
         })
+    }
+
+    /// The factors on the front and rear tyres' cornering stiffness
+    /// (`cornering_stiffness_scale_front`, `_rear`; 1 = the seed's tyre), which must be positive.
+    pub fn cornering_stiffness_scales(&self) -> Result<(f64, f64), String> {
+        Ok((
+            self.positive("cornering_stiffness_scale_front")?,
+            self.positive("cornering_stiffness_scale_rear")?,
+        ))
+    }
+
+    /// The parameter's value where the FMU declares it (it must be positive), else `default`.
+    fn positive_or(&self, name: &str, default: f64) -> Result<f64, String> {
+        match (self.lookup)(name) {
+            Some(value) => positive(name, value),
+            None => Ok(default),
+        }
+    }
+
+    /// Model B's Magic Formula tyres of the front and rear axle: matched to the HSRI tyre
+    /// ([`MagicFormulaParams::matching_hsri`]: peak friction and stiffnesses from `tyre_*`; the
+    /// axles' factors on them come with the [`Chassis`] and the cornering-stiffness scales),
+    /// with each axle's lateral shape `C_y` and curvature `E_y` where the FMU declares them
+    /// ([`TYRE_LATERAL_SHAPE`], [`TYRE_LATERAL_CURVATURE`]; their defaults are
+    /// `matching_hsri`'s, so the seed car's tyre is reproduced to the bit). `C_y` must be
+    /// positive and `E_y` at most 1 (001: eq 3 is monotonic up to its peak only for `E ≤ 1`).
+    pub fn magic_formula_axles(&self) -> Result<(MagicFormulaParams, MagicFormulaParams), String> {
+        let matched = MagicFormulaParams::matching_hsri(&self.hsri()?);
+        let axle = |shape: &str, curvature: &str| -> Result<MagicFormulaParams, String> {
+            let lateral_shape = self.positive_or(shape, matched.lateral_shape)?;
+            let lateral_curvature = (self.lookup)(curvature).unwrap_or(matched.lateral_curvature);
+            if lateral_curvature.is_finite() && lateral_curvature <= 1.0 {
+                Ok(MagicFormulaParams {
+                    lateral_shape,
+                    lateral_curvature,
+                    ..matched.clone()
+                })
+            } else {
+                Err(format!(
+                    "parameter {curvature} = {lateral_curvature}; expected a number at most 1"
+                ))
+            }
+        };
+        Ok((
+            axle(TYRE_LATERAL_SHAPE.0, TYRE_LATERAL_CURVATURE.0)?,
+            axle(TYRE_LATERAL_SHAPE.1, TYRE_LATERAL_CURVATURE.1)?,
+        ))
     }
 
     /// The front and rear rolling radii: `wheel_radius_front` and `wheel_radius_rear` where the

@@ -33,7 +33,7 @@ use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVe
 use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
 use crate::scalar::{seed_state_and_input, split_jacobians, Scalar};
 use crate::truth::VehicleTruth;
-use crate::tyre::{HsriTyre, TyreKinematics, TyreModel};
+use crate::tyre::{AxleTyreScaling, HsriTyre, TyreKinematics, TyreModel};
 
 /// Number of states of model A.
 pub const STATE_DIM: usize = 5;
@@ -138,6 +138,18 @@ pub struct Chassis {
     pub rear_wheel_load: f64,
     /// `iL`, steering ratio (steering-wheel angle / road-wheel angle); the manoeuvres' value.
     pub steering_ratio: f64,
+    /// `λμy` of the front tyres: factor on the friction coefficient of the car's tyre law
+    /// ([`AxleTyreScaling::friction`]), so a car whose front tyres grip more or less than its
+    /// rear ones is described (issue 17 point 4; not a seed parameter). 1 = the seed's tyre.
+    pub front_tyre_friction_scale: f64,
+    /// `λμy` of the rear tyres (see `front_tyre_friction_scale`).
+    pub rear_tyre_friction_scale: f64,
+    /// `λFz0` of the front tyres: factor on the tyre law's reference load `FZref`
+    /// ([`AxleTyreScaling::reference_load`]), the load sensitivity of the front tyres' friction
+    /// and stiffnesses (000: 5.67-5.71). 1 = the seed's tyre.
+    pub front_tyre_reference_load_scale: f64,
+    /// `λFz0` of the rear tyres (see `front_tyre_reference_load_scale`).
+    pub rear_tyre_reference_load_scale: f64,
 }
 
 impl Default for Chassis {
@@ -156,6 +168,11 @@ impl Default for Chassis {
             front_wheel_load: 3492.0,
             rear_wheel_load: 3374.0,
             steering_ratio: manoeuvres::STEERING_RATIO,
+            // the seed gives one tyre for all wheels (000: table 5.2)
+            front_tyre_friction_scale: 1.0,
+            rear_tyre_friction_scale: 1.0,
+            front_tyre_reference_load_scale: 1.0,
+            rear_tyre_reference_load_scale: 1.0,
         }
     }
 }
@@ -170,6 +187,25 @@ impl Chassis {
             per_wheel * self.cog_to_rear_axle,
             per_wheel * self.cog_to_front_axle,
         )
+    }
+
+    /// The factors on the tyre law of the front (`front`) or rear axle, with the given factor on
+    /// the cornering stiffness (the model's own per-axle parameter).
+    #[inline(always)]
+    pub fn tyre_scaling(&self, front: bool, cornering_stiffness_scale: f64) -> AxleTyreScaling {
+        if front {
+            AxleTyreScaling {
+                cornering_stiffness: cornering_stiffness_scale,
+                friction: self.front_tyre_friction_scale,
+                reference_load: self.front_tyre_reference_load_scale,
+            }
+        } else {
+            AxleTyreScaling {
+                cornering_stiffness: cornering_stiffness_scale,
+                friction: self.rear_tyre_friction_scale,
+                reference_load: self.rear_tyre_reference_load_scale,
+            }
+        }
     }
 }
 
@@ -224,8 +260,9 @@ struct AxleConstants {
     wheel_load: f64,
     /// Dynamic rolling radius, m.
     wheel_radius: f64,
-    /// Factor on the cornering stiffness (see [`SingleTrackParams`]).
-    cornering_stiffness_scale: f64,
+    /// Factors on the tyre law: the cornering-stiffness scale of [`SingleTrackParams`], the
+    /// friction and reference-load scales of [`Chassis`].
+    tyre_scaling: AxleTyreScaling,
 }
 
 /// Axle forces (both wheels, wheel frame) and the steering angle they are rotated by.
@@ -341,7 +378,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let AxleConstants {
             wheel_load,
             wheel_radius,
-            cornering_stiffness_scale,
+            tyre_scaling,
         } = axle;
         let divisor = guarded_speed(wheel_velocity, p.low_speed_guard);
         // Divisions and square roots share one unit of the core and bound a filter's model
@@ -360,15 +397,13 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let (force, spin_derivative) = if with_spin_derivative {
             let (force, slip_derivative) = self
                 .tyre
-                .force_and_slip_derivative(&kinematics, cornering_stiffness_scale);
+                .force_and_slip_derivative(&kinematics, &tyre_scaling);
             // ∂Fx/∂ω = ∂Fx/∂s · ∂s/∂ω with ∂s/∂ω = r / divisor (000: 5.65), both wheels
             let spin_derivative =
                 slip_derivative * (wheel_radius * WHEELS_PER_AXLE) * inverse_divisor;
             (force, spin_derivative)
         } else {
-            let force = self
-                .tyre
-                .force_with_cornering_scale(&kinematics, cornering_stiffness_scale);
+            let force = self.tyre.force_scaled(&kinematics, &tyre_scaling);
             (force, S::constant(0.0))
         };
         AxleState {
@@ -405,7 +440,10 @@ impl<T: TyreModel> SingleTrackModel<T> {
             AxleConstants {
                 wheel_load: self.vehicle.chassis.front_wheel_load,
                 wheel_radius: self.vehicle.chassis.front_wheel_radius,
-                cornering_stiffness_scale: self.vehicle.cornering_stiffness_scale_front,
+                tyre_scaling: self
+                    .vehicle
+                    .chassis
+                    .tyre_scaling(true, self.vehicle.cornering_stiffness_scale_front),
             },
             with_spin_derivative,
         )
@@ -430,7 +468,10 @@ impl<T: TyreModel> SingleTrackModel<T> {
             AxleConstants {
                 wheel_load: self.vehicle.chassis.rear_wheel_load,
                 wheel_radius: self.vehicle.chassis.rear_wheel_radius,
-                cornering_stiffness_scale: self.vehicle.cornering_stiffness_scale_rear,
+                tyre_scaling: self
+                    .vehicle
+                    .chassis
+                    .tyre_scaling(false, self.vehicle.cornering_stiffness_scale_rear),
             },
             with_spin_derivative,
         )

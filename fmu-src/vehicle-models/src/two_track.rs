@@ -44,7 +44,7 @@ use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Inte
 use crate::scalar::{Dual, Scalar};
 use crate::single_track::{guarded_speed, Chassis};
 use crate::truth::VehicleTruth;
-use crate::tyre::{MagicFormulaTyre, TyreKinematics, TyreModel};
+use crate::tyre::{AxleTyreScaling, MagicFormulaTyre, TyreKinematics, TyreModel};
 
 /// Number of states of the full model B.
 pub const STATE_DIM: usize = 7;
@@ -107,6 +107,12 @@ pub struct TwoTrackParams {
     pub load_transfer_rounds: u32,
     /// Smallest longitudinal wheel-centre speed used as divisor in slip and slip angle, m/s.
     pub low_speed_guard: f64,
+    /// Factor `λKyα` on the cornering stiffness of the front tyres
+    /// ([`crate::tyre::AxleTyreScaling`]), as model A's
+    /// [`crate::SingleTrackParams::cornering_stiffness_scale_front`]; 1 = the seed car's tyre.
+    pub cornering_stiffness_scale_front: f64,
+    /// The same for the rear tyres.
+    pub cornering_stiffness_scale_rear: f64,
 }
 
 impl Default for TwoTrackParams {
@@ -119,6 +125,8 @@ impl Default for TwoTrackParams {
             front_roll_moment_share: 0.6,
             load_transfer_rounds: 2,
             low_speed_guard: 1.0,
+            cornering_stiffness_scale_front: 1.0,
+            cornering_stiffness_scale_rear: 1.0,
         }
     }
 }
@@ -179,6 +187,19 @@ impl TwoTrackParams {
         wheel == wheel_index::FRONT_LEFT || wheel == wheel_index::FRONT_RIGHT
     }
 
+    /// The factors on the tyre law of wheel `i`'s axle: the cornering-stiffness scale of this
+    /// struct, the friction and reference-load scales of the [`Chassis`].
+    #[inline(always)]
+    pub fn tyre_scaling(&self, wheel: usize) -> AxleTyreScaling {
+        if Self::is_front(wheel) {
+            self.chassis
+                .tyre_scaling(true, self.cornering_stiffness_scale_front)
+        } else {
+            self.chassis
+                .tyre_scaling(false, self.cornering_stiffness_scale_rear)
+        }
+    }
+
     /// Dynamic rolling radius of wheel `i` (its axle's, [`Chassis`]).
     #[inline(always)]
     pub fn wheel_radius(&self, wheel: usize) -> f64 {
@@ -187,6 +208,15 @@ impl TwoTrackParams {
         } else {
             self.chassis.rear_wheel_radius
         }
+    }
+}
+
+/// The tyre of wheel `i`'s axle: `front` on the front axle, `rear` (else `front`) on the rear.
+#[inline(always)]
+pub(crate) fn axle_tyre<'a, T>(front: &'a T, rear: &'a Option<T>, wheel: usize) -> &'a T {
+    match rear {
+        Some(rear) if !TwoTrackParams::is_front(wheel) => rear,
+        _ => front,
     }
 }
 
@@ -233,15 +263,39 @@ struct Evaluation<S: Scalar> {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TwoTrackModel<T: TyreModel = MagicFormulaTyre> {
     pub vehicle: TwoTrackParams,
+    /// The front tyres, and the rear ones unless `rear_tyre` is given.
     pub tyre: T,
+    /// The rear tyres where they differ from the front ones (issue 17 point 4: a car's front
+    /// and rear tyres, e.g. another Magic Formula shape or curvature); `None` = `tyre`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rear_tyre: Option<T>,
 }
 
 /// Model B as in seed 001: two-track with Magic Formula tyres.
 pub type TwoTrackMagicFormula = TwoTrackModel<MagicFormulaTyre>;
 
 impl<T: TyreModel> TwoTrackModel<T> {
+    /// The same tyre on all four wheels.
     pub fn new(vehicle: TwoTrackParams, tyre: T) -> Self {
-        Self { vehicle, tyre }
+        Self {
+            vehicle,
+            tyre,
+            rear_tyre: None,
+        }
+    }
+
+    /// Front and rear axles on their own tyres.
+    pub fn with_axle_tyres(vehicle: TwoTrackParams, front: T, rear: T) -> Self {
+        Self {
+            rear_tyre: Some(rear),
+            ..Self::new(vehicle, front)
+        }
+    }
+
+    /// The tyre of wheel `i`'s axle.
+    #[inline(always)]
+    pub fn axle_tyre(&self, wheel: usize) -> &T {
+        axle_tyre(&self.tyre, &self.rear_tyre, wheel)
     }
 
     /// Straight driving at `speed` with freely rolling wheels.
@@ -290,12 +344,15 @@ impl<T: TyreModel> TwoTrackModel<T> {
             // (000: 5.65)
             let slip =
                 (x[FIRST_WHEEL_STATE + wheel] * p.wheel_radius(wheel) - wheel_velocity) / divisor;
-            let force = self.tyre.force(&TyreKinematics {
-                slip,
-                tan_slip_angle,
-                wheel_velocity,
-                vertical_load: loads[wheel],
-            });
+            let force = self.axle_tyre(wheel).force_scaled(
+                &TyreKinematics {
+                    slip,
+                    tan_slip_angle,
+                    wheel_velocity,
+                    vertical_load: loads[wheel],
+                },
+                &p.tyre_scaling(wheel),
+            );
             set.slip[wheel] = slip;
             set.tan_slip_angle[wheel] = tan_slip_angle;
             set.longitudinal_force[wheel] = force.longitudinal;

@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 use crate::integrator::{explicit_euler, runge_kutta4, Integrator};
 use crate::scalar::{seed_state_and_input, split_jacobians, Scalar};
 use crate::single_track::guarded_speed;
-use crate::two_track::{wheel_index, TwoTrackModel, TwoTrackParams, WHEELS};
+use crate::two_track::{axle_tyre, wheel_index, TwoTrackModel, TwoTrackParams, WHEELS};
 use crate::tyre::{MagicFormulaTyre, TyreKinematics, TyreModel};
 
 /// Number of states of the 3-state form.
@@ -92,13 +92,19 @@ pub struct TwoTrackLateralOutputs {
 struct LateralForces<S: Scalar> {
     force_y: S,
     yaw_moment: S,
+    /// The lateral force of each tyre, `[FL, FR, RL, RR]`.
+    wheels: [S; WHEELS],
 }
 
 /// Model B, 3-state form of seed 001, with tyre model `T` (Magic Formula by default).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TwoTrackLateralModel<T: TyreModel = MagicFormulaTyre> {
     pub vehicle: TwoTrackParams,
+    /// The front tyres, and the rear ones unless `rear_tyre` is given.
     pub tyre: T,
+    /// The rear tyres where they differ from the front ones; `None` = `tyre`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rear_tyre: Option<T>,
 }
 
 /// The seed-001 estimator model: 3-state two-track with Magic Formula tyres.
@@ -110,13 +116,49 @@ impl<T: TyreModel> From<&TwoTrackModel<T>> for TwoTrackLateralModel<T> {
         Self {
             vehicle: full.vehicle.clone(),
             tyre: full.tyre.clone(),
+            rear_tyre: full.rear_tyre.clone(),
         }
     }
 }
 
 impl<T: TyreModel> TwoTrackLateralModel<T> {
+    /// The same tyre on all four wheels.
     pub fn new(vehicle: TwoTrackParams, tyre: T) -> Self {
-        Self { vehicle, tyre }
+        Self::from(&TwoTrackModel::new(vehicle, tyre))
+    }
+
+    /// Front and rear axles on their own tyres.
+    pub fn with_axle_tyres(vehicle: TwoTrackParams, front: T, rear: T) -> Self {
+        Self::from(&TwoTrackModel::with_axle_tyres(vehicle, front, rear))
+    }
+
+    /// The lateral force of one tyre of each axle, `(front, rear)`, N, at the axles' slip
+    /// angles for `(β, r, δ, vx)` with the loads of `load_acceleration` (001: eqs 3-5): the left
+    /// wheels', as the seed's axle force is the sum of left and right (001: eq 1).
+    pub fn axle_lateral_forces(
+        &self,
+        x: &TwoTrackLateralState,
+        u: &TwoTrackLateralInput,
+        load_acceleration: f64,
+    ) -> (f64, f64) {
+        let [sideslip, yaw_rate, steer, speed] = Self::arguments(x, u);
+        let lateral = self
+            .lateral_forces(sideslip, yaw_rate, steer, speed, load_acceleration)
+            .wheels;
+        (
+            lateral[wheel_index::FRONT_LEFT],
+            lateral[wheel_index::REAR_LEFT],
+        )
+    }
+
+    /// `[β, r, δ, vx]` of a state and input.
+    fn arguments(x: &TwoTrackLateralState, u: &TwoTrackLateralInput) -> [f64; 4] {
+        [
+            x[state_index::SIDESLIP],
+            x[state_index::YAW_RATE],
+            u[input_index::STEERING_ANGLE],
+            u[input_index::LONGITUDINAL_VELOCITY],
+        ]
     }
 
     /// Tangents of the axle slip angles `(tan αF, tan αR)` (001: eqs 4-5, ISO signs).
@@ -155,15 +197,17 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
             } else {
                 tan_rear
             };
-            // (001: eq 3), pure lateral slip
-            *force = self
-                .tyre
-                .force(&TyreKinematics {
-                    slip: S::constant(0.0),
-                    tan_slip_angle,
-                    wheel_velocity: speed,
-                    vertical_load: loads[wheel],
-                })
+            // (001: eq 3), pure lateral slip, with the axle's tyre and its factors
+            *force = axle_tyre(&self.tyre, &self.rear_tyre, wheel)
+                .force_scaled(
+                    &TyreKinematics {
+                        slip: S::constant(0.0),
+                        tan_slip_angle,
+                        wheel_velocity: speed,
+                        vertical_load: loads[wheel],
+                    },
+                    &p.tyre_scaling(wheel),
+                )
                 .lateral;
         }
         let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
@@ -177,6 +221,7 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
             yaw_moment: front_sum * cos_steer * p.chassis.cog_to_front_axle
                 + (lateral[FRONT_LEFT] - lateral[FRONT_RIGHT]) * sin_steer * half_track
                 - rear_sum * p.chassis.cog_to_rear_axle,
+            wheels: lateral,
         }
     }
 
@@ -296,14 +341,9 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         u: &TwoTrackLateralInput,
         load_acceleration: f64,
     ) -> f64 {
-        self.lateral_forces(
-            x[state_index::SIDESLIP],
-            x[state_index::YAW_RATE],
-            u[input_index::STEERING_ANGLE],
-            u[input_index::LONGITUDINAL_VELOCITY],
-            load_acceleration,
-        )
-        .force_y
+        let [sideslip, yaw_rate, steer, speed] = Self::arguments(x, u);
+        self.lateral_forces(sideslip, yaw_rate, steer, speed, load_acceleration)
+            .force_y
             / self.vehicle.chassis.mass
     }
 

@@ -464,3 +464,63 @@ fn linearisation_about_straight_driving_is_the_seed_linear_model() {
     // shrinking the deviation tenfold shrinks the error about a hundredfold
     assert!(errors[1] < errors[0] / 30.0, "{errors:?}");
 }
+
+/// Issue 17 point 4: the per-axle tyre factors of the chassis (`λμ`, `λFz0`) and the
+/// cornering-stiffness scale act on their own axle only. At a cornering point where both axles
+/// slide (HSRI sR > 0.5), changing a rear factor changes the rear axle's force and leaves the
+/// front's to the bit; factors of 1 are the seed's model to the bit.
+#[test]
+fn a_rear_tyre_factor_changes_the_rear_axle_force_and_not_the_front() {
+    let seed = SingleTrackHsri::default();
+    // 20 m/s, sideslip -3°, yaw rate 0.45 rad/s, road-wheel angle 4°: slip angles of 5-6°.
+    let x = SingleTrackState::from([20.0, -1.05, 0.45, 20.0 / 0.3, 20.0 / 0.3]);
+    let mut u = DriverInputVector::zeros();
+    u[input_index::STEERING_ANGLE] = 4f64.to_radians();
+    let base = seed.outputs(&x, &u);
+    let unit = {
+        let mut model = seed.clone();
+        let chassis = &mut model.vehicle.chassis;
+        chassis.front_tyre_friction_scale = 1.0;
+        chassis.rear_tyre_reference_load_scale = 1.0;
+        model.outputs(&x, &u)
+    };
+    assert_eq!(unit, base);
+    type Change = fn(&mut SingleTrackParams);
+    let changes: [(&str, Change); 3] = [
+        ("rear friction", |p| {
+            p.chassis.rear_tyre_friction_scale = 0.8
+        }),
+        ("rear reference load", |p| {
+            p.chassis.rear_tyre_reference_load_scale = 0.5
+        }),
+        ("rear cornering stiffness", |p| {
+            p.cornering_stiffness_scale_rear = 0.7
+        }),
+    ];
+    for (name, change) in changes {
+        let mut model = seed.clone();
+        change(&mut model.vehicle);
+        let changed = model.outputs(&x, &u);
+        assert_eq!(
+            changed.lateral_force_front.to_bits(),
+            base.lateral_force_front.to_bits(),
+            "{name}"
+        );
+        let relative = (changed.lateral_force_rear / base.lateral_force_rear - 1.0).abs();
+        assert!(
+            relative > 0.01,
+            "{name}: rear {} -> {}",
+            base.lateral_force_rear,
+            changed.lateral_force_rear
+        );
+    }
+    // and the other way round
+    let mut model = seed.clone();
+    model.vehicle.chassis.front_tyre_friction_scale = 1.2;
+    let changed = model.outputs(&x, &u);
+    assert_eq!(
+        changed.lateral_force_rear.to_bits(),
+        base.lateral_force_rear.to_bits()
+    );
+    assert!((changed.lateral_force_front / base.lateral_force_front - 1.0).abs() > 0.01);
+}

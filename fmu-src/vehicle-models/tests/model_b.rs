@@ -273,3 +273,94 @@ fn three_state_jacobians_match_central_differences() {
         assert_jacobian_close("model B3 D", &d, &d_fd);
     }
 }
+
+/// Issue 17 point 4: each axle of the 3-state model B has its own tyre. Changing a rear
+/// parameter (the Magic Formula's shape or curvature, or a factor on friction, reference load
+/// or cornering stiffness) changes the rear tyres' force and leaves the front tyres' to the bit,
+/// at a point near the limit (slip angles 5-7°, ay 8 m/s²); the same tyre on both axles given
+/// per axle is the seed model to the bit.
+#[test]
+fn a_rear_tyre_parameter_changes_the_rear_axle_force_and_not_the_front() {
+    use vehicle_models::tyre::MagicFormulaParams;
+    let seed = TwoTrackLateralMagicFormula::default();
+    let x = TwoTrackLateralState::new(-0.03, 0.4, 8.0);
+    let u = TwoTrackLateralInput::new(0.06, 20.0);
+    let base = seed.axle_lateral_forces(&x, &u, 8.0);
+    let per_axle = TwoTrackLateralMagicFormula::with_axle_tyres(
+        TwoTrackParams::default(),
+        MagicFormulaTyre::default(),
+        MagicFormulaTyre::default(),
+    );
+    assert_eq!(per_axle.axle_lateral_forces(&x, &u, 8.0), base);
+    assert_eq!(
+        per_axle.step(&x, &u, SAMPLE_TIME, Integrator::RungeKutta4),
+        seed.step(&x, &u, SAMPLE_TIME, Integrator::RungeKutta4)
+    );
+    let rear_tyre = |change: fn(&mut MagicFormulaParams)| {
+        let mut params = MagicFormulaParams::default();
+        change(&mut params);
+        TwoTrackLateralMagicFormula::with_axle_tyres(
+            TwoTrackParams::default(),
+            MagicFormulaTyre::default(),
+            MagicFormulaTyre::new(params),
+        )
+    };
+    let rear_factor = |change: fn(&mut TwoTrackParams)| {
+        let mut vehicle = TwoTrackParams::default();
+        change(&mut vehicle);
+        TwoTrackLateralMagicFormula::new(vehicle, MagicFormulaTyre::default())
+    };
+    let changed = [
+        ("shape", rear_tyre(|p| p.lateral_shape = 1.6)),
+        ("curvature", rear_tyre(|p| p.lateral_curvature = 0.5)),
+        (
+            "friction",
+            rear_factor(|v| v.chassis.rear_tyre_friction_scale = 0.8),
+        ),
+        (
+            "reference load",
+            rear_factor(|v| v.chassis.rear_tyre_reference_load_scale = 0.5),
+        ),
+        (
+            "cornering stiffness",
+            rear_factor(|v| v.cornering_stiffness_scale_rear = 0.7),
+        ),
+    ];
+    for (name, model) in changed {
+        let (front, rear) = model.axle_lateral_forces(&x, &u, 8.0);
+        assert_eq!(front.to_bits(), base.0.to_bits(), "{name}");
+        assert!(
+            (rear / base.1 - 1.0).abs() > 0.01,
+            "{name}: rear {} -> {rear}",
+            base.1
+        );
+    }
+    let front_changed = rear_factor(|v| v.chassis.front_tyre_friction_scale = 0.8);
+    let (front, rear) = front_changed.axle_lateral_forces(&x, &u, 8.0);
+    assert_eq!(rear.to_bits(), base.1.to_bits());
+    assert!((front / base.0 - 1.0).abs() > 0.01);
+}
+
+/// The full model B (the ReferenceVehicle's model 2) takes the per-axle tyres alike: another
+/// rear tyre changes the motion, the same tyre given per axle does not change a bit.
+#[test]
+fn full_model_b_takes_the_rear_tyre() {
+    let seed = TwoTrackMagicFormula::default();
+    let same = TwoTrackMagicFormula::with_axle_tyres(
+        TwoTrackParams::default(),
+        MagicFormulaTyre::default(),
+        MagicFormulaTyre::default(),
+    );
+    let mut grippy_rear = vehicle_models::tyre::MagicFormulaParams::default();
+    grippy_rear.friction_base *= 1.2;
+    let other = TwoTrackMagicFormula::with_axle_tyres(
+        TwoTrackParams::default(),
+        MagicFormulaTyre::default(),
+        MagicFormulaTyre::new(grippy_rear),
+    );
+    let (seed_end, _, _) = simulate_full(&seed, SeedManoeuvre::HighRamp, false);
+    let (same_end, _, _) = simulate_full(&same, SeedManoeuvre::HighRamp, false);
+    let (other_end, _, _) = simulate_full(&other, SeedManoeuvre::HighRamp, false);
+    assert_eq!(same_end, seed_end);
+    assert!((other_end[state_index::VY] - seed_end[state_index::VY]).abs() > 1e-3);
+}

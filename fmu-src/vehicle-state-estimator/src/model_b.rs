@@ -10,7 +10,6 @@ use estimation::registry::EstimatorSettings;
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::SVector;
 use vehicle_models::two_track_lateral::{state_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM};
-use vehicle_models::tyre::MagicFormulaParams;
 use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 
 use crate::model_a::MAX_PLAUSIBLE_AY;
@@ -44,14 +43,21 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let source = parameters::source(v);
         // The same car as model A with model B's geometry (issue 17 point 4; the defaults are
         // the two-track model's, SPEC §4).
+        let (cornering_front, cornering_rear) = source.cornering_stiffness_scales()?;
         let vehicle = TwoTrackParams {
             chassis: source.chassis()?,
             track_width: positive("track_width", v.track_width)?,
             cog_height: v.cog_height,
             front_roll_moment_share: v.roll_moment_distribution_front,
+            // Per-axle tyres (issue 17 point 4): factors on Cα per axle as in model A; the
+            // friction and reference-load factors come with the chassis.
+            cornering_stiffness_scale_front: cornering_front,
+            cornering_stiffness_scale_rear: cornering_rear,
             ..TwoTrackParams::default()
         };
-        let tyre = MagicFormulaTyre::new(MagicFormulaParams::matching_hsri(&source.hsri()?));
+        // Each axle's Magic Formula tyre, matched to the HSRI parameters (SPEC §4) with its own
+        // lateral shape and curvature.
+        let (front_tyre, rear_tyre) = source.magic_formula_axles()?;
         // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).
         let process = variances([
             ("process_noise_std_sideslip", v.process_noise_std_sideslip),
@@ -66,7 +72,11 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             ),
         ])?;
         TwoTrackEstimationModel::new(
-            TwoTrackLateralModel::new(vehicle, tyre),
+            TwoTrackLateralModel::with_axle_tyres(
+                vehicle,
+                MagicFormulaTyre::new(front_tyre),
+                MagicFormulaTyre::new(rear_tyre),
+            ),
             positive("sample_time", v.sample_time)?,
             parameters::integrator(v)?,
             process,

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{TyreForce, TyreKinematics, TyreModel};
+use super::{AxleTyreScaling, TyreForce, TyreKinematics, TyreModel};
 use crate::scalar::Scalar;
 
 /// Tyre data of seed 000, table 5.2 (185/70 HR 14 at 2.0 bar).
@@ -99,7 +99,7 @@ impl HsriTyre {
     fn evaluate<S: Scalar>(
         &self,
         k: &TyreKinematics<S>,
-        cornering_stiffness_scale: f64,
+        scaling: &AxleTyreScaling,
         with_slip_derivative: bool,
     ) -> (TyreForce<S>, S) {
         let zero = S::constant(0.0);
@@ -108,14 +108,15 @@ impl HsriTyre {
         if load.value() <= 0.0 {
             return (TyreForce::zero(), zero);
         }
-        let relative_load = load * (1.0 / p.reference_load);
+        // Fz / FZref with the axle's λFz0 on FZref (1 = the seed's tyre)
+        let relative_load = load * (1.0 / (p.reference_load * scaling.reference_load));
         let slip = k.slip;
         let tan_alpha = k.tan_slip_angle;
-        // (000: 5.70) Cα, times the caller's cornering-stiffness scale (1 = the seed's tyre);
+        // (000: 5.70) Cα, times the axle's cornering-stiffness factor (1 = the seed's tyre);
         // (000: 5.71) Cs
         let cornering = (relative_load * p.cornering_load + p.cornering_base)
             * load
-            * cornering_stiffness_scale;
+            * scaling.cornering_stiffness;
         let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
         let lateral_demand = cornering * tan_alpha;
         let longitudinal_demand = longitudinal * slip;
@@ -137,9 +138,12 @@ impl HsriTyre {
             };
             (force, slip_derivative)
         };
-        // (000: 5.67) friction potential f0, (000: 5.68) decay factor kR
-        let friction_potential = -(relative_load * p.friction_load) + p.friction_base;
-        let friction_decay = relative_load * p.friction_decay_load + p.friction_decay_base;
+        // (000: 5.67) friction potential f0, (000: 5.68) decay factor kR, both times the axle's
+        // friction factor λμ, so µ of (000: 5.69) scales at every sliding speed
+        let friction_potential =
+            (-(relative_load * p.friction_load) + p.friction_base) * scaling.friction;
+        let friction_decay =
+            (relative_load * p.friction_decay_load + p.friction_decay_base) * scaling.friction;
         // The adhesion force does not depend on µ, only the case distinction does, and µ lies in
         // [f0 − max(kR, 0), f0 − min(kR, 0)] (000: 5.69). Most adhesion calls are settled by that
         // lowest µ, which skips the sliding speed's two square roots and a division. The
@@ -216,12 +220,12 @@ const ADHESION_BOUND_MARGIN: f64 = 1e-12;
 
 impl TyreModel for HsriTyre {
     #[inline]
-    fn force_with_cornering_scale<S: Scalar>(
+    fn force_scaled<S: Scalar>(
         &self,
         k: &TyreKinematics<S>,
-        cornering_stiffness_scale: f64,
+        scaling: &AxleTyreScaling,
     ) -> TyreForce<S> {
-        self.evaluate(k, cornering_stiffness_scale, false).0
+        self.evaluate(k, scaling, false).0
     }
 
     /// The force and `∂Fx/∂s` in closed form: the chain rule through (000: 5.66-5.73), about
@@ -230,9 +234,9 @@ impl TyreModel for HsriTyre {
     fn force_and_slip_derivative<S: Scalar>(
         &self,
         k: &TyreKinematics<S>,
-        cornering_stiffness_scale: f64,
+        scaling: &AxleTyreScaling,
     ) -> (TyreForce<S>, S) {
-        self.evaluate(k, cornering_stiffness_scale, true)
+        self.evaluate(k, scaling, true)
     }
 
     fn cornering_stiffness(&self, vertical_load: f64) -> f64 {
@@ -400,13 +404,12 @@ mod slip_derivative_tests {
     struct DualDerivative(HsriTyre);
 
     impl TyreModel for DualDerivative {
-        fn force_with_cornering_scale<S: Scalar>(
+        fn force_scaled<S: Scalar>(
             &self,
             k: &TyreKinematics<S>,
-            cornering_stiffness_scale: f64,
+            scaling: &AxleTyreScaling,
         ) -> TyreForce<S> {
-            self.0
-                .force_with_cornering_scale(k, cornering_stiffness_scale)
+            self.0.force_scaled(k, scaling)
         }
 
         fn cornering_stiffness(&self, vertical_load: f64) -> f64 {
@@ -419,13 +422,24 @@ mod slip_derivative_tests {
     }
 
     /// The closed-form `∂Fx/∂s` equals the dual number's to rounding, in adhesion and sliding,
-    /// driving and braking, at low and high speed, and the force is bit-identical.
+    /// driving and braking, at low and high speed, unscaled and with an axle's factors on µ,
+    /// Cα and FZref, and the force is bit-identical.
     #[test]
     fn closed_form_slip_derivative_matches_dual_numbers() {
         let tyre = HsriTyre::default();
         let dual = DualDerivative(tyre.clone());
         let mut sliding = 0;
-        for load in [800.0, 3519.5, 6000.0] {
+        let scaled = AxleTyreScaling {
+            cornering_stiffness: 1.2,
+            friction: 0.6,
+            reference_load: 1.3,
+        };
+        for (load, scaling) in [
+            (800.0, AxleTyreScaling::NONE),
+            (3519.5, AxleTyreScaling::NONE),
+            (6000.0, AxleTyreScaling::NONE),
+            (3519.5, scaled),
+        ] {
             for speed in [0.0, 0.5, 18.0, -12.0] {
                 for i in -120..=120 {
                     for j in -60..=60 {
@@ -435,8 +449,9 @@ mod slip_derivative_tests {
                             wheel_velocity: speed,
                             vertical_load: load,
                         };
-                        let (force, derivative) = tyre.force_and_slip_derivative(&k, 1.0);
-                        let (dual_force, dual_derivative) = dual.force_and_slip_derivative(&k, 1.0);
+                        let (force, derivative) = tyre.force_and_slip_derivative(&k, &scaling);
+                        let (dual_force, dual_derivative) =
+                            dual.force_and_slip_derivative(&k, &scaling);
                         assert_eq!(force, dual_force, "{k:?}");
                         // Near the force's peak ∂Fx/∂s is a difference of terms of the size of
                         // the slip stiffness Cs, so rounding is relative to Cs.

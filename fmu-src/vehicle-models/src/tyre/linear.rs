@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{HsriParams, TyreForce, TyreKinematics, TyreModel};
+use super::{AxleTyreScaling, HsriParams, TyreForce, TyreKinematics, TyreModel};
 use crate::scalar::Scalar;
 
 /// Stiffness coefficients of the linear tyre; `Cα = (c_α1 + c_α2 Fz/FZref) Fz` and likewise
@@ -59,21 +59,22 @@ impl LinearTyre {
 
 impl TyreModel for LinearTyre {
     #[inline]
-    fn force_with_cornering_scale<S: Scalar>(
+    fn force_scaled<S: Scalar>(
         &self,
         k: &TyreKinematics<S>,
-        cornering_stiffness_scale: f64,
+        scaling: &AxleTyreScaling,
     ) -> TyreForce<S> {
         let p = &self.params;
         let load = k.vertical_load;
         if load.value() <= 0.0 {
             return TyreForce::zero();
         }
-        let relative_load = load / p.reference_load;
+        // no friction limit, so λμ does not apply; λFz0 on FZref, λKyα on Cα
+        let relative_load = load / (p.reference_load * scaling.reference_load);
         // (000: 5.70), (000: 5.71)
         let cornering = (relative_load * p.cornering_load + p.cornering_base)
             * load
-            * cornering_stiffness_scale;
+            * scaling.cornering_stiffness;
         let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
         // (000: 5.58-5.61)
         TyreForce {

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{HsriParams, TyreForce, TyreKinematics, TyreModel};
+use super::{AxleTyreScaling, HsriParams, TyreForce, TyreKinematics, TyreModel};
 use crate::scalar::Scalar;
 
 /// Magic Formula coefficients as functions of the wheel load.
@@ -126,23 +126,24 @@ fn secant_stiffness<S: Scalar>(
 
 impl TyreModel for MagicFormulaTyre {
     #[inline]
-    fn force_with_cornering_scale<S: Scalar>(
+    fn force_scaled<S: Scalar>(
         &self,
         k: &TyreKinematics<S>,
-        cornering_stiffness_scale: f64,
+        scaling: &AxleTyreScaling,
     ) -> TyreForce<S> {
         let p = &self.params;
         let load = k.vertical_load;
         if load.value() <= 0.0 {
             return TyreForce::zero();
         }
-        let relative_load = load / p.reference_load;
-        // degressive peak force D = f0(Fz) Fz (000: 5.67 applied to 001: eq 3)
-        let peak = (-(relative_load * p.friction_load) + p.friction_base) * load;
-        // B C D = Cα(Fz), Cs(Fz) (000: 5.70, 5.71)
+        // Fz / FZref with the axle's λFz0 on FZref (1 = the seed car's tyre)
+        let relative_load = load / (p.reference_load * scaling.reference_load);
+        // degressive peak force D = λμ f0(Fz) Fz (000: 5.67 applied to 001: eq 3)
+        let peak = (-(relative_load * p.friction_load) + p.friction_base) * load * scaling.friction;
+        // B C D = Cα(Fz), Cs(Fz) (000: 5.70, 5.71), Cα times the axle's λKyα
         let cornering = (relative_load * p.cornering_load + p.cornering_base)
             * load
-            * cornering_stiffness_scale;
+            * scaling.cornering_stiffness;
         let longitudinal = (relative_load * p.longitudinal_load + p.longitudinal_base) * load;
         let mut rolling_ratio = k.slip + 1.0;
         if rolling_ratio.value() < p.min_rolling_ratio {

@@ -11,6 +11,8 @@
 //!   lateral force;
 //! - the longitudinal force is positive forward.
 
+use serde::{Deserialize, Serialize};
+
 use crate::scalar::{Dual, Scalar};
 
 pub mod combined_slip;
@@ -56,6 +58,42 @@ impl<S: Scalar> TyreForce<S> {
     }
 }
 
+/// Per-axle factors on a tyre law, so one tyre description serves a car whose front and rear
+/// tyres differ: the user scaling factors of Pacejka's Magic Formula (Pacejka, *Tyre and Vehicle
+/// Dynamics*, 3rd ed. 2012, §4.3.2: `λKyα` on the cornering stiffness, `λμy` on the friction
+/// coefficient, `λFz0` on the nominal load), applied alike to the HSRI tyre (000: 5.67-5.73)
+/// and to model B's Magic Formula tyre. Every factor 1 ([`Self::NONE`]) is the unscaled tyre,
+/// bit-identically (`x · 1 = x` and `x / (y · 1) = x / y` in IEEE 754 arithmetic).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AxleTyreScaling {
+    /// `λKyα`: factor on the cornering stiffness `Cα` (000: 5.70) wherever it enters the force
+    /// law (for HSRI also the resultant slip, 000: 5.73).
+    pub cornering_stiffness: f64,
+    /// `λμy`: factor on the friction coefficient, its peak `f0` (000: 5.67) and, for HSRI, its
+    /// decay `kR` with the sliding speed (000: 5.68-5.69), so `µ` at every sliding speed scales.
+    pub friction: f64,
+    /// `λFz0`: factor on the reference load `FZref` of the load influences `Fz/FZref`
+    /// (000: 5.67-5.71): a factor above 1 weakens the load sensitivity of friction and
+    /// stiffnesses (the tyre of a heavier rated load), below 1 strengthens it.
+    pub reference_load: f64,
+}
+
+impl AxleTyreScaling {
+    /// The unscaled tyre.
+    pub const NONE: Self = Self {
+        cornering_stiffness: 1.0,
+        friction: 1.0,
+        reference_load: 1.0,
+    };
+}
+
+impl Default for AxleTyreScaling {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
 /// One interface for every tyre model, so the vehicle models are generic over it.
 ///
 /// `force` is generic over [`Scalar`], which is what makes the vehicle Jacobians exact: the same
@@ -64,21 +102,39 @@ pub trait TyreModel: Clone + std::fmt::Debug + Send + Sync {
     /// Force of one tyre for the given kinematics.
     #[inline(always)]
     fn force<S: Scalar>(&self, kinematics: &TyreKinematics<S>) -> TyreForce<S> {
-        self.force_with_cornering_scale(kinematics, 1.0)
+        self.force_scaled(kinematics, &AxleTyreScaling::NONE)
     }
+
+    /// The force of this tyre on an axle with the given [`AxleTyreScaling`]; with
+    /// [`AxleTyreScaling::NONE`] bit-identical to [`Self::force`]. A tyre model without a
+    /// friction limit (the linear tyre) applies the cornering-stiffness and load factors only.
+    fn force_scaled<S: Scalar>(
+        &self,
+        kinematics: &TyreKinematics<S>,
+        scaling: &AxleTyreScaling,
+    ) -> TyreForce<S>;
 
     /// [`Self::force`] of a tyre whose cornering stiffness `Cα` (000: 5.70) is multiplied by
     /// `cornering_stiffness_scale`, wherever `Cα` enters the force law (for HSRI also the
     /// resultant slip, 000: 5.73). A scale of exactly 1 gives bit-identical forces (`x · 1 = x`
     /// in IEEE 754 arithmetic, for dual numbers component by component). Model A uses one scale
     /// per axle, e.g. identified from data of another vehicle (model mismatch).
+    #[inline(always)]
     fn force_with_cornering_scale<S: Scalar>(
         &self,
         kinematics: &TyreKinematics<S>,
         cornering_stiffness_scale: f64,
-    ) -> TyreForce<S>;
+    ) -> TyreForce<S> {
+        self.force_scaled(
+            kinematics,
+            &AxleTyreScaling {
+                cornering_stiffness: cornering_stiffness_scale,
+                ..AxleTyreScaling::NONE
+            },
+        )
+    }
 
-    /// [`Self::force_with_cornering_scale`] together with `∂F_x/∂s`, the longitudinal force's
+    /// [`Self::force_scaled`] together with `∂F_x/∂s`, the longitudinal force's
     /// derivative with respect to the slip, which the semi-implicit wheel-speed step needs
     /// (000: 6.1, 6.2). The default differentiates the force law in one dual direction seeded
     /// in the slip (the force is the dual's value part, bit-identical to the plain call); a tyre
@@ -87,7 +143,7 @@ pub trait TyreModel: Clone + std::fmt::Debug + Send + Sync {
     fn force_and_slip_derivative<S: Scalar>(
         &self,
         kinematics: &TyreKinematics<S>,
-        cornering_stiffness_scale: f64,
+        scaling: &AxleTyreScaling,
     ) -> (TyreForce<S>, S) {
         let seeded = TyreKinematics {
             slip: Dual::<S, 1>::variable(kinematics.slip, 0),
@@ -95,7 +151,7 @@ pub trait TyreModel: Clone + std::fmt::Debug + Send + Sync {
             wheel_velocity: Dual::from_value(kinematics.wheel_velocity),
             vertical_load: Dual::from_value(kinematics.vertical_load),
         };
-        let force = self.force_with_cornering_scale(&seeded, cornering_stiffness_scale);
+        let force = self.force_scaled(&seeded, scaling);
         (
             TyreForce {
                 longitudinal: force.longitudinal.value,
