@@ -240,6 +240,11 @@ fn csv_error(text: &str) -> String {
     }
 }
 
+/// [`csv_error`] of `text` names every one of `parts`.
+fn assert_csv_refused(text: &str, parts: &[&str]) {
+    assert_names(&csv_error(text), parts);
+}
+
 fn assert_names(message: &str, parts: &[&str]) {
     for part in parts {
         assert!(message.contains(part), "{part:?} missing in: {message}");
@@ -260,9 +265,8 @@ fn a_good_csv_is_read_with_its_sample_time_and_missing_measurements() {
 
 #[test]
 fn a_bad_number_names_file_line_and_column() {
-    let e = csv_error(&GOOD_CSV.replace("-0.05,14.001", "abc,14.001"));
-    assert_names(
-        &e,
+    assert_csv_refused(
+        &GOOD_CSV.replace("-0.05,14.001", "abc,14.001"),
         &[
             "drive.csv",
             "line 3",
@@ -278,15 +282,13 @@ fn a_bad_number_names_file_line_and_column() {
 fn comment_lines_count_in_the_line_number() {
     let text =
         format!("# drive of 2017-05-04\n# second comment\n{GOOD_CSV}").replace("14.002", "x");
-    let e = csv_error(&text);
-    assert_names(&e, &["line 6", "column 4", "vx_ref"]);
+    assert_csv_refused(&text, &["line 6", "column 4", "vx_ref"]);
 }
 
 #[test]
 fn a_missing_input_is_refused_but_a_missing_measurement_is_not() {
-    let e = csv_error(&GOOD_CSV.replace("0.01,0.1,", "0.01,,"));
-    assert_names(
-        &e,
+    assert_csv_refused(
+        &GOOD_CSV.replace("0.01,0.1,", "0.01,,"),
         &[
             "line 3",
             "column 2",
@@ -295,15 +297,16 @@ fn a_missing_input_is_refused_but_a_missing_measurement_is_not() {
             "only measurements may be missing",
         ],
     );
-    let e = csv_error(&GOOD_CSV.replace("0.22,-0.42", "inf,-0.42"));
-    assert_names(&e, &["line 4", "column 5", "vy_ref", "not a finite number"]);
+    assert_csv_refused(
+        &GOOD_CSV.replace("0.22,-0.42", "inf,-0.42"),
+        &["line 4", "column 5", "vy_ref", "not a finite number"],
+    );
 }
 
 #[test]
 fn header_mistakes_name_the_column() {
-    let e = csv_error(&GOOD_CSV.replace("yaw_rate", "yawrate"));
-    assert_names(
-        &e,
+    assert_csv_refused(
+        &GOOD_CSV.replace("yaw_rate", "yawrate"),
         &[
             "line 1",
             "column 6",
@@ -311,23 +314,28 @@ fn header_mistakes_name_the_column() {
             "time, dvx_ref_dt",
         ],
     );
-    let e = csv_error(&GOOD_CSV.replace("vx_ref,", "vy_ref,"));
-    assert_names(&e, &["line 1", "column 5", "appears twice", "column 4"]);
-    let e = csv_error(&GOOD_CSV.replace(",yaw_angle", "").replace(",0.12\n", "\n"));
-    assert_names(&e, &["line 1", "missing column \"yaw_angle\""]);
+    assert_csv_refused(
+        &GOOD_CSV.replace("vx_ref,", "vy_ref,"),
+        &["line 1", "column 5", "appears twice", "column 4"],
+    );
+    assert_csv_refused(
+        &GOOD_CSV.replace(",yaw_angle", "").replace(",0.12\n", "\n"),
+        &["line 1", "missing column \"yaw_angle\""],
+    );
 }
 
 #[test]
 fn a_short_row_names_its_line() {
-    let e = csv_error(&GOOD_CSV.replace("14.001,0.21,", "14.001,"));
-    assert_names(&e, &["drive.csv", "line 3", "6 fields, expected 7"]);
+    assert_csv_refused(
+        &GOOD_CSV.replace("14.001,0.21,", "14.001,"),
+        &["drive.csv", "line 3", "6 fields, expected 7"],
+    );
 }
 
 #[test]
 fn time_must_increase_uniformly() {
-    let e = csv_error(&GOOD_CSV.replace("0.02,", "0.01,"));
-    assert_names(
-        &e,
+    assert_csv_refused(
+        &GOOD_CSV.replace("0.02,", "0.01,"),
         &[
             "line 4",
             "column 1",
@@ -336,24 +344,21 @@ fn time_must_increase_uniformly() {
         ],
     );
     let uneven = GOOD_CSV.replace("0.02,", "0.025,") + "0.03,0.1,-0.049,14.003,0.23,-0.41,0.105\n";
-    let e = csv_error(&uneven);
-    assert_names(&e, &["line 4", "0.015", "uniformly spaced"]);
+    assert_csv_refused(&uneven, &["line 4", "0.015", "uniformly spaced"]);
 }
 
 #[test]
 fn too_little_data_is_refused() {
-    let e = csv_error("");
-    assert_names(&e, &["drive.csv", "empty", "header"]);
+    assert_csv_refused("", &["drive.csv", "empty", "header"]);
     let one_row: String = GOOD_CSV.lines().take(2).map(|l| format!("{l}\n")).collect();
-    let e = csv_error(&one_row);
-    assert_names(&e, &["1 data rows", "at least 2"]);
-    let e = csv_error(
+    assert_csv_refused(&one_row, &["1 data rows", "at least 2"]);
+    assert_csv_refused(
         &GOOD_CSV
             .replace(",0.12\n", ",\n")
             .replace(",0.115\n", ",\n")
             .replace(",0.11\n", ",\n"),
+        &["no row has all three measurements"],
     );
-    assert_names(&e, &["no row has all three measurements"]);
 }
 
 /// Runs the command, which must fail; its error output.
@@ -361,6 +366,20 @@ fn refused(args: &[&str]) -> String {
     let output = harness(args);
     assert!(!output.status.success(), "{args:?} succeeded");
     stderr(&output)
+}
+
+/// `harness identify` on the file `name` in `dir` holding `text` must fail naming every one of
+/// `parts`.
+fn assert_data_refused(dir: &Path, name: &str, text: &str, parts: &[&str]) {
+    let path = write(dir, name, text);
+    let out = dir.join("out");
+    let e = refused(&[
+        "identify",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_names(&e, parts);
 }
 
 #[test]
@@ -375,13 +394,15 @@ fn the_command_names_a_missing_or_wrong_file() {
 
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    let bad = write(dir.path(), "drive.csv", &GOOD_CSV.replace("0.22", "oops"));
-    let e = refused(&["identify", bad.to_str().unwrap(), "--out", out]);
-    assert_names(&e, &["drive.csv", "line 4", "column 5", "vy_ref"]);
-
-    let other = write(dir.path(), "drive.txt", GOOD_CSV);
-    let e = refused(&["identify", other.to_str().unwrap(), "--out", out]);
-    assert_names(&e, &["drive.txt", ".csv", ".toml"]);
+    let bad = GOOD_CSV.replace("0.22", "oops");
+    let parts = ["drive.csv", "line 4", "column 5", "vy_ref"];
+    assert_data_refused(dir.path(), "drive.csv", &bad, &parts);
+    assert_data_refused(
+        dir.path(),
+        "drive.txt",
+        GOOD_CSV,
+        &["drive.txt", ".csv", ".toml"],
+    );
 
     let good = write(dir.path(), "good.csv", GOOD_CSV);
     let good = good.to_str().unwrap();
@@ -406,26 +427,16 @@ fn constant_drive_csv(rows: usize, speed: f64, steering: f64) -> String {
 #[test]
 fn data_that_cannot_determine_the_parameters_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let out = out.to_str().unwrap();
-    let standing = write(
+    assert_data_refused(
         dir.path(),
         "standing.csv",
         &constant_drive_csv(50, 0.0, 0.05),
-    );
-    let e = refused(&["identify", standing.to_str().unwrap(), "--out", out]);
-    assert_names(
-        &e,
         &["standing.csv", "row 0", "Vx_ref = 0", "low-speed guard"],
     );
-    let straight = write(
+    assert_data_refused(
         dir.path(),
         "straight.csv",
         &constant_drive_csv(50, 14.0, 0.0),
-    );
-    let e = refused(&["identify", straight.to_str().unwrap(), "--out", out]);
-    assert_names(
-        &e,
         &["straight.csv", "do not determine", "Csf", "Cramér-Rao"],
     );
 }
