@@ -355,6 +355,17 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             std::fs::create_dir_all(&env.out_dir)
                 .with_context(|| format!("creating {}", env.out_dir.display()))?;
             let work = env.work_folder();
+            // The same manoeuvre as `harness run`: a sine with dwell sized from a slowly
+            // increasing steer is resolved once, before the runs (it used to be skipped here,
+            // so the runs drove the library's default amplitude instead).
+            if let Some((amplitude, angle)) = runner::resolve_sine_with_dwell(&mut parsed, &env)? {
+                writeln!(
+                    stdout,
+                    "sine with dwell: 0.3 g at a steering angle of {:.3}°; amplitude {:.3}°",
+                    angle.to_degrees(),
+                    amplitude.to_degrees()
+                )?;
+            }
             let plan = Plan::new(parsed, &env.fmu_dir, &env.work_dir())?;
             let bar = progress_bar(runs as u64);
             bar.set_message(format!("{} runs", runs));

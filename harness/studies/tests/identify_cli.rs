@@ -686,3 +686,81 @@ fn a_closed_pipe_ends_the_command_quietly() {
         );
     }
 }
+
+/// The sideslip RMSE of `instance` in `harness run`'s score table (its printed form, `{:.4e}`).
+fn printed_sideslip_rmse(stdout: &str, instance: &str) -> String {
+    stdout
+        .lines()
+        .map(|line| line.split_whitespace().collect::<Vec<_>>())
+        .find(|words| words.len() > 2 && words[0] == "sideslip" && words[1] == instance)
+        .map(|words| words[2].to_string())
+        .unwrap_or_else(|| panic!("no sideslip row of {instance} in:\n{stdout}"))
+}
+
+/// `harness montecarlo` drives the same manoeuvre as `harness run`: a sine with dwell whose
+/// amplitude comes from a slowly increasing steer (`[manoeuvre.amplitude_from_sis]`) is resolved
+/// before the runs. It used to be skipped, so the Monte Carlo runs drove the library's default
+/// amplitude and reported errors several times those of the same seed under `harness run`.
+#[test]
+fn montecarlo_drives_the_sine_with_dwell_that_run_drives() {
+    let fmu_dir = fmi_master::runner::packaged_fmu_dir().expect("packaged FMUs");
+    let fmu_dir = fmu_dir.to_str().expect("UTF-8 path");
+    let scenario = scenario_dir().join("fmvss126_sine_with_dwell.toml");
+    let scenario = scenario.to_str().expect("UTF-8 path");
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+
+    let run = harness(&[
+        "run",
+        scenario,
+        "--fmu-dir",
+        fmu_dir,
+        "--no-plots",
+        "--out",
+        &out("run"),
+        "--set",
+        "vehicle.seed=1",
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let run_stdout = String::from_utf8_lossy(&run.stdout).to_string();
+
+    let montecarlo = harness(&[
+        "montecarlo",
+        scenario,
+        "--fmu-dir",
+        fmu_dir,
+        "--runs",
+        "2",
+        "--first-seed",
+        "1",
+        "--instances",
+        "vehicle,EKF",
+        "--threads",
+        "1",
+        "--out",
+        &out("montecarlo"),
+    ]);
+    assert!(montecarlo.status.success(), "{}", stderr(&montecarlo));
+    let printed = String::from_utf8_lossy(&montecarlo.stdout).to_string();
+    assert!(
+        printed.contains("sine with dwell: 0.3 g at a steering angle of"),
+        "{printed}"
+    );
+
+    let runs_csv = Path::new(&out("montecarlo"))
+        .join("fmvss126_sine_with_dwell")
+        .join("runs.csv");
+    let (header, rows) = read_table(&runs_csv);
+    let column = header
+        .iter()
+        .position(|name| name == "EKF.sideslip.rmse")
+        .expect("EKF.sideslip.rmse column");
+    let first_seed = &rows[0];
+    assert_eq!(first_seed[0], "1", "the first row is seed 1");
+    let montecarlo_rmse: f64 = first_seed[column].parse().unwrap();
+    assert_eq!(
+        format!("{montecarlo_rmse:.4e}"),
+        printed_sideslip_rmse(&run_stdout, "EKF"),
+        "seed 1's EKF sideslip RMSE differs between montecarlo and run"
+    );
+}
