@@ -50,7 +50,7 @@ def test_fmpy_script_and_harness_replay_agree(workspace_executables, tmp_path):
     assert "sideslip: RMSE" in printed, printed
     ours = np.genfromtxt(out / "estimates.csv", delimiter=",", names=True)
     theirs = np.genfromtxt(fmpy_csv, delimiter=",", names=True)
-    assert len(ours) == len(theirs) == 2401
+    assert len(ours) == len(theirs) == 3000
     for name in ("vx_est", "yaw_rate_est", "sideslip_est", "sideslip_std"):
         assert np.array_equal(ours[name], theirs[name], equal_nan=True), name
     # The UKF of the file ran, not the map's default EKF: its sideslip differs from an EKF replay.

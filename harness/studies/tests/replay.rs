@@ -95,14 +95,26 @@ fn the_csv_and_mf4_logs_replay_alike_with_units_signs_and_rates_converted() {
         (a - b).abs() < 0.05 * a,
         "sideslip RMSE {a} deg from the CSV, {b} deg from the MF4"
     );
-    // The EKF follows the measured yaw rate (the truth moves up to 0.42 rad/s = 24 deg/s).
-    let yaw = from_csv
-        .scores
-        .iter()
-        .find(|s| s.label == "yaw_rate")
-        .expect("yaw-rate score");
-    assert!(yaw.rmse < 1.5, "yaw-rate RMSE {} deg/s", yaw.rmse);
+    // The drive reaches -2.6 deg of sideslip at 100 km/h: answering 0 is 1.8 deg RMS wrong, and
+    // the EKF with the map's parameters is well below half of that (0.45 deg; model A's missing
+    // load transfer is most of what is left, harness/logs/README.md). A unit, sign or steering
+    // ratio read wrongly would not be.
+    let baseline = zero_sideslip_rmse(&from_csv.scores);
+    assert!(baseline > 1.0, "zero-sideslip baseline {baseline} deg");
+    assert!(
+        a < 0.5 * baseline,
+        "sideslip RMSE {a} deg, zero-sideslip baseline {baseline} deg"
+    );
     assert!(from_csv.csv.is_file());
+}
+
+/// The RMSE of answering β = 0, the score table's baseline row, in degrees.
+fn zero_sideslip_rmse(scores: &[fmi_master::scoring::StateScore]) -> f64 {
+    scores
+        .iter()
+        .find(|s| s.label == "sideslip" && s.estimator != "estimator")
+        .expect("zero-sideslip baseline")
+        .rmse
 }
 
 /// The first error message of preparing `log` (CSV text) with `map_text`.
@@ -212,9 +224,13 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
         fmu: estimator_path(None, &default_fmu_dir()),
         model: FitModel::A,
         out: out.clone(),
-        // A short training segment keeps the test fast (the EM is the cost).
-        train: Some((12.0, 16.0)),
-        validate: Some((16.0, 24.0)),
+        // Training where the tyres are linear (|ay| up to 4.7 m/s², below 0.5 f0 g = 5.9): model
+        // A's single track without load transfer is the right structure there. Trained on the
+        // drive up to the limit the scales do not come out within 10 % (12-16 s: k_R = 1.65;
+        // 0-20 s: k_F = 0.95): in a quasi-steady drive only the understeer balance of the axles
+        // is observable, and the load transfer model A lacks bends it (harness/logs/README.md).
+        train: Some((2.0, 8.0)),
+        validate: Some((8.0, 14.0)),
     })
     .expect("fit");
     eprintln!("{}", fitted.summary());
@@ -236,6 +252,11 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
         after < before,
         "held-out sideslip RMSE {before} deg with the map's parameters, {after} deg fitted"
     );
+    let baseline = zero_sideslip_rmse(&fitted.after);
+    assert!(
+        after < 0.5 * baseline,
+        "held-out sideslip RMSE {after} deg fitted, zero-sideslip baseline {baseline} deg"
+    );
     // The file is an SSP parameter-value file the replay accepts.
     let again = replay(&ReplayOptions {
         parameters: Some(out.clone()),
@@ -249,7 +270,7 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
             && text.contains("<ssv:Enumeration value=\"ekf\"/>"),
         "{text}"
     );
-    // The example drive stays below half the friction limit (where the HSRI tyre begins to
+    // The training segment stays below half the friction limit (where the HSRI tyre begins to
     // slide): no peak friction is fitted, said so, and none written.
     match fitted.friction {
         Some(FrictionFit::NotIdentifiable(reach)) => {
@@ -258,7 +279,7 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
                 "{reach:?}"
             )
         }
-        other => panic!("the example log stays linear, yet the friction step gave {other:?}"),
+        other => panic!("the training segment is linear, yet the friction step gave {other:?}"),
     }
     assert!(fitted
         .summary()
