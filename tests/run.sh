@@ -47,4 +47,11 @@ target=$("$root/.venv/bin/python" -c 'import json, sys; print(json.load(sys.stdi
     < <(cargo metadata --format-version 1 --no-deps))
 phase "$target/release/packaging" --with-workspace-targets
 phase cargo test --workspace --release
-phase "$root/.venv/bin/python" -m pytest tests -q
+# Two xdist workers (pytest-xdist, tests/requirements.txt), each module in one of them (loadscope:
+# module-scoped fixtures run once, the campaign tests share one Dask cluster). The module of
+# `harness demo` (tests/harness/test_demo.py, about 75 s) goes first, by its `starts_first` marker
+# and the collection order (no reordering by size), so the other worker runs every other module
+# meanwhile. A third worker would not shorten the demo, the longest piece (issue 11 point 7).
+# (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 no
+# longer reads, so the group's tests were spread over both workers and the demo ran twice.)
+phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder
