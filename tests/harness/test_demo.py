@@ -1,6 +1,7 @@
 """Tests on one `harness demo` run, asserted on the harness's own output: the seed-000 findings
 (SPEC section 7, seed 000 ch. 7), the demo's findings table and the key numbers recomputed here
-from its CSV recordings.
+from its CSV recordings; and the model-mismatch study as shipped (issue 6 point 5,
+harness/studies/src/mismatch.rs), which the demo runs in full.
 
 The demo is the longest piece of the Python tests (about 75 s on a 2-core machine, most of it the
 model-mismatch study's EM), so everything that reads it is in this one module: with
@@ -9,6 +10,7 @@ model-mismatch study's EM), so everything that reads it is in this one module: w
 modules meanwhile (issue 11 point 7)."""
 
 import csv
+import re
 
 import numpy as np
 import pytest
@@ -105,3 +107,53 @@ def test_braking_makes_the_lkf_worse_after_9s(demo):
         rmse(plain["LKF.vy_est"], plain["vehicle.vy"], window)
     ax = np.mean(braking["vehicle.ax"][braking["time"] >= 11.0])
     assert -5.0 < ax < -3.0
+
+
+# The model-mismatch study. harness/studies/tests/mismatch.rs runs the same pipeline with the EM
+# cut to its first SQUAREM cycles; the full EM (20 cycles, 100 particles), nearly all of the
+# study's time, runs once per test run, here in the demo, instead of twice (issue 11 point 7).
+# The bounds are that test's, on the full run.
+MISMATCH_VALIDATION_SCENARIOS = ["mismatch_validation_step_steer", "mismatch_validation_lane_change"]
+MISMATCH_ESTIMATORS = ["EKF", "UKF"]
+
+
+def mismatch_finding(demo):
+    with open(demo / "findings.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f)
+                if r["seed"] == "beyond" and r["experiment"].startswith("model mismatch")]
+    assert len(rows) == 1, rows
+    return rows[0]["we_measure"]
+
+
+def test_mismatch_em_moves_both_scales_below_one_the_front_the_more(demo):
+    # The EM with the study's 100 particles stops unconverged near k_F 0.79, k_R 0.85 (mismatch.rs,
+    # `identification_config`, records why). What must hold whatever it finds: it moves both
+    # scales down from their start 1 (model B's load transfer softens both axles against model
+    # A's linear tyre), the front the more. A failed study has no such line in the findings.
+    measured = mismatch_finding(demo)
+    match = re.search(r"identified k_F = ([0-9.]+), k_R = ([0-9.]+)", measured)
+    assert match, measured
+    front, rear = map(float, match.groups())
+    assert 0.7 <= front < 0.97, measured
+    assert 0.75 <= rear < 1.1, measured
+    assert front < rear, measured
+
+
+@pytest.mark.parametrize("scenario", MISMATCH_VALIDATION_SCENARIOS)
+def test_mismatch_held_out_runs_are_scored_with_scales_1_and_the_identified_scales(demo, scenario):
+    seed = read_columns(demo / "mismatch" / "seed_scales" / f"{scenario}.csv")
+    identified = read_columns(demo / "mismatch" / "identified_scales" / f"{scenario}.csv")
+    # The ReferenceVehicle's seed is the same in both runs: the same truth, the scales alone differ.
+    truth = seed["vehicle.sideslip"]
+    np.testing.assert_array_equal(identified["vehicle.sideslip"], truth)
+    assert np.max(np.abs(truth)) > np.radians(0.1)
+    for estimator in MISMATCH_ESTIMATORS:
+        with_seed_scales = seed[f"{estimator}.sideslip_est"]
+        with_identified = identified[f"{estimator}.sideslip_est"]
+        # With the seed's tyre (scales 1) model A's EKF and UKF stay within a fraction of a
+        # degree of model B's sideslip (measured 0.113 deg on the step steer, 0.023 deg on the
+        # lane change); with the identified scales the run is scored too (finite errors).
+        assert np.degrees(rmse(with_seed_scales, truth)) < 0.2, estimator
+        assert np.isfinite(rmse(with_identified, truth)), estimator
+        # The identified scales reached the estimator FMUs as parameters.
+        assert not np.array_equal(with_identified, with_seed_scales), estimator
