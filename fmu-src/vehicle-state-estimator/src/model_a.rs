@@ -12,15 +12,15 @@ use estimation::models::single_track::{
 };
 use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
-use nalgebra::SVector;
-use vehicle_models::driver_input::INPUT_DIM;
+use nalgebra::{SMatrix, SVector};
+use vehicle_models::driver_input::{index as input_index, INPUT_DIM};
 use vehicle_models::single_track::{measurement_index, state_index, SingleTrackParams, STATE_DIM};
 use vehicle_models::{HsriTyre, SingleTrackModel};
 
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
-    finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors, WheelRadii,
+    finite_or, EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors, WheelRadii,
     REAR_DRIVE_TORQUE,
 };
 use crate::status;
@@ -38,6 +38,16 @@ pub const MAX_PLAUSIBLE_AY: f64 = 15.0;
 
 /// Above this a wheel speed is a glitch (1000 rad/s is 1080 km/h on a 0.3 m wheel).
 pub const MAX_PLAUSIBLE_WHEEL_SPEED: f64 = 1e3;
+
+/// The longitudinal slip at which a passenger car tyre's force peaks on a dry road (10-20 %;
+/// Pacejka, Tyre and Vehicle Dynamics, 3rd ed., §1.2), for the low-speed wheel rule of
+/// `extra_process_noise`.
+const PEAK_SLIP: f64 = 0.15;
+
+/// The largest sideslip kept when the filter is re-seeded on re-admission, rad (about 11°: beyond
+/// it a passenger car spins; with ESC the sideslip stays within a few degrees, van Zanten,
+/// Bosch ESP Systems: 5 Years of Experience, SAE 2000-01-1633).
+const MAX_KEPT_SIDESLIP: f64 = 0.2;
 
 /// Above this |vx_meas| is a glitch, m/s (360 km/h).
 pub const MAX_PLAUSIBLE_SPEED: f64 = 100.0;
@@ -218,6 +228,20 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         measured_start(runner, sensors)
     }
 
+    /// Re-admission re-seeds because one sensor stayed gated; the speed, yaw rate and wheel
+    /// speeds are measured, but the lateral speed is not, and `vy = 0` in a corner is a wrong
+    /// sideslip whose `ay` innovation the first update spreads into `vx` (on the slow ramp each
+    /// re-admission moved vx by up to 0.4 m/s, 1.8 %). So the estimate's sideslip is kept,
+    /// `vy = vx tan β` at the measured speed, when it is one a car can have
+    /// (|β| <= [`MAX_KEPT_SIDESLIP`]); a filter that lost its way further starts from 0 as at
+    /// the start.
+    fn readmitted_start(&self, current: &StateA, start: &mut InitialEstimate<STATE_DIM>) {
+        let sideslip = current[state_index::VY].atan2(current[state_index::VX]);
+        if sideslip.abs() <= MAX_KEPT_SIDESLIP {
+            start.state[state_index::VY] = start.state[state_index::VX] * sideslip.tan();
+        }
+    }
+
     /// Straight driving at the start's speed, the wheels free rolling (the form of the seed's
     /// operating point, 000: 5.58-5.62).
     fn operating_state_at(&self, start: &StateA) -> Option<StateA> {
@@ -225,6 +249,88 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
             self.vehicle()
                 .straight_rolling_state(start[state_index::VX]),
         )
+    }
+
+    /// Extra variance of the wheel states, per sample, from two limits of the wheel model
+    /// (only with `use_speed_measurements`: the seeds' filters stay seed 000's). Each wheel gets
+    /// the larger of:
+    ///
+    /// - **Torques unknown** (issue 12 point 1): while every torque input reads exactly 0,
+    ///   `(unknown_torque_slip_std |vx| / r)²`. A wheel speed measures the car's speed only
+    ///   through the wheel's slip, `r ω = v (1 + s)`, and the model knows the slip from the torque
+    ///   on the wheel (000: 5.45-5.46). Told 0 while the engine drives (or the brakes act), the
+    ///   model pulls the wheel to free rolling in every prediction and the measured wheel,
+    ///   several per cent faster (the Escort's driven front wheel at the limit of the slow ramp:
+    ///   6 %), was read as speed: the estimate followed that slip (4.3 % vx error). The unknown
+    ///   torque is a disturbance of the wheel's own dynamics, so it enters as process noise of
+    ///   the wheel state: the wheel state follows its own measurement and the gain from its
+    ///   innovation to vx, `P(vx,ω) / (P(ω) + R)`, becomes small; the speed rests on `vx_meas`
+    ///   and `ax_meas`, the wheels still carrying it (with less weight) when those are missing.
+    ///   The drive layout is not a parameter and unknown brakes slow every wheel, so both axles
+    ///   get it. The slip settles within a sample (time constant `J vx / (r² Cs)`, a few ms),
+    ///   hence a per-sample variance sized by the slip itself rather than a torque rate.
+    /// - **Low speed** (issue 12 point 4): the seed scheme damps the wheel step by
+    ///   `1 / (1 − T ∂ω̇/∂ω)` (000: 6.1-6.5), which vanishes once the tyre slides (its force no
+    ///   longer depends on ω). One sample of a sliding axle's friction force moves the wheel by
+    ///   up to `Δω = f00 (2 FZ) r T / J` (f00 the HSRI friction at zero load, its largest; 4.5
+    ///   rad/s for the Escort's rear axle at 10 ms), which at speeds below
+    ///   `v = Δω r / (2 s_peak)` is more than twice the peak slip `s_peak` = 0.15 (passenger car
+    ///   tyres on a dry road peak at 10-20 % slip; Pacejka, Tyre and Vehicle Dynamics, 3rd ed.,
+    ///   §1.2): the predicted wheel jumps from one sliding side to the other in every sample, a
+    ///   limit cycle of the discretisation, not of the car (pulling away, the wheel estimates
+    ///   alternated 7.5 / 2.3 rad/s about a true 5.0, the gate rejected the wheel rows and the
+    ///   re-admission re-seeded every 0.5 s, each time 0.2-0.4 m/s off). Below that speed the
+    ///   wheel state gets `Δω²`, so each update puts it back on its measurement (the wheel is
+    ///   algebraic at this sample time) and the limit cycle cannot build up.
+    fn extra_process_noise(
+        &self,
+        state: &StateA,
+        input: &InputVector,
+        v: &Variables,
+    ) -> Option<SMatrix<f64, STATE_DIM, STATE_DIM>> {
+        if !v.use_speed_measurements {
+            return None;
+        }
+        let speed = state[state_index::VX].abs();
+        let torques_unknown = [
+            input_index::DRIVE_TORQUE,
+            input_index::BRAKE_TORQUE,
+            REAR_DRIVE_TORQUE,
+        ]
+        .into_iter()
+        .all(|i| input[i] == 0.0);
+        let slip = if torques_unknown {
+            v.unknown_torque_slip_std
+        } else {
+            0.0
+        };
+        let radii = WheelRadii::of(v);
+        let axles = [
+            (
+                state_index::OMEGA_FRONT,
+                radii.front,
+                v.wheel_load_front,
+                v.wheel_inertia_front,
+            ),
+            (
+                state_index::OMEGA_REAR,
+                radii.rear,
+                v.wheel_load_rear,
+                v.wheel_inertia_rear,
+            ),
+        ];
+        let mut noise = SMatrix::<f64, STATE_DIM, STATE_DIM>::zeros();
+        for (index, radius, wheel_load, inertia) in axles {
+            let unknown_torque = slip * speed / radius;
+            let sliding_step = v.tyre_f00 * 2.0 * wheel_load * radius * v.sample_time / inertia;
+            let low_speed = if speed < sliding_step * radius / (2.0 * PEAK_SLIP) {
+                sliding_step
+            } else {
+                0.0
+            };
+            noise[(index, index)] = unknown_torque.max(low_speed).powi(2);
+        }
+        noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
 
     fn outputs(&self, sample: &OutputSample<STATE_DIM, ()>, _: &Variables) -> RealOutputs {

@@ -154,10 +154,29 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
         sensors: &Sensors,
     ) -> Option<InitialEstimate<N>>;
 
+    /// Completes a start from the measurements on re-admission (`start` from
+    /// [`Self::measured_start`]) with what the sensors do not measure, from the estimate the
+    /// filter had (`current`). The default keeps the measured start as it is.
+    fn readmitted_start(&self, _current: &SVector<f64, N>, _start: &mut InitialEstimate<N>) {}
+
     /// The operating point's state for the linear estimators (LKF, Luenberger) when the filter
     /// starts at `start` from the measurements: straight driving at the measured speed, instead
     /// of a parameter's guess. `None` keeps the parameters' operating point.
     fn operating_state_at(&self, _start: &SVector<f64, N>) -> Option<SVector<f64, N>> {
+        None
+    }
+
+    /// Extra process noise for the coming sample, added to the covariance just predicted
+    /// (model A: the wheels' slip while the torques are unknown, `unknown_torque_slip_std`, and
+    /// the wheels' sliding step at low speed); `state` is the predicted estimate, `input` the
+    /// sample's driver input. Estimators without a covariance (particle filter, Luenberger
+    /// observer) ignore it.
+    fn extra_process_noise(
+        &self,
+        _state: &SVector<f64, N>,
+        _input: &InputVector,
+        _v: &Variables,
+    ) -> Option<SMatrix<f64, N, N>> {
         None
     }
 
@@ -482,6 +501,12 @@ where
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
         }
+        if let Some(extra) =
+            self.model
+                .extra_process_noise(self.filter.state(), &self.input, &self.parameters)
+        {
+            self.filter.inflate_covariance(&extra);
+        }
         bits | self.adapt(&report)
     }
 
@@ -547,7 +572,8 @@ where
             readmit |= self.gated_samples[row] >= gate.readmit_samples;
         }
         if readmit {
-            if let Some(initial) = Model::measured_start(self, sensors) {
+            if let Some(mut initial) = Model::measured_start(self, sensors) {
+                self.model.readmitted_start(&state, &mut initial);
                 if self.rebuild_at_measured(&initial) {
                     self.gated_samples = [0; M];
                     return (plausible, bits | status::SENSOR_READMITTED);

@@ -205,6 +205,72 @@ fn torques_unknown_the_speed_stays_within_two_percent_with_and_without_wheel_spe
     }
 }
 
+/// A ramp to the limit with the torques unknown (issue 12 point 1): steering rising by 0.05 rad/s
+/// from 1 s (three times FMVSS 126's slowly increasing steer, so that this car, whose tyre is
+/// the estimator's own, reaches more than 2 % drive slip in 9 s) at 80 km/h, the speed held by a
+/// controller on the front drive torque, which the estimator is never told; returns the largest
+/// relative vx error after the first second and the largest true front-wheel slip
+/// `r ωF / vx − 1`. (The study's case, the ReferenceVehicle's Escort with its own tyres, is
+/// checked by `harness::robustness`'s test.)
+fn slow_ramp_torques_unknown(kind: i32, wheels: bool, slip_std: f64) -> (f64, f64) {
+    let mut s = estimator_with(kind, |s| {
+        assert_eq!(
+            s.set_real(vr::UNKNOWN_TORQUE_SLIP_STD, slip_std),
+            Fmi2Status::Ok
+        );
+    });
+    let speed = 80.0 / 3.6;
+    let radius = escort().front_wheel_radius;
+    let mut truth = Truth::new(speed, 11);
+    let (mut worst, mut slip) = (0.0f64, 0.0f64);
+    for k in 0..900 {
+        let t = k as f64 * STEP;
+        let steering = (0.05 * (t - 1.0)).clamp(0.0, 0.4);
+        // A proportional speed controller, driving only (the car of the study's case).
+        let drive = (3000.0 * (speed - truth.state[0])).clamp(0.0, 1500.0);
+        let input = DriverInputVector::new(steering, drive, 0.0);
+        let mut sensors = truth.sensors(&input);
+        if !wheels {
+            sensors[2] = f64::NAN;
+            sensors[3] = f64::NAN;
+        }
+        assert_eq!(s.set_real(vr::STEERING_ANGLE, steering), Fmi2Status::Ok);
+        assert_eq!(s.set_reals(&SENSORS, &sensors), Fmi2Status::Ok);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok, "{:?}", s.log.last());
+        truth.step(&input);
+        let vx = s.get_real(vr::VX_EST).1;
+        if t + STEP >= 1.0 {
+            worst = worst.max(((vx - truth.state[0]) / truth.state[0]).abs());
+        }
+        slip = slip.max(radius * truth.state[3] / truth.state[0] - 1.0);
+    }
+    (worst, slip)
+}
+
+#[test]
+fn torques_unknown_on_the_slow_ramp_to_the_limit_the_speed_stays_within_two_percent() {
+    for kind in KALMAN_KINDS {
+        for wheels in [true, false] {
+            let (error, slip) = slow_ramp_torques_unknown(kind, wheels, 0.02);
+            assert!(
+                error <= 0.02,
+                "kind {kind} wheels {wheels}: vx error {error} (front slip {slip})"
+            );
+        }
+    }
+    // The driven wheel slips by more than 2 %; read as a speed (unknown_torque_slip_std = 0)
+    // it pulls the estimate along (measured: 0.57 % against 0.17 % with the rule; here the
+    // estimator's tyre is the truth's, on the Escort study's mismatched tyre 4.3 % against
+    // 0.7 %).
+    let (error, slip) = slow_ramp_torques_unknown(estimator_kind::EKF, true, 0.02);
+    let (without, _) = slow_ramp_torques_unknown(estimator_kind::EKF, true, 0.0);
+    assert!(slip > 0.02, "front slip {slip}");
+    assert!(
+        error < 0.5 * without,
+        "{error} with the rule, {without} without"
+    );
+}
+
 #[test]
 fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
     let kinds = [
@@ -484,4 +550,42 @@ fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_awa
         }
     }
     assert!(stood && reversed && pulled_away);
+}
+
+#[test]
+fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seeding() {
+    // Issue 12 point 4, pulling away with the drive torque told (600 N·m on the front axle from
+    // 1.2 m/s, series sensor noise): the estimate follows within vx_meas's noise (0.1 m/s) and
+    // is never re-seeded. In the study (the ReferenceVehicle's Escort, whose tyres are not the
+    // estimator's) the wheel estimates cycled 7.5 / 2.3 rad/s about a true 5.0 there, the gate
+    // rejected the wheel rows and the re-admission re-seeded every 0.5 s (vx 0.46-0.60 m/s
+    // behind); the low-speed wheel noise of model A ends that, checked on the study's
+    // standstill case by harness::robustness's test. On this truth, whose tyre is the
+    // estimator's own, the wheels stay in the tyre's linear range and do not cycle even without
+    // that rule: this test guards the pull-away itself, not the rule.
+    let mut s = estimator(estimator_kind::EKF);
+    let mut truth = Truth::new(1.2, 5);
+    let input = DriverInputVector::new(0.0, 600.0, 0.0);
+    assert_eq!(s.set_real(vr::DRIVE_TORQUE, 600.0), Fmi2Status::Ok);
+    let (mut moving, mut worst) = (0, 0.0f64);
+    for k in 0..400 {
+        let t = k as f64 * STEP;
+        let sensors = truth.sensors(&input);
+        s.set_reals(&SENSORS, &sensors);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok);
+        truth.step(&input);
+        let status = s.get_integer(vr::STATUS).1;
+        let vx = s.get_real(vr::VX_EST).1;
+        assert_eq!(status & status::SENSOR_READMITTED, 0, "t = {t}");
+        if t >= 0.5 {
+            worst = worst.max((vx - truth.state[0]).abs());
+            moving += 1;
+        }
+    }
+    assert!(
+        worst < 0.1,
+        "vx error up to {worst} m/s; now at {}",
+        truth.state[0]
+    );
+    assert!(moving > 300);
 }
