@@ -339,8 +339,13 @@ pub fn run_shipped(fmu_dir: &Path, out_dir: &Path, plots: bool) -> Result<Robust
 
 /// The figures of `corrupted` against the truth and against its clean twin.
 fn figures(result: &RunResult, case: &Case, corrupted: &str, clean: &str) -> Result<Figures> {
-    let sideslip = Track::sideslip(result, VEHICLE, corrupted)?;
     let vx = Track::of(result, VEHICLE, corrupted, "vx")?;
+    let measured_sideslip = Track::sideslip(result, VEHICLE, corrupted)?;
+    let forward = forward_sideslip(measured_sideslip.truth, vx.truth);
+    let sideslip = Track {
+        truth: &forward,
+        ..measured_sideslip
+    };
     let twin_sideslip = Track::sideslip(result, VEHICLE, clean)?;
     let twin_vx = Track::of(result, VEHICLE, clean, "vx")?;
     let [start, end] = case.event;
@@ -396,6 +401,29 @@ fn figures(result: &RunResult, case: &Case, corrupted: &str, clean: &str) -> Res
         finite: sideslip.all_finite() && vx.all_finite(),
         status: metrics::status_seen(result, corrupted)?,
     })
+}
+
+/// The true sideslip in the estimator's convention. The truth is the direction of travel,
+/// `atan2(vy, vx)`, which for a reversing car lies near ±180°; the estimator reports the
+/// sideslip of the line of travel, `atan(vy / vx)` (while it holds at low speed, the steering
+/// geometry's `atan(lR / (lF + lR) tan δ)`, XML status bit 32), the same angle for the same
+/// motion. The track already wraps differences modulo 2π; reversing, the two differ by π, an
+/// artefact of the comparison (the standstill case showed 179.97° with an estimate that was
+/// right), so where the true vx is negative the truth is turned by π and wrapped into (−π, π].
+fn forward_sideslip(sideslip: &[f64], true_vx: &[f64]) -> Vec<f64> {
+    let (half_turn, turn) = (std::f64::consts::PI, std::f64::consts::TAU);
+    sideslip
+        .iter()
+        .zip(true_vx)
+        .map(|(&beta, &vx)| {
+            if vx < 0.0 {
+                let turned = beta + half_turn;
+                turned - turn * (turned / turn).round()
+            } else {
+                beta
+            }
+        })
+        .collect()
 }
 
 /// Seconds after `after` from which `within(k)` holds for every sample to the end (0 when it
@@ -602,4 +630,66 @@ pub fn run_and_report(fmu_dir: &Path, out: &Path) -> Result<String> {
             .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))?;
     }
     Ok(both.summary())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fmi_master::runner::packaged_fmu_dir;
+
+    #[test]
+    fn a_reversing_truth_is_compared_in_the_forward_convention() {
+        let pi = std::f64::consts::PI;
+        let turned = forward_sideslip(&[-pi + 0.03, pi - 0.03, 0.1], &[-1.5, -1.5, 10.0]);
+        for (got, want) in turned.iter().zip([0.03, -0.03, 0.1]) {
+            assert!((got - want).abs() < 1e-12, "{turned:?}");
+        }
+    }
+
+    /// Issue 12 points 1 and 4 on the study's own cases. Torques unknown: both drive torques
+    /// and the brake torque 0 for the estimator on the slow ramp to the limit (the
+    /// ReferenceVehicle's front-drive Ford Escort, whose driven wheel slips 6 % there), with and
+    /// without wheel speeds: today's defaults keep vx within 2 % (measured 0.73 % and 0.19 %;
+    /// 4.28 % with wheel speeds before the wheels' unknown-torque noise). Standstill: after
+    /// pulling away vx stays within 5 % (measured 3.36 %, the held reversing speed; 14.21 %
+    /// before the low-speed wheel noise, when the pull-away lagged 0.46-0.72 m/s), and the
+    /// sideslip, compared in the forward convention, is sane. Needs the packaged FMUs, as
+    /// harness's tests do.
+    #[test]
+    fn torques_unknown_and_pulling_away_meet_issue_12s_limits() {
+        let fmu_dir = packaged_fmu_dir().expect("packaged FMUs");
+        let out_dir =
+            std::env::temp_dir().join(format!("harness-robustness-torques-{}", std::process::id()));
+        let env = Environment { fmu_dir, out_dir };
+        let file = CaseFile::from_file(&scenario_dir().join(SHIPPED_CASES)).expect("case file");
+        let _work = WorkFolder::new(env.work_dir());
+        for name in [
+            "torques_unknown",
+            "torques_unknown_no_wheel_speeds",
+            "standstill",
+        ] {
+            let case = file
+                .cases
+                .iter()
+                .find(|c| c.name == name)
+                .expect("a shipped case");
+            let result = run_case(&file, case, &env, false).expect("the case runs");
+            let defaults = &result.figures[0];
+            assert_eq!(defaults.estimator, "EKF");
+            assert!(result.verdict(defaults).0, "{name}: {defaults:?}");
+            if case.check == Check::TorquesUnknown {
+                assert!(
+                    defaults.vx_error_percent <= SPEED_LIMIT * 100.0,
+                    "{name}: {defaults:?}"
+                );
+            } else {
+                // Reversing is compared in the forward convention: no 180° artefact.
+                assert!(
+                    defaults.max_sideslip_error < SANE_SIDESLIP,
+                    "{name}: {defaults:?}"
+                );
+            }
+        }
+        let _ = std::fs::remove_dir_all(&env.out_dir);
+    }
 }
