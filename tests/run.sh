@@ -51,7 +51,9 @@ phase cargo test --workspace --release
 # module-scoped fixtures run once, the campaign tests share one Dask cluster). The module of
 # `harness demo` (tests/harness/test_demo.py, about 75 s) goes first, by its `starts_first` marker
 # and the collection order (no reordering by size), so the other worker runs every other module
-# meanwhile. A third worker would not shorten the demo, the longest piece (issue 11 point 7).
+# meanwhile. Measured back to back on this 2-core machine: 106 s in one process, 95 s on two
+# workers; the demo's EM (model-mismatch study, 50 of its 67 s) already uses both cores in parts,
+# so the demo is the bound, and a third worker would not shorten it (issue 11 point 7).
 # (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 no
 # longer reads, so the group's tests were spread over both workers and the demo ran twice.)
 phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder
