@@ -549,8 +549,10 @@ where
         let mut readmit = false;
         for row in 0..M {
             let value = sample.measurement[row];
+            // A missing sample says nothing about the sensor: its count of rejected samples
+            // stays as it is. Resetting it here kept a channel logged at half the filter's rate
+            // (a NaN every other row) from ever reaching the re-admission time.
             if !(value.is_finite() && sample.offered[row]) {
-                self.gated_samples[row] = 0;
                 continue;
             }
             let h = jacobian.row(row);

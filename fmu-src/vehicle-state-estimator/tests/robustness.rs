@@ -403,6 +403,43 @@ fn a_filter_started_far_off_is_readmitted_instead_of_locking_itself_out() {
     );
 }
 
+/// The far-off start of the test above, with the wheel speeds logged at half the filter's rate
+/// (NaN every other sample, as a replayed log with a slower channel reads): a missing sample
+/// neither counts nor breaks the run of rejected samples, so the wheels are still re-admitted.
+/// Before, each NaN reset the count and the filter stayed at its wrong start for good.
+#[test]
+fn a_sensor_at_half_the_rate_is_readmitted_too() {
+    let mut s = estimator_with(estimator_kind::EKF, |s| {
+        assert_eq!(
+            s.set_boolean(vr::START_FROM_MEASUREMENTS, false),
+            Fmi2Status::Ok
+        );
+    });
+    let mut truth = Truth::new(35.0, 3);
+    let mut bits = 0;
+    let mut last = 0.0;
+    for k in 0..400 {
+        let t = k as f64 * STEP;
+        let input = DriverInputVector::new(0.0, 0.0, 0.0);
+        let mut sensors = truth.sensors(&input);
+        sensors[5] = f64::NAN;
+        if k % 2 == 1 {
+            sensors[2] = f64::NAN;
+            sensors[3] = f64::NAN;
+        }
+        s.set_reals(&SENSORS, &sensors);
+        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok);
+        truth.step(&input);
+        bits |= s.get_integer(vr::STATUS).1;
+        last = s.get_real(vr::VX_EST).1;
+    }
+    assert_ne!(bits & status::SENSOR_READMITTED, 0);
+    assert!(
+        (last - truth.state[0]).abs() < 0.05 * truth.state[0],
+        "{last}"
+    );
+}
+
 #[test]
 fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
     // Sensors of a car that decelerates from 10 m/s to a stop in 5 s, stands 10 s, pulls away
