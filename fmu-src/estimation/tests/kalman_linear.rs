@@ -1,6 +1,6 @@
 //! The Kalman filters on linear-Gaussian models, where the answer is known.
 
-mod kalman_support;
+use crate::kalman_support;
 
 use estimation::kalman::{
     ExtendedKalmanFilter, InitialEstimate, LinearKalmanFilter, SettingsError, SigmaPoints,

@@ -1,6 +1,6 @@
 //! The Luenberger observer on model A's linearisation about straight driving.
 
-mod seed000_support;
+use crate::seed000_support;
 
 use estimation::kalman::InitialEstimate;
 use estimation::luenberger::{LuenbergerObserver, ObserverDesign};

@@ -1,6 +1,6 @@
 //! The Luenberger observer (002: §4): its error dynamics must have exactly the placed eigenvalues.
 
-mod kalman_support;
+use crate::kalman_support;
 
 use estimation::kalman::{discrete_poles, InitialEstimate};
 use estimation::luenberger::{

@@ -1,7 +1,7 @@
 //! The findings of seed 000, chapter 7, at library level (no FMI): truth from model A with the
 //! noise of SPEC §7, estimators from this crate.
 
-mod seed000_support;
+use crate::seed000_support;
 
 use estimation::kalman::{
     ExtendedKalmanFilter, LinearKalmanFilter, SigmaPoints, UnscentedKalmanFilter,

@@ -1,7 +1,7 @@
 //! The car files (`cars/*.toml`): each loads with serde, names its source, describes a plausible
 //! car of its class; the seed car's file is the model's default.
 
-mod full_vehicle_support;
+use crate::full_vehicle_support;
 
 use full_vehicle_support::{car, every_car, CAR_FILES};
 use vehicle_models::full_vehicle::{FullVehicleParams, GRAVITY};

@@ -2,7 +2,7 @@
 //! understeer gradient, step-steer response time, roll gradient, mirror symmetry, road friction,
 //! lifted wheels.
 
-mod full_vehicle_support;
+use crate::full_vehicle_support;
 
 use full_vehicle_support::{drive, every_car, speed_keeping_torque, steer, STEP};
 use vehicle_models::full_vehicle::{

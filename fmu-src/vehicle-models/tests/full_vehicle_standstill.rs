@@ -2,7 +2,7 @@
 //! and energy: brake to a stop and hold, pull away, reverse slowly, no wheel spinning up under a
 //! brake, no NaN; every drivetrain moves the car; coasting never gains kinetic energy.
 
-mod full_vehicle_support;
+use crate::full_vehicle_support;
 
 use full_vehicle_support::{car, drive, every_car, STEP};
 use vehicle_models::full_vehicle::{

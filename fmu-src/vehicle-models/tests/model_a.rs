@@ -1,6 +1,6 @@
 //! Physics and Jacobian checks of model A (seed 000).
 
-mod common;
+use crate::common;
 
 use common::{assert_jacobian_close, central_difference};
 use nalgebra::{SMatrix, SVector};

@@ -1,6 +1,6 @@
 //! Checks of model B (seed 001): full two-track reference vehicle and the 3-state form.
 
-mod common;
+use crate::common;
 
 use common::{assert_jacobian_close, central_difference};
 use nalgebra::{SMatrix, SVector};

@@ -1,6 +1,6 @@
 //! Checks of model C (seed 003, §2.1).
 
-mod common;
+use crate::common;
 
 use common::{assert_jacobian_close, central_difference};
 use nalgebra::SMatrix;

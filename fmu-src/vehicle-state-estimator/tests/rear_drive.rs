@@ -9,7 +9,7 @@
 //! told the same torque as `drive_torque` (the front axle, all a user could do before), it spins
 //! up the wrong wheels.
 
-mod car;
+use crate::car;
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;

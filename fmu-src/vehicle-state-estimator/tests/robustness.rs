@@ -7,7 +7,7 @@
 //! from the axle split), as model A with the seed's HSRI tyre. The truth is model A with that car,
 //! driven with a drive torque the estimator is not told, and series-production sensor noise.
 
-mod car;
+use crate::car;
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;

@@ -3,7 +3,7 @@
 //! that processes no sample), and a `fixed` parameter set during the run is refused with
 //! fmi2Error naming it.
 
-mod car;
+use crate::car;
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;

@@ -3,7 +3,7 @@
 //! acceleration lifts its inner front wheel: the estimator runs on (finite outputs, no state
 //! reset) and says so with status bit 2048; at 3 m/s² it does not.
 
-mod car;
+use crate::car;
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;

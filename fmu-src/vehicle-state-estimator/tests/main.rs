@@ -1,0 +1,14 @@
+//! The crate's integration tests, one module per file, in one test binary: the crate and its
+//! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
+//! `cargo test -p vehicle-state-estimator --test integration <module>::` runs one file's tests.
+
+mod adaptive_noise;
+mod c_api;
+mod car;
+mod load_unload;
+mod model_b;
+mod parameter_bounds;
+mod rear_drive;
+mod robustness;
+mod tunable;
+mod wheel_lift;
