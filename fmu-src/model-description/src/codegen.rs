@@ -5,10 +5,9 @@
 //! - `MODEL_IDENTIFIER`, `GUID`, `MODEL_NAME`, `DEFAULT_STEP_SIZE: Option<f64>`,
 //!   `LOG_CATEGORIES: &[&str]`;
 //! - `mod vr` with one `pub const NAME: u32` value reference per variable (upper-case name);
-//! - one module per enumeration type (snake-case type name) with a `pub const ITEM: i32` per item
-//!   (the raw values fmi2SetInteger takes);
-//! - one typed enum per enumeration type (the type's name; a variant per item in upper camel case,
-//!   `lkf` → `Lkf`, discriminant = value) with `ALL`, `name()`, `description()`, `from_name()`,
+//! - one typed enum per enumeration type, the only Rust form of its items (the type's name; a
+//!   variant per item in upper camel case, `lkf` → `Lkf`, discriminant = value, so
+//!   `EstimatorKind::Ekf as i32` is the raw value fmi2SetInteger takes) with `ALL`, `name()`, `description()`, `from_name()`,
 //!   `from_parameter()` (its error names the parameter), `TryFrom<i32>` (its error names the
 //!   type and lists the valid values) and `From<_> for i32`;
 //! - `Variables::real_by_name`, a Real variable's value by name;
@@ -57,21 +56,6 @@ fn field_name(name: &str) -> String {
     } else {
         name.to_owned()
     }
-}
-
-fn snake_case(name: &str) -> String {
-    let mut out = String::new();
-    for (i, c) in name.chars().enumerate() {
-        if c.is_ascii_uppercase() {
-            if i > 0 && !out.ends_with('_') {
-                out.push('_');
-            }
-            out.push(c.to_ascii_lowercase());
-        } else {
-            out.push(c);
-        }
-    }
-    out
 }
 
 fn float_literal(value: f64) -> String {
@@ -168,28 +152,6 @@ pub fn generate_rust(description: &ModelDescription, source_label: &str) -> Resu
     for simple in &description.type_definitions {
         if let SimpleTypeKind::Enumeration { items } = &simple.kind {
             typed_enumeration(w, simple, items, source_label)?;
-            let _ = writeln!(
-                w,
-                "/// Items of the enumeration type `{}`.\n#[allow(dead_code)]\npub mod {} {{",
-                simple.name,
-                snake_case(&simple.name)
-            );
-            for item in items {
-                if !is_identifier(&item.name) {
-                    return Err(format!(
-                        "{source_label}: enumeration '{}': item name '{}' is not a Rust identifier",
-                        simple.name, item.name
-                    ));
-                }
-                let _ = writeln!(
-                    w,
-                    "    /// {}\n    pub const {}: i32 = {};",
-                    item.description.as_deref().unwrap_or(""),
-                    item.name.to_ascii_uppercase(),
-                    item.value
-                );
-            }
-            let _ = writeln!(w, "}}\n");
         }
     }
 
@@ -416,6 +378,12 @@ fn typed_enumeration(
     if !is_identifier(type_name) || KEYWORDS.contains(&type_name.as_str()) {
         return Err(format!(
             "{source_label}: enumeration '{type_name}': the type name is not a Rust identifier"
+        ));
+    }
+    if let Some(item) = items.iter().find(|item| !is_identifier(&item.name)) {
+        return Err(format!(
+            "{source_label}: enumeration '{type_name}': item name '{}' is not a Rust identifier",
+            item.name
         ));
     }
     let variants: Vec<String> = items.iter().map(|i| upper_camel_case(&i.name)).collect();

@@ -285,7 +285,11 @@ fn generated_code_holds_the_guid_the_value_references_and_the_start_values() {
     let code = model_description::generate_rust(&description, "ReferenceVehicle.xml").unwrap();
     assert!(code.contains(&format!("pub const GUID: &str = {:?};", description.guid)));
     assert!(code.contains("pub const STEERING_ANGLE: u32 = 1;"));
-    assert!(code.contains("pub const SINGLE_TRACK_HSRI: i32 = 1;"));
+    assert!(code.contains("    SingleTrackHsri = 1,"));
+    assert!(
+        !code.contains("pub mod vehicle_model"),
+        "one Rust form of the items: the enum"
+    );
     assert!(code.contains(&format!(
         "vx0: f64::from_bits({:#018x}) /* 18.0 */,",
         18.0f64.to_bits()

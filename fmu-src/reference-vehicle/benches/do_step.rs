@@ -22,7 +22,7 @@ use vehicle_models::{
     DriverInputVector, Integrator, ReferenceModelKind, ReferenceVehicle as VehicleModel,
     ReferenceVehicleParams, SingleTrackHsri,
 };
-use ReferenceVehicle::model_description::{vehicle_model, vr, GUID, VARIABLES};
+use ReferenceVehicle::model_description::{vr, VehicleModel as ModelItem, GUID, VARIABLES};
 use ReferenceVehicle::ReferenceVehicle as Fmu;
 
 fn main() {
@@ -36,15 +36,15 @@ fn main() {
 fn summary() {
     let table = DoStepOverhead::header("one ReferenceVehicle doStep (h = 1 ms)");
     for (label, model) in [
-        ("model A (HSRI)", vehicle_model::SINGLE_TRACK_HSRI),
+        ("model A (HSRI)", ModelItem::SingleTrackHsri as i32),
         (
             "model B (Magic Formula)",
-            vehicle_model::TWO_TRACK_MAGIC_FORMULA,
+            ModelItem::TwoTrackMagicFormula as i32,
         ),
-        ("model 3 (full vehicle)", vehicle_model::FULL_VEHICLE),
+        ("model 3 (full vehicle)", ModelItem::FullVehicle as i32),
     ] {
         let (mut fmu, mut slave) = (model_struct(model), slave(model));
-        let mut bare: Box<dyn FnMut()> = if model == vehicle_model::FULL_VEHICLE {
+        let mut bare: Box<dyn FnMut()> = if model == ModelItem::FullVehicle as i32 {
             Box::new(bare_full_vehicle_step())
         } else {
             Box::new(bare_step(model))
@@ -67,7 +67,7 @@ fn summary() {
 /// steering 0.05 rad from 18 m/s) as a benchmark body.
 fn bare_step(model: i32) -> impl FnMut() {
     let params = ReferenceVehicleParams {
-        model: if model == vehicle_model::TWO_TRACK_MAGIC_FORMULA {
+        model: if model == ModelItem::TwoTrackMagicFormula as i32 {
             ReferenceModelKind::TwoTrack
         } else {
             ReferenceModelKind::SingleTrack
@@ -136,13 +136,13 @@ fn bare_vehicle_step(bencher: Bencher) {
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn model_do_step(bencher: Bencher) {
-    let mut fmu = model_struct(vehicle_model::SINGLE_TRACK_HSRI);
+    let mut fmu = model_struct(ModelItem::SingleTrackHsri as i32);
     bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
 }
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_do_step(bencher: Bencher) {
-    let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
+    let mut slave = slave(ModelItem::SingleTrackHsri as i32);
     bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
@@ -151,18 +151,18 @@ fn fmi2_do_step(bencher: Bencher) {
 /// The bare model-B step (vehicle-models' switchable reference vehicle).
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn bare_vehicle_step_model_b(bencher: Bencher) {
-    bencher.bench_local(bare_step(vehicle_model::TWO_TRACK_MAGIC_FORMULA));
+    bencher.bench_local(bare_step(ModelItem::TwoTrackMagicFormula as i32));
 }
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn model_do_step_model_b(bencher: Bencher) {
-    let mut fmu = model_struct(vehicle_model::TWO_TRACK_MAGIC_FORMULA);
+    let mut fmu = model_struct(ModelItem::TwoTrackMagicFormula as i32);
     bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
 }
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_do_step_model_b(bencher: Bencher) {
-    let mut slave = slave(vehicle_model::TWO_TRACK_MAGIC_FORMULA);
+    let mut slave = slave(ModelItem::TwoTrackMagicFormula as i32);
     bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
@@ -176,13 +176,13 @@ fn bare_vehicle_step_model_3(bencher: Bencher) {
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn model_do_step_model_3(bencher: Bencher) {
-    let mut fmu = model_struct(vehicle_model::FULL_VEHICLE);
+    let mut fmu = model_struct(ModelItem::FullVehicle as i32);
     bencher.bench_local(stepping(STEP, |t| fmu.do_step(t, STEP)));
 }
 
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_do_step_model_3(bencher: Bencher) {
-    let mut slave = slave(vehicle_model::FULL_VEHICLE);
+    let mut slave = slave(ModelItem::FullVehicle as i32);
     bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
 }
 
@@ -195,7 +195,7 @@ fn reals(causality: Causality) -> Vec<u32> {
 /// fmi2GetReal of every real output (truth and sensors) in one call.
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_get_outputs(bencher: Bencher) {
-    let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
+    let mut slave = slave(ModelItem::SingleTrackHsri as i32);
     let outputs = reals(Causality::Output);
     let mut values = vec![0.0; outputs.len()];
     bencher.bench_local(|| {
@@ -207,7 +207,7 @@ fn fmi2_get_outputs(bencher: Bencher) {
 /// fmi2SetReal of the real inputs in one call (0, within their ranges).
 #[divan::bench(sample_count = 1000, sample_size = 200)]
 fn fmi2_set_inputs(bencher: Bencher) {
-    let mut slave = slave(vehicle_model::SINGLE_TRACK_HSRI);
+    let mut slave = slave(ModelItem::SingleTrackHsri as i32);
     let inputs = reals(Causality::Input);
     let values = vec![0.0; inputs.len()];
     bencher.bench_local(|| {

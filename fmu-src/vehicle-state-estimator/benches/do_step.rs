@@ -33,8 +33,8 @@ use nalgebra::SVector;
 use vehicle_models::single_track::STATE_DIM;
 use VehicleStateEstimator::model_a::ModelA;
 use VehicleStateEstimator::model_b::ModelB;
-use VehicleStateEstimator::model_description::estimator_model;
-use VehicleStateEstimator::model_description::{estimator_kind, vr, Variables, GUID, VARIABLES};
+use VehicleStateEstimator::model_description::EstimatorModel;
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, Variables, GUID, VARIABLES};
 use VehicleStateEstimator::parameters::estimator_choice;
 use VehicleStateEstimator::runner::EstimationModel;
 use VehicleStateEstimator::VehicleStateEstimator as Fmu;
@@ -48,12 +48,12 @@ fn main() {
 
 const STEP: f64 = 0.001;
 const ESTIMATORS: [(&str, i32); 6] = [
-    ("lkf", estimator_kind::LKF),
-    ("ekf", estimator_kind::EKF),
-    ("ukf", estimator_kind::UKF),
-    ("ukf_scaled", estimator_kind::UKF_SCALED),
-    ("luenberger", estimator_kind::LUENBERGER),
-    ("particle_filter_500", estimator_kind::PARTICLE_FILTER),
+    ("lkf", EstimatorKind::Lkf as i32),
+    ("ekf", EstimatorKind::Ekf as i32),
+    ("ukf", EstimatorKind::Ukf as i32),
+    ("ukf_scaled", EstimatorKind::UkfScaled as i32),
+    ("luenberger", EstimatorKind::Luenberger as i32),
+    ("particle_filter_500", EstimatorKind::ParticleFilter as i32),
 ];
 const NAMES: [&str; 6] = [
     "lkf",
@@ -201,7 +201,7 @@ fn slave_a(name: &str) -> Slave {
 /// One bare filter step of model B (update, then predict), as a benchmark body.
 fn bare_step_b(name: &str) -> impl FnMut() -> (bool, bool) {
     let variables = Variables {
-        model: estimator_model::TWO_TRACK_3_STATE,
+        model: EstimatorModel::TwoTrack3State as i32,
         estimator: estimator(name),
         ..Variables::default()
     };
@@ -255,7 +255,7 @@ fn model_b_struct(name: &str) -> Fmu {
         resource_location: None,
     });
     let v = fmu.variables_mut();
-    v.model = estimator_model::TWO_TRACK_3_STATE;
+    v.model = EstimatorModel::TwoTrack3State as i32;
     v.estimator = estimator(name);
     v.steering_angle = 0.05;
     v.yaw_rate_meas = SENSORS_B[0];
@@ -274,7 +274,7 @@ fn slave_b(name: &str) -> Slave {
         GUID,
     )
     .expect("instantiate");
-    slave.set_integer(vr::MODEL, estimator_model::TWO_TRACK_3_STATE);
+    slave.set_integer(vr::MODEL, EstimatorModel::TwoTrack3State as i32);
     slave.set_integer(vr::ESTIMATOR, estimator(name));
     slave.set_real(vr::STEERING_ANGLE, 0.05);
     slave.set_reals(

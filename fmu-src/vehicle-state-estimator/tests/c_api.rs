@@ -11,7 +11,7 @@ use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use vehicle_models::single_track::{SingleTrackState, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::{DriverInputVector, Integrator, SingleTrackHsri};
-use VehicleStateEstimator::model_description::{estimator_kind, vr, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, GUID};
 use VehicleStateEstimator::status;
 
 fn api() -> Fmi2Api {
@@ -163,9 +163,9 @@ fn track(estimator: i32, duration: f64) -> (f64, i32) {
 #[test]
 fn ekf_and_ukf_track_the_high_ramp_and_the_lkf_does_not() {
     // 8 s: the ramp reaches 0.122 rad at 5.74 s and is held (a shorter run keeps debug tests fast).
-    let (ekf, ekf_status) = track(estimator_kind::EKF, 8.0);
-    let (ukf, _) = track(estimator_kind::UKF, 8.0);
-    let (lkf, _) = track(estimator_kind::LKF, 8.0);
+    let (ekf, ekf_status) = track(EstimatorKind::Ekf as i32, 8.0);
+    let (ukf, _) = track(EstimatorKind::Ukf as i32, 8.0);
+    let (lkf, _) = track(EstimatorKind::Lkf as i32, 8.0);
     assert_eq!(ekf_status, 0);
     // SPEC §7 / issue 4: EKF ≈ UKF ≈ truth (vy RMSE below 1e-3 m/s); the LKF far off.
     assert!(ekf < 1e-3, "EKF vy RMSE {ekf}");
@@ -179,9 +179,9 @@ fn ekf_and_ukf_track_the_high_ramp_and_the_lkf_does_not() {
 #[test]
 fn the_other_estimators_run_and_stay_finite() {
     for estimator in [
-        estimator_kind::UKF_SCALED,
-        estimator_kind::LUENBERGER,
-        estimator_kind::PARTICLE_FILTER,
+        EstimatorKind::UkfScaled as i32,
+        EstimatorKind::Luenberger as i32,
+        EstimatorKind::ParticleFilter as i32,
     ] {
         let (rmse, _) = track(estimator, 0.5);
         // Straight driving for the first half second: every estimator keeps vy near zero.
@@ -451,7 +451,10 @@ fn seeded_run(estimator: i32, seed: i32) -> Vec<u64> {
 
 #[test]
 fn outputs_are_bit_identical_in_any_thread() {
-    for estimator in [estimator_kind::EKF, estimator_kind::PARTICLE_FILTER] {
+    for estimator in [
+        EstimatorKind::Ekf as i32,
+        EstimatorKind::ParticleFilter as i32,
+    ] {
         let reference = seeded_run(estimator, 4);
         let handles: Vec<_> = (0..3)
             .map(|_| std::thread::spawn(move || seeded_run(estimator, 4)))
@@ -461,19 +464,19 @@ fn outputs_are_bit_identical_in_any_thread() {
         }
     }
     assert_ne!(
-        seeded_run(estimator_kind::PARTICLE_FILTER, 5),
-        seeded_run(estimator_kind::PARTICLE_FILTER, 4),
+        seeded_run(EstimatorKind::ParticleFilter as i32, 5),
+        seeded_run(EstimatorKind::ParticleFilter as i32, 4),
         "the particle filter's seed matters"
     );
 }
 
 #[test]
 fn many_instances_in_one_thread_are_independent() {
-    let alone = seeded_run(estimator_kind::UKF, 1);
+    let alone = seeded_run(EstimatorKind::Ukf as i32, 1);
     let mut slaves: Vec<Slave> = (0..32).map(|_| slave()).collect();
     let mut truths: Vec<Truth> = (0..32).map(|_| Truth::new(9)).collect();
     for s in slaves.iter_mut() {
-        s.set_integer(vr::ESTIMATOR, estimator_kind::UKF);
+        s.set_integer(vr::ESTIMATOR, EstimatorKind::Ukf as i32);
         s.set_integer(vr::PARTICLE_COUNT, 100);
         s.initialize(0.0);
     }
@@ -511,7 +514,7 @@ fn observe(s: &mut Slave) -> (Vec<u64>, Vec<u8>) {
 /// changes), gives bit-identical outputs, status and serialized FMU states.
 #[test]
 fn lazily_computed_outputs_do_not_depend_on_when_they_are_read() {
-    for estimator in [estimator_kind::EKF, estimator_kind::LKF] {
+    for estimator in [EstimatorKind::Ekf as i32, EstimatorKind::Lkf as i32] {
         for read_every in [3, 13, 40] {
             let mut every_step = slave();
             let mut sparse = slave();
@@ -552,7 +555,7 @@ fn lazily_computed_outputs_do_not_depend_on_when_they_are_read() {
 /// every output bitwise.
 fn ekf_with_scales(truth_scales: [f64; 2], estimator_scales: Option<[f64; 2]>) -> (f64, Vec<u64>) {
     let mut s = slave();
-    s.set_integer(vr::ESTIMATOR, estimator_kind::EKF);
+    s.set_integer(vr::ESTIMATOR, EstimatorKind::Ekf as i32);
     if let Some([front, rear]) = estimator_scales {
         assert_eq!(
             s.set_real(vr::CORNERING_STIFFNESS_SCALE_FRONT, front),
@@ -620,7 +623,7 @@ fn cornering_stiffness_scales_act_on_model_a() {
 fn particle_filter_states_take_60_bytes_per_particle() {
     let serialized_size = |particles: i32| {
         let mut s = slave();
-        s.set_integer(vr::ESTIMATOR, estimator_kind::PARTICLE_FILTER);
+        s.set_integer(vr::ESTIMATOR, EstimatorKind::ParticleFilter as i32);
         s.set_integer(vr::PARTICLE_COUNT, particles);
         assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
         let mut truth = Truth::new(3);

@@ -4,7 +4,7 @@
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::{built_library_path, Fmi2Api, Slave};
-use VehicleStateEstimator::model_description::{estimator_kind, vr, GUID, MODEL_IDENTIFIER};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, GUID, MODEL_IDENTIFIER};
 
 fn mapped(path: &std::path::Path) -> bool {
     let maps = std::fs::read_to_string("/proc/self/maps").expect("/proc/self/maps");
@@ -23,10 +23,10 @@ fn load_run_free_unload_a_thousand_times() {
             let mut slave = Slave::instantiate(api, "load-unload", GUID).expect("instantiate");
             // Alternate the estimators so that every one is loaded and run repeatedly.
             let estimator = [
-                estimator_kind::EKF,
-                estimator_kind::UKF,
-                estimator_kind::LKF,
-                estimator_kind::LUENBERGER,
+                EstimatorKind::Ekf as i32,
+                EstimatorKind::Ukf as i32,
+                EstimatorKind::Lkf as i32,
+                EstimatorKind::Luenberger as i32,
             ][iteration % 4];
             assert_eq!(slave.set_integer(vr::ESTIMATOR, estimator), Fmi2Status::Ok);
             assert_eq!(slave.initialize(0.0), Fmi2Status::Ok);

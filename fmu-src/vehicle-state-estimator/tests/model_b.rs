@@ -12,7 +12,7 @@ use rand_distr::{Distribution, StandardNormal};
 use vehicle_models::{
     DriverInputVector, ReferenceModelKind, ReferenceVehicle, ReferenceVehicleParams,
 };
-use VehicleStateEstimator::model_description::{estimator_kind, estimator_model, vr, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
 
 fn api() -> Fmi2Api {
@@ -106,7 +106,7 @@ fn slave(estimator: i32) -> Slave {
         assert_eq!(s.set_boolean(flag, false), Fmi2Status::Ok);
     }
     assert_eq!(
-        s.set_integer(vr::MODEL, estimator_model::TWO_TRACK_3_STATE),
+        s.set_integer(vr::MODEL, EstimatorModel::TwoTrack3State as i32),
         Fmi2Status::Ok
     );
     assert_eq!(s.set_integer(vr::ESTIMATOR, estimator), Fmi2Status::Ok);
@@ -173,11 +173,11 @@ fn sideslip_rmse(estimator: i32) -> f64 {
 
 #[test]
 fn kalman_estimators_on_model_b_track_the_sideslip_of_the_two_track_vehicle() {
-    let ekf = sideslip_rmse(estimator_kind::EKF);
-    let ukf = sideslip_rmse(estimator_kind::UKF);
-    let scaled = sideslip_rmse(estimator_kind::UKF_SCALED);
-    let lkf = sideslip_rmse(estimator_kind::LKF);
-    let particle = sideslip_rmse(estimator_kind::PARTICLE_FILTER);
+    let ekf = sideslip_rmse(EstimatorKind::Ekf as i32);
+    let ukf = sideslip_rmse(EstimatorKind::Ukf as i32);
+    let scaled = sideslip_rmse(EstimatorKind::UkfScaled as i32);
+    let lkf = sideslip_rmse(EstimatorKind::Lkf as i32);
+    let particle = sideslip_rmse(EstimatorKind::ParticleFilter as i32);
     println!("sideslip RMSE: EKF {ekf}, UKF {ukf}, scaled UKF {scaled}, LKF {lkf}, PF {particle}");
     // Measured with this seed: EKF ≈ UKF ≈ scaled UKF ≈ 3.4e-4 rad, PF (200
     // particles) 3.9e-4 rad, the linear comparison filter of seed 001 1.6e-3 rad.
@@ -198,7 +198,7 @@ fn kalman_estimators_on_model_b_track_the_sideslip_of_the_two_track_vehicle() {
 
 #[test]
 fn model_b_outputs_follow_the_descriptions() {
-    let mut s = slave(estimator_kind::EKF);
+    let mut s = slave(EstimatorKind::Ekf as i32);
     assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
     let mut truth = Truth::new(4);
     run(&mut s, &mut truth, 0, 250);
@@ -246,7 +246,7 @@ fn model_b_outputs_follow_the_descriptions() {
 
 #[test]
 fn luenberger_with_model_b_is_refused_at_initialisation() {
-    let mut s = slave(estimator_kind::LUENBERGER);
+    let mut s = slave(EstimatorKind::Luenberger as i32);
     assert_eq!(s.initialize(0.0), Fmi2Status::Error);
     let line = s.log.last().expect("a log line");
     assert_eq!(line.format, "%s");
@@ -260,11 +260,11 @@ fn luenberger_with_model_b_is_refused_at_initialisation() {
 #[test]
 fn model_b_states_continue_bit_identically() {
     for estimator in [
-        estimator_kind::LKF,
-        estimator_kind::EKF,
-        estimator_kind::UKF,
-        estimator_kind::UKF_SCALED,
-        estimator_kind::PARTICLE_FILTER,
+        EstimatorKind::Lkf as i32,
+        EstimatorKind::Ekf as i32,
+        EstimatorKind::Ukf as i32,
+        EstimatorKind::UkfScaled as i32,
+        EstimatorKind::ParticleFilter as i32,
     ] {
         let mut s = slave(estimator);
         assert_eq!(s.initialize(0.0), Fmi2Status::Ok);

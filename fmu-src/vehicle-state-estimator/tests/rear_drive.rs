@@ -16,7 +16,7 @@ use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use vehicle_models::single_track::{state_index, Chassis, SingleTrackParams, SingleTrackState};
 use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri};
-use VehicleStateEstimator::model_description::{estimator_kind, vr, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, GUID};
 
 const STEP: f64 = 0.01;
 const GRAVITY: f64 = 9.81;
@@ -61,7 +61,7 @@ fn estimator(car: &Chassis) -> Slave {
         assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
     }
     assert_eq!(
-        s.set_integer(vr::ESTIMATOR, estimator_kind::EKF),
+        s.set_integer(vr::ESTIMATOR, EstimatorKind::Ekf as i32),
         Fmi2Status::Ok
     );
     for flag in [

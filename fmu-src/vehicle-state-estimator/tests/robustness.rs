@@ -17,7 +17,7 @@ use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use vehicle_models::single_track::{Chassis, SingleTrackParams, SingleTrackState};
 use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri};
-use VehicleStateEstimator::model_description::{estimator_kind, estimator_model, vr, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
 
 const STEP: f64 = 0.01;
@@ -183,9 +183,9 @@ fn worst_speed_error(records: &[Record], from: f64) -> f64 {
 }
 
 const KALMAN_KINDS: [i32; 3] = [
-    estimator_kind::EKF,
-    estimator_kind::UKF,
-    estimator_kind::UKF_SCALED,
+    EstimatorKind::Ekf as i32,
+    EstimatorKind::Ukf as i32,
+    EstimatorKind::UkfScaled as i32,
 ];
 
 #[test]
@@ -262,8 +262,8 @@ fn torques_unknown_on_the_slow_ramp_to_the_limit_the_speed_stays_within_two_perc
     // it pulls the estimate along (measured: 0.57 % against 0.17 % with the rule; here the
     // estimator's tyre is the truth's, on the Escort study's mismatched tyre 4.3 % against
     // 0.7 %).
-    let (error, slip) = slow_ramp_torques_unknown(estimator_kind::EKF, true, 0.02);
-    let (without, _) = slow_ramp_torques_unknown(estimator_kind::EKF, true, 0.0);
+    let (error, slip) = slow_ramp_torques_unknown(EstimatorKind::Ekf as i32, true, 0.02);
+    let (without, _) = slow_ramp_torques_unknown(EstimatorKind::Ekf as i32, true, 0.0);
     assert!(slip > 0.02, "front slip {slip}");
     assert!(
         error < 0.5 * without,
@@ -274,12 +274,12 @@ fn torques_unknown_on_the_slow_ramp_to_the_limit_the_speed_stays_within_two_perc
 #[test]
 fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
     let kinds = [
-        estimator_kind::LKF,
-        estimator_kind::EKF,
-        estimator_kind::UKF,
-        estimator_kind::UKF_SCALED,
-        estimator_kind::PARTICLE_FILTER,
-        estimator_kind::LUENBERGER,
+        EstimatorKind::Lkf as i32,
+        EstimatorKind::Ekf as i32,
+        EstimatorKind::Ukf as i32,
+        EstimatorKind::UkfScaled as i32,
+        EstimatorKind::ParticleFilter as i32,
+        EstimatorKind::Luenberger as i32,
     ];
     let mut failures = Vec::new();
     for kind in kinds {
@@ -291,9 +291,9 @@ fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
             // The particle filter's 200 particles (a debug-build test) scatter vx more. The
             // Luenberger observer has seed 002's fixed gains without the speed anchor (see
             // model_a.rs): at walking pace, far from any tuning, it keeps within 10 % only.
-            let bound = match kind {
-                estimator_kind::PARTICLE_FILTER => 0.03,
-                estimator_kind::LUENBERGER if speed < 5.0 => 0.1,
+            let bound = match EstimatorKind::try_from(kind) {
+                Ok(EstimatorKind::ParticleFilter) => 0.03,
+                Ok(EstimatorKind::Luenberger) if speed < 5.0 => 0.1,
                 _ => 0.02,
             };
             if error >= bound {
@@ -375,7 +375,7 @@ fn a_filter_started_far_off_is_readmitted_instead_of_locking_itself_out() {
     // Without the start from the measurements and without vx_meas, the EKF starts at the
     // default 18 m/s against a true 35 m/s: the gate rejects the wheel speeds, and after
     // readmit_time the filter is re-seeded from them.
-    let mut s = estimator_with(estimator_kind::EKF, |s| {
+    let mut s = estimator_with(EstimatorKind::Ekf as i32, |s| {
         assert_eq!(
             s.set_boolean(vr::START_FROM_MEASUREMENTS, false),
             Fmi2Status::Ok
@@ -409,7 +409,7 @@ fn a_filter_started_far_off_is_readmitted_instead_of_locking_itself_out() {
 /// Before, each NaN reset the count and the filter stayed at its wrong start for good.
 #[test]
 fn a_sensor_at_half_the_rate_is_readmitted_too() {
-    let mut s = estimator_with(estimator_kind::EKF, |s| {
+    let mut s = estimator_with(EstimatorKind::Ekf as i32, |s| {
         assert_eq!(
             s.set_boolean(vr::START_FROM_MEASUREMENTS, false),
             Fmi2Status::Ok
@@ -453,7 +453,7 @@ fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
         t if t < 22.0 => 5.0 - 3.0 * (t - 20.0),
         _ => -1.0,
     };
-    let mut s = estimator(estimator_kind::EKF);
+    let mut s = estimator(EstimatorKind::Ekf as i32);
     let mut picked_up = false;
     for k in 0..2400 {
         let t = k as f64 * STEP;
@@ -491,7 +491,7 @@ fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
 
 #[test]
 fn the_fmu_waits_for_a_measured_speed_before_it_starts() {
-    let mut s = estimator(estimator_kind::EKF);
+    let mut s = estimator(EstimatorKind::Ekf as i32);
     // The all-zero row a master sends before its first values.
     s.set_reals(&SENSORS, &[0.0; 6]);
     assert_eq!(s.do_step(0.0, STEP), Fmi2Status::Ok);
@@ -508,7 +508,7 @@ fn the_fmu_waits_for_a_measured_speed_before_it_starts() {
 fn model_b_gates_glitches_and_starts_from_the_measurements_too() {
     let model_b = |s: &mut Slave| {
         assert_eq!(
-            s.set_integer(vr::MODEL, estimator_model::TWO_TRACK_3_STATE),
+            s.set_integer(vr::MODEL, EstimatorModel::TwoTrack3State as i32),
             Fmi2Status::Ok
         );
     };
@@ -557,7 +557,7 @@ fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_awa
         t if t < 16.0 => -2.0 + (t - 10.0),
         _ => 4.0,
     };
-    let mut s = estimator(estimator_kind::EKF);
+    let mut s = estimator(EstimatorKind::Ekf as i32);
     let (mut stood, mut reversed, mut pulled_away) = (false, false, false);
     for k in 0..1800 {
         let t = k as f64 * STEP;
@@ -600,7 +600,7 @@ fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seed
     // standstill case by harness::robustness's test. On this truth, whose tyre is the
     // estimator's own, the wheels stay in the tyre's linear range and do not cycle even without
     // that rule: this test guards the pull-away itself, not the rule.
-    let mut s = estimator(estimator_kind::EKF);
+    let mut s = estimator(EstimatorKind::Ekf as i32);
     let mut truth = Truth::new(1.2, 5);
     let input = DriverInputVector::new(0.0, 600.0, 0.0);
     assert_eq!(s.set_real(vr::DRIVE_TORQUE, 600.0), Fmi2Status::Ok);

@@ -9,7 +9,7 @@ use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use vehicle_models::Chassis;
-use VehicleStateEstimator::model_description::{estimator_model, vr, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
 
 const STEP: f64 = 0.01;
@@ -31,7 +31,7 @@ fn light_car_estimator() -> Slave {
     for (reference, value) in geometry {
         assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
     }
-    let model_b = estimator_model::TWO_TRACK_3_STATE;
+    let model_b = EstimatorModel::TwoTrack3State as i32;
     assert_eq!(s.set_integer(vr::MODEL, model_b), Fmi2Status::Ok);
     assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
     s
