@@ -72,13 +72,38 @@ def chunk_files(out: pathlib.Path) -> list[pathlib.Path]:
     return sorted((out / "chunks").glob("cases-*.parquet"))
 
 
+def held_back_harness(folder: pathlib.Path, harness_binary: pathlib.Path, immediate=2,
+                      delay=5.0) -> pathlib.Path:
+    """The harness behind a script that runs the scenario check and the first `immediate` chunks
+    at once and lets every later chunk wait `delay` seconds first: the kill then lands after two
+    chunks and before the rest however loaded the machine is (a campaign of the real binary
+    could finish all its chunks between two polls under load). The waiting chunks still run, so
+    the Dask workers are free again for the resumed campaign."""
+    tickets = folder / "tickets"
+    tickets.mkdir()
+    script = folder / "held_back_harness"
+    # `harness cases CHUNK.toml ...`: a chunk file with [[case]] tables is a real chunk.
+    script.write_text(f"""#!/bin/sh
+if grep -q '^\\[\\[case\\]\\]' "$2"; then
+    for ticket in $(seq 1 {immediate}); do
+        if mkdir "{tickets}/$ticket" 2>/dev/null; then exec "{harness_binary}" "$@"; fi
+    done
+    sleep {delay}
+fi
+exec "{harness_binary}" "$@"
+""")
+    script.chmod(0o755)
+    return script
+
+
 def test_a_killed_campaign_resumes_with_only_the_missing_cases(
         tmp_path, harness_binary, fmu_dir, dask_scheduler):
     total = 12
     path = write_campaign(tmp_path, f'[[axis]]\nseeds = ["vehicle.seed"]\ncount = {total}\n')
     out = tmp_path / "out"
     arguments = [sys.executable, "-m", "vse_campaign", str(path), "--out", str(out), "--chunk", "2",
-                 "--scheduler", dask_scheduler, "--harness", str(harness_binary),
+                 "--scheduler", dask_scheduler,
+                 "--harness", str(held_back_harness(tmp_path, harness_binary)),
                  "--fmu-dir", str(fmu_dir), "--no-progress"]
     process = subprocess.Popen(arguments, cwd=ROOT, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
