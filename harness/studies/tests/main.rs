@@ -1,0 +1,11 @@
+//! The crate's integration tests, one module per file, in one test binary: the crate and its
+//! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
+//! `cargo test -p harness --test integration <module>::` runs one file's tests.
+
+mod identify_cli;
+mod mismatch;
+mod mismatch_identification;
+mod replay;
+mod robustness;
+mod seed003_identification;
+mod seed003_smoother;
