@@ -1,10 +1,11 @@
 """Shared by every Python test: the release build of the workspace's binaries.
 
-tests/run.sh compiles every workspace target once, as `cargo build --release --workspace --lib
---bins --tests --examples`. Asking cargo for exactly that selection again compiles nothing, while
-any other (`-p harness`, `cargo run --example` in the dev profile) would make cargo unify the
-dependency features differently and compile them a second time. The binaries are found through
-cargo's own artefact messages, so CARGO_TARGET_DIR and cargo configs are honoured."""
+tests/run.sh compiles every workspace target once, as `cargo build --release --workspace
+--all-targets`, with clippy-driver as the workspace's compiler (RUSTC_WORKSPACE_WRAPPER, which the
+tests inherit). Asking cargo for exactly that selection again, in the same environment, compiles
+nothing, while any other (`-p harness`, `cargo run --example` in the dev profile) would make cargo
+unify the dependency features differently and compile them a second time. The binaries are found
+through cargo's own artefact messages, so CARGO_TARGET_DIR and cargo configs are honoured."""
 
 import json
 import pathlib
@@ -13,8 +14,8 @@ import subprocess
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-WORKSPACE_BUILD = ["cargo", "build", "--release", "--workspace", "--lib", "--bins", "--tests",
-                   "--examples", "--message-format=json-render-diagnostics"]
+WORKSPACE_BUILD = ["cargo", "build", "--release", "--workspace", "--all-targets",
+                   "--message-format=json-render-diagnostics"]
 
 
 def build_workspace():

@@ -93,8 +93,8 @@ pub enum BuildScope {
     /// the FMUs exactly as users package them.
     #[default]
     FmuPackages,
-    /// Every workspace target that `cargo test --workspace --release` compiles (libraries,
-    /// binaries, tests, examples). Cargo unifies dependency features over the packages and
+    /// Every workspace target (`--workspace --all-targets`, the selection tests/run.sh builds:
+    /// libraries, binaries, tests, benches, examples). Cargo unifies dependency features over the packages and
     /// targets of one invocation, so the two-package build compiles its dependencies with other
     /// features than the test build and a CI run would compile them twice; with this scope the
     /// FMU libraries are the test build's and a test run that follows compiles nothing again.
@@ -109,9 +109,7 @@ impl BuildScope {
                 .iter()
                 .flat_map(|package| ["-p".to_owned(), (*package).to_owned()])
                 .collect(),
-            BuildScope::Workspace => ["--workspace", "--lib", "--bins", "--tests", "--examples"]
-                .map(String::from)
-                .to_vec(),
+            BuildScope::Workspace => ["--workspace", "--all-targets"].map(String::from).to_vec(),
         }
     }
 }
