@@ -213,8 +213,10 @@ def test_a_worker_killed_mid_campaign_loses_only_its_chunk_which_runs_again(
     out = tmp_path / "out"
     process = subprocess.Popen(
         [sys.executable, "-m", "vse_campaign", str(path), "--out", str(out), "--chunk", "2",
-         "--scheduler", dask_scheduler, "--harness", str(harness_binary), "--fmu-dir", str(fmu_dir),
-         "--no-progress"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+         "--scheduler", dask_scheduler,
+         "--harness", str(held_back_harness(tmp_path, harness_binary, immediate=1, delay=2.0)),
+         "--fmu-dir", str(fmu_dir), "--no-progress"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while not chunk_files(out) and process.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
@@ -222,7 +224,9 @@ def test_a_worker_killed_mid_campaign_loses_only_its_chunk_which_runs_again(
         pids = client.run(os.getpid)
         # The victim is a worker with a chunk in hand. The first worker by address may have none
         # at that moment (between two chunks): under the other xdist worker's load that
-        # happened, and the test failed without having killed anything in flight.
+        # happened, and the test failed without having killed anything in flight. The held-back
+        # harness keeps every chunk after the first in hand for 2 s, so under load too the
+        # campaign cannot end between the first chunk file and this look.
         busy = {}
         while not busy and process.poll() is None and time.monotonic() < deadline:
             busy = {address: keys for address, keys in client.processing().items() if keys}
