@@ -1,18 +1,65 @@
 //! FMU log messages. The `fmi` crate forwards every fmi2CallbackLogger call to the `log` crate
 //! with the instance name as target; this logger keeps the last messages of each instance so that
-//! an error from an FMI call can quote what the FMU said, and prints warnings and errors.
+//! an error from an FMI call can quote what the FMU said, and prints warnings and errors. A
+//! message an instance repeats word for word (an out-of-range input clamped at every doStep) is
+//! printed [`PRINTED_REPEATS`] times and then once more with a note that further repeats are
+//! not printed; they are still kept for [`take_recent`].
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Mutex, Once};
 
 const KEPT_PER_INSTANCE: usize = 8;
+/// How often the same message of one instance is printed before its repeats are dropped.
+pub const PRINTED_REPEATS: u32 = 3;
+/// Distinct messages counted per instance; beyond them every new message is printed uncounted,
+/// so the counts stay bounded whatever an FMU logs.
+const COUNTED_PER_INSTANCE: usize = 256;
+
+/// What to do with one printable message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Printing {
+    Print,
+    /// Print it with a note that its further repeats will not be printed.
+    PrintLast,
+    Suppress,
+}
+
+/// Counts each instance's messages, to print a repeated one only [`PRINTED_REPEATS`] times.
+#[derive(Default)]
+struct RepeatFilter {
+    counts: BTreeMap<String, BTreeMap<String, u32>>,
+}
+
+impl RepeatFilter {
+    const fn new() -> Self {
+        Self {
+            counts: BTreeMap::new(),
+        }
+    }
+
+    fn admit(&mut self, instance: &str, message: &str) -> Printing {
+        let counts = self.counts.entry(instance.to_string()).or_default();
+        if !counts.contains_key(message) && counts.len() >= COUNTED_PER_INSTANCE {
+            return Printing::Print;
+        }
+        let count = counts.entry(message.to_string()).or_insert(0);
+        *count = count.saturating_add(1);
+        match (*count).cmp(&PRINTED_REPEATS) {
+            std::cmp::Ordering::Less => Printing::Print,
+            std::cmp::Ordering::Equal => Printing::PrintLast,
+            std::cmp::Ordering::Greater => Printing::Suppress,
+        }
+    }
+}
 
 struct FmuLogger {
     recent: Mutex<BTreeMap<String, VecDeque<String>>>,
+    printed: Mutex<RepeatFilter>,
 }
 
 static LOGGER: FmuLogger = FmuLogger {
     recent: Mutex::new(BTreeMap::new()),
+    printed: Mutex::new(RepeatFilter::new()),
 };
 static INSTALL: Once = Once::new();
 
@@ -29,7 +76,17 @@ impl log::Log for FmuLogger {
         }
         let message = format!("{}: {}", record.level(), record.args());
         if record.level() <= log::Level::Warn {
-            eprintln!("[FMU {}] {message}", record.target());
+            let printing = self.printed.lock().map_or(Printing::Print, |mut filter| {
+                filter.admit(record.target(), &message)
+            });
+            match printing {
+                Printing::Print => eprintln!("[FMU {}] {message}", record.target()),
+                Printing::PrintLast => eprintln!(
+                    "[FMU {}] {message} (repeated {PRINTED_REPEATS} times; further repeats not printed)",
+                    record.target()
+                ),
+                Printing::Suppress => {}
+            }
         }
         if let Ok(mut recent) = self.recent.lock() {
             let queue = recent.entry(record.target().to_string()).or_default();
@@ -63,9 +120,50 @@ pub fn take_recent(instance: &str) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// Forget what was kept for `instance` (at the end of a run).
+/// Forget what was kept and counted for `instance` (at the end of a run).
 pub fn forget(instance: &str) {
     if let Ok(mut r) = LOGGER.recent.lock() {
         r.remove(instance);
+    }
+    if let Ok(mut filter) = LOGGER.printed.lock() {
+        filter.counts.remove(instance);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_repeated_message_is_printed_three_times_then_dropped_per_instance() {
+        let mut filter = RepeatFilter::new();
+        let seen: Vec<Printing> = (0..5)
+            .map(|_| filter.admit("EKF", "WARN: clamped"))
+            .collect();
+        assert_eq!(
+            seen,
+            [
+                Printing::Print,
+                Printing::Print,
+                Printing::PrintLast,
+                Printing::Suppress,
+                Printing::Suppress
+            ]
+        );
+        // Another instance, or another message, is counted on its own.
+        assert_eq!(filter.admit("UKF", "WARN: clamped"), Printing::Print);
+        assert_eq!(filter.admit("EKF", "WARN: other"), Printing::Print);
+    }
+
+    #[test]
+    fn beyond_the_counted_messages_new_ones_are_printed_uncounted() {
+        let mut filter = RepeatFilter::new();
+        for k in 0..COUNTED_PER_INSTANCE {
+            assert_eq!(filter.admit("PF", &format!("message {k}")), Printing::Print);
+        }
+        for _ in 0..5 {
+            assert_eq!(filter.admit("PF", "one more"), Printing::Print);
+        }
+        assert_eq!(filter.counts["PF"].len(), COUNTED_PER_INSTANCE);
     }
 }
