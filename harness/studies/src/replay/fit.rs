@@ -4,8 +4,11 @@
 //!    stiffness (000: 5.70) by the accelerated EM of seed 003 (003: §3.1) — the identification
 //!    the model-mismatch study uses ([`crate::mismatch::identification_config`]: particle filter
 //!    and smoother E-step, Q sized for the EM) — on the training segment, with the car's
-//!    vehicle data from the map and `--parameters`. Model B has no per-axle stiffness parameter
-//!    in the FMU, so for `--model b` only the noise is fitted.
+//!    vehicle data from the map and `--parameters`. For `--model b` only the noise is fitted:
+//!    the FMU takes model B's per-axle tyre factors (`cornering_stiffness_scale_front/_rear`,
+//!    `tyre_front/rear_*`, issue 17 point 4), but the offline identification runs on model A
+//!    only, so a user sets them from the tyre's data (fmu-src/estimation/README.md, per-axle
+//!    tyres).
 //! 2. **Noise levels**: model A: a factor on every process-noise standard deviation (the
 //!    measurement noise is the sensors' and stays; [`super::noise`] says why), maximising the
 //!    innovation likelihood of the training segment through an offline EKF on model A with the
