@@ -13,22 +13,13 @@ use std::time::Duration;
 use fmi_master::cosim::Plan;
 use fmi_master::fmu::{limits, platform_folder, FmuError, LoadedFmu};
 use fmi_master::montecarlo;
-use fmi_master::runner::{self, default_fmu_dir, Environment, WorkFolder};
+use fmi_master::runner::{self, Environment, WorkFolder};
 use fmi_master::scenario::{Scenario, VarRef, MAX_STEPS};
 
-use crate::common::{write_zip, Scratch, GOOD};
+use crate::common::{packaged_fmus, write_zip, Scratch, GOOD};
 
 fn parse(text: &str) -> Result<Scenario, String> {
     Scenario::from_str_at(text, Path::new("probe.toml"), Path::new(".")).map_err(|e| e.to_string())
-}
-
-fn packaged_fmus() -> PathBuf {
-    let dir = default_fmu_dir();
-    assert!(
-        dir.join("ReferenceVehicle.fmu").is_file(),
-        "build the FMUs first: cargo run --release -p packaging"
-    );
-    dir
 }
 
 #[test]

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use fmi_master::cosim::{Plan, RunOptions};
-use fmi_master::runner::{default_fmu_dir, workspace_root};
+use fmi_master::runner::workspace_root;
 use fmi_master::scenario::Scenario;
 
 use crate::common::Scratch;
@@ -51,11 +51,7 @@ variables = ["vehicle.yaw_rate"]
 }
 
 fn plan(text: &str, work: &Path) -> anyhow::Result<Plan> {
-    let fmu_dir = default_fmu_dir();
-    assert!(
-        fmu_dir.join("ReferenceVehicle.fmu").is_file(),
-        "build the FMUs first: cargo run --release -p packaging"
-    );
+    let fmu_dir = crate::common::packaged_fmus();
     let scenario = Scenario::from_str_at(text, Path::new("cars.toml"), Path::new("."))
         .unwrap_or_else(|e| panic!("the scenario itself must parse: {e}"));
     Plan::new(scenario, &fmu_dir, work)

@@ -8,17 +8,12 @@
 use std::path::Path;
 
 use fmi_master::cosim::Plan;
-use fmi_master::runner::default_fmu_dir;
 use fmi_master::scenario::Scenario;
 
 use crate::common::GOOD;
 
 fn plan_error(text: &str) -> String {
-    let fmu_dir = default_fmu_dir();
-    assert!(
-        fmu_dir.join("ReferenceVehicle.fmu").is_file(),
-        "build the FMUs first: cargo run --release -p packaging"
-    );
+    let fmu_dir = crate::common::packaged_fmus();
     let work = std::env::temp_dir().join(format!("harness-plan-errors-{}", std::process::id()));
     let scenario = Scenario::from_str_at(text, Path::new("bad.toml"), Path::new("."))
         .unwrap_or_else(|e| panic!("the scenario itself must parse: {e}"));
@@ -38,7 +33,7 @@ fn assert_names(message: &str, parts: &[&str]) {
 fn the_good_scenario_plans() {
     let work = std::env::temp_dir().join(format!("harness-plan-good-{}", std::process::id()));
     let scenario = Scenario::from_str_at(GOOD, Path::new("good.toml"), Path::new(".")).unwrap();
-    let plan = Plan::new(scenario, &default_fmu_dir(), &work).unwrap();
+    let plan = Plan::new(scenario, &crate::common::packaged_fmus(), &work).unwrap();
     assert_eq!(plan.step_order(), ["vehicle", "ekf"]);
     assert!(plan.columns().contains(&"ekf.vy_est".to_string()));
 }

@@ -7,15 +7,11 @@
 
 use fmi_master::cosim::{ParameterValue, Plan, RunOptions, RunResult};
 use fmi_master::runner::scenario_dir;
-use fmi_master::runner::{default_fmu_dir, Environment};
+use fmi_master::runner::Environment;
 use fmi_master::scenario::{Scenario, VarRef};
 
 fn plan(stop_time: f64, tag: &str) -> Plan {
-    let fmu_dir = default_fmu_dir();
-    assert!(
-        fmu_dir.join("ReferenceVehicle.fmu").is_file(),
-        "build the FMUs first: cargo run --release -p packaging"
-    );
+    let fmu_dir = crate::common::packaged_fmus();
     let env = Environment {
         fmu_dir,
         out_dir: std::env::temp_dir().join(format!("harness-recycle-{}-{tag}", std::process::id())),

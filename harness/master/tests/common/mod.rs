@@ -25,6 +25,12 @@ impl Drop for Scratch {
 }
 
 /// A zip archive of `entries` (name, bytes), deflated.
+/// The folder of the packaged FMUs (`fmi_master::runner::packaged_fmu_dir`); the test fails with
+/// its message, which says how to build them, when they are missing.
+pub fn packaged_fmus() -> PathBuf {
+    fmi_master::runner::packaged_fmu_dir().unwrap_or_else(|error| panic!("{error:#}"))
+}
+
 pub fn write_zip(path: &Path, entries: &[(&str, &[u8])]) {
     let file = std::fs::File::create(path).unwrap();
     let mut zip = zip::ZipWriter::new(file);

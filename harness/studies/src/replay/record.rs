@@ -76,13 +76,7 @@ fn stamp(t: f64, n: usize) -> f64 {
 
 /// The recorded drive.
 pub fn record_drive(fmu_dir: &Path, out_dir: &Path) -> Result<RunResult> {
-    let archive = fmu_dir.join("ReferenceVehicle.fmu");
-    if !archive.is_file() {
-        anyhow::bail!(
-            "{} missing: build the FMUs with `cargo run --release -p packaging`",
-            archive.display()
-        );
-    }
+    let fmu_dir = &fmi_master::runner::packaged_fmus_in(fmu_dir)?;
     let scenario =
         Scenario::from_file(&workspace_root().join("harness/logs/record_ford_escort.toml"))?;
     let env = Environment {
