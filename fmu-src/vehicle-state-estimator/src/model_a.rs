@@ -304,25 +304,28 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         } else {
             0.0
         };
-        let radii = WheelRadii::of(v);
+        // The filter's own car (the parameters as mapped once, vehicle_models::parameters).
+        let vehicle = self.vehicle();
+        let chassis = &vehicle.vehicle.chassis;
+        let friction_base = vehicle.tyre.params.friction_base;
         let axles = [
             (
                 state_index::OMEGA_FRONT,
-                radii.front,
-                v.wheel_load_front,
-                v.wheel_inertia_front,
+                chassis.front_wheel_radius,
+                chassis.front_wheel_load,
+                chassis.front_wheel_inertia,
             ),
             (
                 state_index::OMEGA_REAR,
-                radii.rear,
-                v.wheel_load_rear,
-                v.wheel_inertia_rear,
+                chassis.rear_wheel_radius,
+                chassis.rear_wheel_load,
+                chassis.rear_wheel_inertia,
             ),
         ];
         let mut noise = SMatrix::<f64, STATE_DIM, STATE_DIM>::zeros();
         for (index, radius, wheel_load, inertia) in axles {
             let unknown_torque = slip * speed / radius;
-            let sliding_step = v.tyre_f00 * 2.0 * wheel_load * radius * v.sample_time / inertia;
+            let sliding_step = friction_base * 2.0 * wheel_load * radius * v.sample_time / inertia;
             let low_speed = if speed < sliding_step * radius / (2.0 * PEAK_SLIP) {
                 sliding_step
             } else {
