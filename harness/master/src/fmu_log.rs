@@ -25,7 +25,6 @@ enum Printing {
 }
 
 /// Counts each instance's messages, to print a repeated one only [`PRINTED_REPEATS`] times.
-#[derive(Default)]
 struct RepeatFilter {
     counts: BTreeMap<String, BTreeMap<String, u32>>,
 }
