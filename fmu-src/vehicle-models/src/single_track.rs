@@ -477,17 +477,21 @@ impl<T: TyreModel> SingleTrackModel<T> {
         )
     }
 
+    /// The axles at `(x, u)`; with `lateral_factors = Some([gF, gR])` each axle's lateral force
+    /// is multiplied by its factor (a grip factor estimated online, see
+    /// [`Self::step_with_lateral_factors`]); `None` is model A as the seed writes it.
     #[inline(always)]
     fn evaluate<S: Scalar>(
         &self,
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         with_spin_derivative: bool,
+        lateral_factors: Option<[S; 2]>,
     ) -> Evaluation<S> {
         use state_index::*;
         let steer = u[input_index::STEERING_ANGLE];
         let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
-        Evaluation {
+        let mut e = Evaluation {
             front: self.front_axle(
                 x[VX],
                 x[VY],
@@ -506,7 +510,12 @@ impl<T: TyreModel> SingleTrackModel<T> {
             ),
             cos_steer,
             sin_steer,
+        };
+        if let Some([front, rear]) = lateral_factors {
+            e.front.lateral_force = e.front.lateral_force * front;
+            e.rear.lateral_force = e.rear.lateral_force * rear;
         }
+        e
     }
 
     /// `[v̇x, v̇y, ṙ]` from the axle forces (000: 5.43, 5.42, 5.44).
@@ -584,7 +593,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
     ) -> [S; STATE_DIM] {
-        self.derivatives_with_rear_drive(x, u, None)
+        self.derivatives_with_rear_drive(x, u, None, None)
     }
 
     /// [`Self::derivatives_generic`] with a drive torque on the rear axle too (rear- and
@@ -595,8 +604,9 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         rear_drive_torque: Option<S>,
+        lateral_factors: Option<[S; 2]>,
     ) -> [S; STATE_DIM] {
-        let e = self.evaluate(x, u, false);
+        let e = self.evaluate(x, u, false, lateral_factors);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         [
             vx_dot,
@@ -617,10 +627,11 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         rear_drive_torque: Option<S>,
+        lateral_factors: Option<[S; 2]>,
         dt: f64,
     ) -> [S; STATE_DIM] {
         use state_index::*;
-        let e = self.evaluate(x, u, true);
+        let e = self.evaluate(x, u, true, lateral_factors);
         let (front, rear) = (e.front, e.rear);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         let p = &self.vehicle;
@@ -674,10 +685,30 @@ impl<T: TyreModel> SingleTrackModel<T> {
         dt: f64,
         integrator: Integrator,
     ) -> [S; STATE_DIM] {
+        self.step_with_lateral_factors(x, u, rear_drive_torque, None, dt, integrator)
+    }
+
+    /// [`Self::step_with_rear_drive`] with each axle's lateral tyre force multiplied by its
+    /// factor `lateral_factors = Some([gF, gR])` (per-axle grip, estimated as states by the
+    /// estimation crate's grip model; issue 17 point 4), the same equations and integrators.
+    /// `None` is [`Self::step_with_rear_drive`]; factors of exactly 1 give the same numbers
+    /// (a product with 1 is exact).
+    #[inline(always)]
+    pub fn step_with_lateral_factors<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        rear_drive_torque: Option<S>,
+        lateral_factors: Option<[S; 2]>,
+        dt: f64,
+        integrator: Integrator,
+    ) -> [S; STATE_DIM] {
         match integrator {
-            Integrator::SemiImplicitEuler => self.step_seed_scheme(x, u, rear_drive_torque, dt),
+            Integrator::SemiImplicitEuler => {
+                self.step_seed_scheme(x, u, rear_drive_torque, lateral_factors, dt)
+            }
             Integrator::RungeKutta4 => runge_kutta4(x, dt, |state| {
-                self.derivatives_with_rear_drive(state, u, rear_drive_torque)
+                self.derivatives_with_rear_drive(state, u, rear_drive_torque, lateral_factors)
             }),
         }
     }
@@ -689,8 +720,20 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
     ) -> [S; MEASUREMENT_DIM] {
+        self.measurement_with_lateral_factors(x, u, None)
+    }
+
+    /// [`Self::measurement_generic`] with per-axle factors on the lateral tyre forces (see
+    /// [`Self::step_with_lateral_factors`]).
+    #[inline(always)]
+    pub fn measurement_with_lateral_factors<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+        lateral_factors: Option<[S; 2]>,
+    ) -> [S; MEASUREMENT_DIM] {
         use state_index::*;
-        let e = self.evaluate(x, u, false);
+        let e = self.evaluate(x, u, false, lateral_factors);
         // (000: 5.40) with (000: 5.42): ay = v̇y + vx r = (FyR + FyF cos δ + FxF sin δ) / m
         let lateral_acceleration = (e.rear.lateral_force
             + e.front.lateral_force * e.cos_steer
@@ -765,10 +808,21 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// Derived quantities at `(x, u)`: sideslip, accelerations, slip angles, slips, axle forces.
     pub fn outputs(&self, x: &SingleTrackState, u: &DriverInputVector) -> SingleTrackOutputs {
+        self.outputs_with_lateral_factors(x, u, None)
+    }
+
+    /// [`Self::outputs`] with per-axle factors on the lateral tyre forces (see
+    /// [`Self::step_with_lateral_factors`]).
+    pub fn outputs_with_lateral_factors(
+        &self,
+        x: &SingleTrackState,
+        u: &DriverInputVector,
+        lateral_factors: Option<[f64; 2]>,
+    ) -> SingleTrackOutputs {
         use state_index::*;
         let xs: &[f64; STATE_DIM] = &x.data.0[0];
         let us: &[f64; INPUT_DIM] = &u.data.0[0];
-        let e = self.evaluate(xs, us, false);
+        let e = self.evaluate(xs, us, false, lateral_factors);
         let [vx_dot, vy_dot, _] = self.body_derivatives(xs, &e.axle_forces());
         let (vx, vy, yaw_rate) = (xs[VX], xs[VY], xs[YAW_RATE]);
         SingleTrackOutputs {
@@ -810,7 +864,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// Longitudinal velocity of the front wheel centre (000: 5.16); exposed for tests.
     pub fn front_wheel_velocity(&self, x: &SingleTrackState, u: &DriverInputVector) -> f64 {
-        let e = self.evaluate::<f64>(&x.data.0[0], &u.data.0[0], false);
+        let e = self.evaluate::<f64>(&x.data.0[0], &u.data.0[0], false, None);
         e.front.wheel_velocity
     }
 
@@ -920,7 +974,7 @@ mod cornering_stiffness_scale_tests {
     fn unit_scales_give_the_unscaled_tyre_forces_bit_for_bit() {
         let model = SingleTrackHsri::default();
         let (x, u) = cornering_state();
-        let e = model.evaluate::<f64>(&x.data.0[0], &u.data.0[0], false);
+        let e = model.evaluate::<f64>(&x.data.0[0], &u.data.0[0], false, None);
         let kinematics = TyreKinematics {
             slip: e.rear.slip,
             tan_slip_angle: e.rear.tan_slip_angle,
@@ -964,6 +1018,47 @@ mod cornering_stiffness_scale_tests {
             * front.slip_angle_front.tan()
             / (1.0 + front.slip_front);
         assert!(relative(front.lateral_force_front, expected) < 1e-12);
+    }
+
+    /// Lateral-force factors of exactly 1 are model A to the bit, with both integrators, in
+    /// the step, the measurement and the outputs; a factor acts on its axle's lateral force
+    /// only.
+    #[test]
+    fn unit_lateral_factors_are_model_a_bit_for_bit() {
+        let model = with_scales(0.9, 1.1);
+        let (x, u) = cornering_state();
+        let (xs, us) = (&x.data.0[0], &u.data.0[0]);
+        for integrator in [Integrator::SemiImplicitEuler, Integrator::RungeKutta4] {
+            for rear in [None, Some(120.0)] {
+                let plain = model.step_with_rear_drive(xs, us, rear, 0.01, integrator);
+                let unit = model.step_with_lateral_factors(
+                    xs,
+                    us,
+                    rear,
+                    Some([1.0, 1.0]),
+                    0.01,
+                    integrator,
+                );
+                assert_eq!(plain.map(f64::to_bits), unit.map(f64::to_bits));
+            }
+        }
+        let unit = model.measurement_with_lateral_factors(xs, us, Some([1.0, 1.0]));
+        assert_eq!(
+            model.measurement_generic(xs, us).map(f64::to_bits),
+            unit.map(f64::to_bits)
+        );
+        let plain = model.outputs(&x, &u);
+        assert_eq!(
+            plain,
+            model.outputs_with_lateral_factors(&x, &u, Some([1.0, 1.0]))
+        );
+        let gripped = model.outputs_with_lateral_factors(&x, &u, Some([0.8, 1.3]));
+        assert_eq!(gripped.lateral_force_front, 0.8 * plain.lateral_force_front);
+        assert_eq!(gripped.lateral_force_rear, 1.3 * plain.lateral_force_rear);
+        assert_eq!(
+            gripped.longitudinal_force_front,
+            plain.longitudinal_force_front
+        );
     }
 
     /// A softer front axle makes the car understeer more: less steady-state yaw rate for the
