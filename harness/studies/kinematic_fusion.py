@@ -56,6 +56,7 @@ import argparse
 import csv
 import math
 import pathlib
+import re
 import subprocess
 import xml.etree.ElementTree as ET
 
@@ -82,21 +83,23 @@ ACCELEROMETERS = {
     "real": ", gravity_in_accelerometers = true, bias_ay_meas = 0.1, bias_yaw_rate_meas = 0.002",
 }
 ESTIMATORS = {"EKF_A": 1, "EKF_B": 2}
-COPIED = [
-    "mass",
-    "yaw_inertia",
-    "cog_to_front_axle",
-    "cog_to_rear_axle",
-    "wheel_inertia_front",
-    "wheel_inertia_rear",
-    "brake_distribution_front",
-]
+# The campaigns' rule is written once, in Rust: its list of copied parameters is read from there
+# (the static wheel loads below follow its formula, 000: after table 5.2).
+CAR_RULE = ROOT / "harness/studies/src/campaigns/car.rs"
 # The combination's tuning (module text).
 MODEL_ERROR_STD = 0.01
 UTILISATION_GAIN = 10.0
 AY_NOISE_STD = 0.1
 YAW_RATE_NOISE_STD = 0.0035
 BIAS_RANDOM_WALK = 0.01
+
+
+def copied_parameters():
+    """`COPIED_PARAMETERS` of the campaigns' car rule (harness/studies/src/campaigns/car.rs)."""
+    found = re.search(r"COPIED_PARAMETERS: \[&str; \d+\] = \[(.*?)\];", CAR_RULE.read_text(), re.S)
+    if not found:
+        raise SystemExit(f"{CAR_RULE}: expected the array COPIED_PARAMETERS of the campaigns' car rule")
+    return re.findall(r'"([a-z_]+)"', found.group(1))
 
 
 def car_values(car):
@@ -108,7 +111,7 @@ def car_values(car):
             for value in parameter:
                 if value.tag.endswith("Real"):
                     reals[parameter.get("name")] = float(value.get("value"))
-    values = {name: reals[name] for name in COPIED}
+    values = {name: reals[name] for name in copied_parameters()}
     for axle in ["front", "rear"]:
         values[f"wheel_radius_{axle}"] = reals.get(f"wheel_radius_{axle}", reals["wheel_radius"])
     per_wheel = reals["mass"] * GRAVITY / (2 * (reals["cog_to_front_axle"] + reals["cog_to_rear_axle"]))
