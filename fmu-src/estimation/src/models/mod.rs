@@ -4,6 +4,7 @@
 #[cfg(feature = "offline")]
 pub mod rear_axle;
 pub mod single_track;
+pub mod single_track_grip;
 #[cfg(feature = "offline")]
 pub mod single_track_identification;
 pub mod two_track;

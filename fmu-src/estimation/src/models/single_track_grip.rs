@@ -1,0 +1,607 @@
+//! Model A with per-axle lateral grip states (issue 17 points 3 and 4) as a
+//! [`StateSpaceModel<7, 5, 6>`].
+//!
+//! - state `x = [vx, vy, yaw_rate, omega_front, omega_rear, grip_front, grip_rear]`: model A's
+//!   five states and one factor per axle on model A's lateral tyre force
+//!   ([`SingleTrackModel::step_with_lateral_factors`]); 1 is the user's tyre;
+//! - measurement and input as [`SpeedAnchoredModel`]'s: `y = [yaw_rate, ay, omega_front,
+//!   omega_rear, vx]`, `u = [steering_angle, drive_torque, brake_torque, drive_torque_rear, ax,
+//!   ax_valid]`, with the `vx` row and the `ax` kinematics of the speed anchor.
+//!
+//! **Why.** Against a car that is not the filter's model (load transfer, another tyre, another
+//! road), model A's lateral tyre forces are wrong by a persistent amount. In a quasi-steady corner
+//! the yaw rate and `ay` fix the two axle forces only, not `vy` and both axles' stiffness
+//! together: one direction is unobservable, the bias in it invisible to the filter, and model A's
+//! sideslip covariance (a few thousandths of a degree) does not cover errors of tenths. Making
+//! the force error a state puts that direction into the covariance (the Schmidt consider-state
+//! argument, Schmidt 1966, here with the states estimated): where the data make a grip factor
+//! observable (at the limit, the road friction; in a corner the understeer balance) the filter
+//! estimates it, and along the unobservable direction it keeps the prior uncertainty `sigma`,
+//! which the sideslip std then carries.
+//!
+//! **Grip dynamics.** Each factor is a first-order Gauss-Markov process about the user's tyre
+//! (Brown and Hwang, Introduction to Random Signals and Applied Kalman Filtering, 4th ed.,
+//! §2.9 and §4.2): `g(k+1) = 1 + a (g(k) − 1) + w(k)`, `a = exp(−T/τ)`,
+//! `var(w) = σ² (1 − a²)`, so the stationary standard deviation is `σ` whatever the sample time.
+//! The Jacobians are forward-mode derivatives of the vehicle-models step (dual numbers, only the
+//! directions a call needs), as for model A.
+
+use nalgebra::{SMatrix, SVector};
+use vehicle_models::driver_input::INPUT_DIM;
+use vehicle_models::single_track::{state_index, MEASUREMENT_DIM, STATE_DIM};
+use vehicle_models::{Dual, HsriTyre, Scalar, SingleTrackModel, TyreModel};
+
+use super::single_track::{
+    SpeedAnchoredModel, ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM, AX_INPUT, AX_VALID_INPUT,
+    REAR_DRIVE_INPUT,
+};
+use crate::kalman::{InitialEstimate, SettingsError};
+use crate::registry::EstimatorSettings;
+use crate::StateSpaceModel;
+
+/// Number of states of the grip model.
+pub const GRIP_STATE_DIM: usize = STATE_DIM + 2;
+
+/// Index of the front axle's grip factor.
+pub const GRIP_FRONT: usize = STATE_DIM;
+
+/// Index of the rear axle's grip factor.
+pub const GRIP_REAR: usize = STATE_DIM + 1;
+
+/// The grip model's state.
+pub type GripState = SVector<f64, GRIP_STATE_DIM>;
+
+/// The first-order Gauss-Markov prior of each grip factor (Brown and Hwang, §2.9).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GripPrior {
+    /// Stationary standard deviation `σ` of each factor about 1.
+    pub std: f64,
+    /// Correlation time `τ`, s.
+    pub time_constant: f64,
+}
+
+impl GripPrior {
+    fn check(&self) -> Result<(), SettingsError> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if positive(self.std) && positive(self.time_constant) {
+            Ok(())
+        } else {
+            Err(SettingsError(format!(
+                "the grip factors' std and time constant must be positive, got {self:?}"
+            )))
+        }
+    }
+
+    /// Model A's start extended by the grip factors' prior: mean 1, variance `σ²`, uncorrelated.
+    pub fn extend_initial(
+        &self,
+        start: &InitialEstimate<STATE_DIM>,
+    ) -> InitialEstimate<GRIP_STATE_DIM> {
+        let mut covariance = SMatrix::<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>::zeros();
+        covariance
+            .fixed_view_mut::<STATE_DIM, STATE_DIM>(0, 0)
+            .copy_from(&start.covariance);
+        let variance = self.std * self.std;
+        covariance[(GRIP_FRONT, GRIP_FRONT)] = variance;
+        covariance[(GRIP_REAR, GRIP_REAR)] = variance;
+        InitialEstimate {
+            state: extend_state(&start.state),
+            covariance,
+        }
+    }
+}
+
+/// Model A with the speed anchor and one lateral grip factor per axle (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SingleTrackGripModel<T: TyreModel = HsriTyre> {
+    anchored: SpeedAnchoredModel<T>,
+    prior: GripPrior,
+    /// `a = exp(−T/τ)`.
+    decay: f64,
+}
+
+impl<T: TyreModel> SingleTrackGripModel<T> {
+    /// `anchored` with grip factors of prior `prior`.
+    pub fn new(anchored: SpeedAnchoredModel<T>, prior: GripPrior) -> Result<Self, SettingsError> {
+        prior.check()?;
+        let decay = (-anchored.inner().sample_time() / prior.time_constant).exp();
+        Ok(Self {
+            anchored,
+            prior,
+            decay,
+        })
+    }
+
+    /// Model A with the speed anchor, without the grip states.
+    pub fn anchored(&self) -> &SpeedAnchoredModel<T> {
+        &self.anchored
+    }
+
+    /// The vehicle model (grip factors 1).
+    pub fn vehicle(&self) -> &SingleTrackModel<T> {
+        self.anchored.vehicle()
+    }
+
+    /// The grip factors' prior.
+    pub fn prior(&self) -> GripPrior {
+        self.prior
+    }
+
+    /// The registry's settings from the anchored model's (see
+    /// [`SpeedAnchoredModel::estimator_settings`]): the operating point at grip 1. The
+    /// Luenberger observer has no design here: at its operating point (straight driving) no
+    /// lateral force acts, so the grip factors are unobservable and no pole can be placed.
+    pub fn extend_settings(
+        &self,
+        anchored: EstimatorSettings<STATE_DIM, ANCHORED_INPUT_DIM>,
+    ) -> EstimatorSettings<GRIP_STATE_DIM, ANCHORED_INPUT_DIM> {
+        EstimatorSettings {
+            operating_point: anchored
+                .operating_point
+                .map(|(state, input)| (extend_state(&state), input)),
+            scaled_sigma_points: anchored.scaled_sigma_points,
+            observer_design: Err(SettingsError(String::from(
+                "the Luenberger observer has no design for the grip model: at its straight-driving \
+                 operating point no lateral force acts, so the grip factors are unobservable",
+            ))),
+            particles: anchored.particles,
+        }
+    }
+
+    /// Model A's step with the grip factors on the lateral forces (the anchored model's
+    /// driver input and rear drive torque), generic over the scalar.
+    fn body_step<S: Scalar>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        u: &[S; ANCHORED_INPUT_DIM],
+    ) -> [S; STATE_DIM] {
+        let inner = self.anchored.inner();
+        let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+        let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
+        inner.vehicle().step_with_lateral_factors(
+            &body,
+            &driver,
+            Some(u[REAR_DRIVE_INPUT]),
+            Some([x[GRIP_FRONT], x[GRIP_REAR]]),
+            inner.sample_time(),
+            inner.integrator(),
+        )
+    }
+
+    /// The transition, generic over the scalar: model A's step with the grip factors, the
+    /// speed anchor's kinematic `vx` when `ax` is measured (`vx + T (ax + r vy)`, see
+    /// [`SpeedAnchoredModel`]), and the Gauss-Markov decay of the grip factors.
+    fn step<S: Scalar>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        u: &[S; ANCHORED_INPUT_DIM],
+    ) -> [S; GRIP_STATE_DIM] {
+        let body = self.body_step(x, u);
+        let mut next: [S; GRIP_STATE_DIM] =
+            core::array::from_fn(|i| if i < STATE_DIM { body[i] } else { x[i] });
+        if u[AX_VALID_INPUT].value() == 1.0 {
+            let (vx, vy, r) = (
+                x[state_index::VX],
+                x[state_index::VY],
+                x[state_index::YAW_RATE],
+            );
+            next[state_index::VX] =
+                vx + (u[AX_INPUT] + r * vy) * self.anchored.inner().sample_time();
+        }
+        for i in [GRIP_FRONT, GRIP_REAR] {
+            // g(k+1) = 1 + a (g(k) − 1) (Brown and Hwang, §2.9)
+            next[i] = (x[i] - 1.0) * self.decay + 1.0;
+        }
+        next
+    }
+
+    /// The measurement, generic over the scalar: model A's with the grip factors, and `vx`.
+    fn observe<S: Scalar>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        u: &[S; ANCHORED_INPUT_DIM],
+    ) -> [S; ANCHORED_MEASUREMENT_DIM] {
+        let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+        let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
+        let y = self.vehicle().measurement_with_lateral_factors(
+            &body,
+            &driver,
+            Some([x[GRIP_FRONT], x[GRIP_REAR]]),
+        );
+        core::array::from_fn(|i| {
+            if i < MEASUREMENT_DIM {
+                y[i]
+            } else {
+                x[state_index::VX]
+            }
+        })
+    }
+}
+
+/// Model A's state with both grip factors at 1.
+pub fn extend_state(state: &SVector<f64, STATE_DIM>) -> GripState {
+    GripState::from_fn(|i, _| if i < STATE_DIM { state[i] } else { 1.0 })
+}
+
+/// `(value, ∂/∂x)` of `f` over the `K` state directions seeded `state_dual`.
+fn state_pass<const R: usize>(
+    state: &GripState,
+    input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    f: impl Fn(
+        &[Dual<f64, GRIP_STATE_DIM>; GRIP_STATE_DIM],
+        &[Dual<f64, GRIP_STATE_DIM>; ANCHORED_INPUT_DIM],
+    ) -> [Dual<f64, GRIP_STATE_DIM>; R],
+) -> (SVector<f64, R>, SMatrix<f64, R, GRIP_STATE_DIM>) {
+    let xs = core::array::from_fn(|i| Dual::variable(state[i], i));
+    let us = core::array::from_fn(|j| Dual::from_value(input[j]));
+    let out = f(&xs, &us);
+    (
+        SVector::from_fn(|i, _| out[i].value),
+        SMatrix::from_fn(|i, j| out[i].gradient[j]),
+    )
+}
+
+/// `∂/∂u` of `f` over the inputs; the `ax_valid` switch is held (no derivative).
+fn input_pass<const R: usize>(
+    state: &GripState,
+    input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    f: impl Fn(
+        &[Dual<f64, ANCHORED_INPUT_DIM>; GRIP_STATE_DIM],
+        &[Dual<f64, ANCHORED_INPUT_DIM>; ANCHORED_INPUT_DIM],
+    ) -> [Dual<f64, ANCHORED_INPUT_DIM>; R],
+) -> SMatrix<f64, R, ANCHORED_INPUT_DIM> {
+    let xs = core::array::from_fn(|i| Dual::from_value(state[i]));
+    let us = core::array::from_fn(|j| {
+        if j == AX_VALID_INPUT {
+            Dual::from_value(input[j])
+        } else {
+            Dual::variable(input[j], j)
+        }
+    });
+    let out = f(&xs, &us);
+    SMatrix::from_fn(|i, j| out[i].gradient[j])
+}
+
+impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>
+    for SingleTrackGripModel<T>
+{
+    fn state_names(&self) -> [&'static str; GRIP_STATE_DIM] {
+        let [vx, vy, r, front, rear] = self.anchored.state_names();
+        [vx, vy, r, front, rear, "grip_front", "grip_rear"]
+    }
+
+    fn measurement_names(&self) -> [&'static str; ANCHORED_MEASUREMENT_DIM] {
+        self.anchored.measurement_names()
+    }
+
+    fn transition(&self, state: &GripState, input: &SVector<f64, ANCHORED_INPUT_DIM>) -> GripState {
+        SVector::from(self.step(&state.data.0[0], &input.data.0[0]))
+    }
+
+    fn transition_jacobian(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM> {
+        self.transition_and_jacobian(state, input).1
+    }
+
+    fn transition_and_jacobian(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> (GripState, SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>) {
+        state_pass(state, input, |x, u| self.step(x, u))
+    }
+
+    fn transition_input_jacobian(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, GRIP_STATE_DIM, ANCHORED_INPUT_DIM> {
+        input_pass(state, input, |x, u| self.step(x, u))
+    }
+
+    fn measurement(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SVector<f64, ANCHORED_MEASUREMENT_DIM> {
+        SVector::from(self.observe(&state.data.0[0], &input.data.0[0]))
+    }
+
+    fn measurement_jacobian(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, GRIP_STATE_DIM> {
+        self.measurement_and_jacobian(state, input).1
+    }
+
+    fn measurement_and_jacobian(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> (
+        SVector<f64, ANCHORED_MEASUREMENT_DIM>,
+        SMatrix<f64, ANCHORED_MEASUREMENT_DIM, GRIP_STATE_DIM>,
+    ) {
+        state_pass(state, input, |x, u| self.observe(x, u))
+    }
+
+    fn measurement_input_jacobian(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> {
+        input_pass(state, input, |x, u| self.observe(x, u))
+    }
+
+    /// Model A's `Q` and, per grip factor, `σ² (1 − a²)` (Brown and Hwang, §2.9), uncorrelated.
+    fn process_noise(&self) -> SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM> {
+        let mut noise = SMatrix::<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>::zeros();
+        noise
+            .fixed_view_mut::<STATE_DIM, STATE_DIM>(0, 0)
+            .copy_from(&self.anchored.process_noise());
+        let variance = self.prior.std * self.prior.std * (1.0 - self.decay * self.decay);
+        noise[(GRIP_FRONT, GRIP_FRONT)] = variance;
+        noise[(GRIP_REAR, GRIP_REAR)] = variance;
+        noise
+    }
+
+    fn measurement_noise(
+        &self,
+    ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_MEASUREMENT_DIM> {
+        self.anchored.measurement_noise()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kalman::SigmaPoints;
+    use crate::models::single_track::{SingleTrackEstimationModel, VX_ROW};
+    use crate::particle::ParticleFilterConfig;
+    use crate::registry::{self, EstimatorChoice};
+    use crate::test_oracle::central_difference;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+    use vehicle_models::single_track::SingleTrackParams;
+    use vehicle_models::Integrator;
+
+    const SAMPLE_TIME: f64 = 0.01;
+    /// The FMU's default process noise, per sample, `[vx, vy, r, ωF, ωR]`.
+    const PROCESS_STD: [f64; STATE_DIM] = [0.005, 0.005, 0.001, 0.05, 0.05];
+    /// Series-production sensor noise (the campaigns' ReferenceVehicle settings):
+    /// `[r, ay, ωF, ωR, vx]`.
+    const SENSOR_STD: [f64; ANCHORED_MEASUREMENT_DIM] = [0.0035, 0.1, 0.1, 0.1, 0.05];
+    const PRIOR: GripPrior = GripPrior {
+        std: 0.15,
+        time_constant: 2.0,
+    };
+
+    fn anchored(rear_scale: f64) -> SpeedAnchoredModel<HsriTyre> {
+        let vehicle = SingleTrackModel::new(
+            SingleTrackParams {
+                cornering_stiffness_scale_rear: rear_scale,
+                ..SingleTrackParams::default()
+            },
+            HsriTyre::default(),
+        );
+        let inner = SingleTrackEstimationModel::new(
+            vehicle,
+            SAMPLE_TIME,
+            Integrator::SemiImplicitEuler,
+            PROCESS_STD.map(|s| s * s),
+            core::array::from_fn(|i| SENSOR_STD[i] * SENSOR_STD[i]),
+        )
+        .unwrap();
+        SpeedAnchoredModel::new(inner, SENSOR_STD[VX_ROW].powi(2)).unwrap()
+    }
+
+    fn grip_model() -> SingleTrackGripModel<HsriTyre> {
+        SingleTrackGripModel::new(anchored(1.0), PRIOR).unwrap()
+    }
+
+    #[test]
+    fn jacobians_match_finite_differences_in_a_braked_turn() {
+        let model = grip_model();
+        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2]);
+        let driver = SVector::<f64, INPUT_DIM>::from([0.06, 50.0, 800.0]);
+        for ax in [None, Some(-2.0)] {
+            let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 120.0, ax);
+            let relative = |a: SMatrix<f64, 7, 7>, b: SMatrix<f64, 7, 7>| (a - b).amax() / b.amax();
+            let numeric = central_difference(|x| model.transition(x, &u), &x);
+            assert!(relative(model.transition_jacobian(&x, &u), numeric) < 1e-5);
+            let numeric = central_difference(|x| model.measurement(x, &u), &x);
+            let analytic = model.measurement_jacobian(&x, &u);
+            assert!((analytic - numeric).amax() < 1e-5 * numeric.amax());
+            // the ax_valid switch (last column) has no derivative
+            let numeric = central_difference(|u| model.transition(&x, u), &u);
+            let analytic = model.transition_input_jacobian(&x, &u);
+            assert!((analytic - numeric).columns(0, 5).amax() < 1e-5 * numeric.amax());
+            let numeric = central_difference(|u| model.measurement(&x, u), &u);
+            let analytic = model.measurement_input_jacobian(&x, &u);
+            assert!((analytic - numeric).columns(0, 5).amax() < 1e-5 * numeric.amax());
+            // the one-pass value is the transition
+            assert_eq!(
+                model.transition_and_jacobian(&x, &u).0,
+                model.transition(&x, &u)
+            );
+        }
+    }
+
+    /// At grip 1 the first five states and the measurement are the speed-anchored model A's to
+    /// the bit; a grip factor relaxes to 1 with `a = exp(−T/τ)`; the stationary std is `σ`.
+    #[test]
+    fn unit_grip_is_model_a_and_the_grip_is_gauss_markov() {
+        let model = grip_model();
+        let plain = anchored(1.0);
+        let x5 = SVector::<f64, STATE_DIM>::from([17.0, -0.4, 0.3, 55.5, 56.0]);
+        let x = extend_state(&x5);
+        let driver = SVector::<f64, INPUT_DIM>::from([0.06, 50.0, 800.0]);
+        for ax in [None, Some(-2.0)] {
+            let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 120.0, ax);
+            let next = model.transition(&x, &u);
+            assert_eq!(next.fixed_rows::<STATE_DIM>(0), plain.transition(&x5, &u));
+            assert_eq!(next[GRIP_FRONT], 1.0);
+            assert_eq!(model.measurement(&x, &u), plain.measurement(&x5, &u));
+        }
+        let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, None);
+        let mut gripped = x;
+        gripped[GRIP_REAR] = 1.2;
+        let a = (-SAMPLE_TIME / PRIOR.time_constant).exp();
+        assert!((model.transition(&gripped, &u)[GRIP_REAR] - (1.0 + 0.2 * a)).abs() < 1e-15);
+        let q = model.process_noise()[(GRIP_REAR, GRIP_REAR)];
+        // stationary variance of g(k+1) = a g(k) + w: q / (1 − a²) = σ²
+        assert!((q / (1.0 - a * a) - PRIOR.std * PRIOR.std).abs() < 1e-12);
+        assert!(GripPrior { std: 0.0, ..PRIOR }.check().is_err());
+        let anchored_settings = model.anchored().estimator_settings(
+            (x5, driver),
+            true,
+            SigmaPoints::Symmetric,
+            Ok(ParticleFilterConfig::default()),
+        );
+        assert!(model
+            .extend_settings(anchored_settings)
+            .observer_design
+            .is_err());
+    }
+
+    /// The truth: model A with 15 % stiffer rear tyres, a 2° steering sine of 4 s period at
+    /// 20 m/s, simulated at 1 ms and sampled at 10 ms with series sensor noise; measurement,
+    /// driver input and true sideslip per sample.
+    struct Truth {
+        measurements: Vec<SVector<f64, ANCHORED_MEASUREMENT_DIM>>,
+        inputs: Vec<SVector<f64, ANCHORED_INPUT_DIM>>,
+        sideslip: Vec<f64>,
+    }
+
+    fn truth(samples: usize) -> Truth {
+        let model = anchored(1.15);
+        let vehicle = model.vehicle();
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        let noise: Vec<Normal<f64>> = SENSOR_STD
+            .iter()
+            .map(|&s| Normal::new(0.0, s).unwrap())
+            .collect();
+        let mut x = vehicle.straight_rolling_state(20.0);
+        let mut out = Truth {
+            measurements: Vec::new(),
+            inputs: Vec::new(),
+            sideslip: Vec::new(),
+        };
+        for k in 0..samples {
+            let t = k as f64 * SAMPLE_TIME;
+            let steer = 2f64.to_radians() * (2.0 * std::f64::consts::PI * t / 4.0).sin();
+            let driver = SVector::<f64, INPUT_DIM>::from([steer, 0.0, 0.0]);
+            let o = vehicle.outputs(&x, &driver);
+            let exact = [x[2], o.lateral_acceleration, x[3], x[4], x[0]];
+            out.measurements.push(SVector::from_fn(|i, _| {
+                exact[i] + noise[i].sample(&mut rng)
+            }));
+            let ax = o.longitudinal_acceleration + noise[1].sample(&mut rng);
+            out.inputs
+                .push(SpeedAnchoredModel::<HsriTyre>::extend_input(
+                    &driver,
+                    0.0,
+                    Some(ax),
+                ));
+            out.sideslip.push(o.sideslip);
+            for _ in 0..10 {
+                x = vehicle.step(&x, &driver, 1e-3, Integrator::SemiImplicitEuler);
+            }
+        }
+        out
+    }
+
+    /// Time-averaged sideslip NEES after 2 s of an EKF on `model` over `truth`.
+    fn sideslip_nees<const N: usize, Model>(
+        model: Model,
+        start: InitialEstimate<N>,
+        truth: &Truth,
+    ) -> f64
+    where
+        Model: crate::registry::RegistryModel<N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+    {
+        let settings = EstimatorSettings {
+            operating_point: Err(SettingsError(String::from("unused"))),
+            scaled_sigma_points: SigmaPoints::Symmetric,
+            observer_design: Err(SettingsError(String::from("unused"))),
+            particles: Err(SettingsError(String::from("unused"))),
+        };
+        let mut filter = registry::build(model, EstimatorChoice::Ekf, &settings, &start).unwrap();
+        let (mut sum, mut count) = (0.0, 0);
+        for (k, (y, u)) in truth.measurements.iter().zip(&truth.inputs).enumerate() {
+            filter
+                .update(y, u, &[true; ANCHORED_MEASUREMENT_DIM])
+                .unwrap();
+            let (x, p) = (filter.state(), filter.covariance());
+            let (vx, vy) = (x[0], x[1]);
+            let s2 = vx * vx + vy * vy;
+            let g = [-vy / s2, vx / s2];
+            let variance =
+                g[0] * g[0] * p[(0, 0)] + 2.0 * g[0] * g[1] * p[(0, 1)] + g[1] * g[1] * p[(1, 1)];
+            if k as f64 * SAMPLE_TIME >= 2.0 {
+                sum += (vy.atan2(vx) - truth.sideslip[k]).powi(2) / variance;
+                count += 1;
+            }
+            filter.predict(u).unwrap();
+        }
+        sum / count as f64
+    }
+
+    /// Against a truth whose rear tyres are 15 % stiffer than the filter's, model A is
+    /// overconfident in sideslip; with the grip states the sideslip NEES is that of a filter
+    /// that knows the true tyres (within a factor 2) and below 2. Both are below 1 because the
+    /// truth has no process noise while the filters assume the FMU's default `Q`. The test fails
+    /// if the grip states are frozen: their model is then model A.
+    #[test]
+    fn grip_states_make_the_sideslip_covariance_honest_under_a_stiffness_mismatch() {
+        let truth = truth(1500);
+        let x5 = SVector::<f64, STATE_DIM>::from([20.0, 0.0, 0.0, 20.0 / 0.3, 20.0 / 0.3]);
+        let start = InitialEstimate::diagonal(x5, SVector::from([0.25, 0.01, 1e-4, 1.0, 1.0]));
+        let model_a = sideslip_nees(anchored(1.0), start, &truth);
+        let true_tyres = sideslip_nees(anchored(1.15), start, &truth);
+        let grip = grip_model();
+        let with_grip = sideslip_nees(grip.clone(), grip.prior().extend_initial(&start), &truth);
+        // measured: model A 11.6, true tyres 0.53, grip model 0.29
+        let report = format!("model A {model_a}, true tyres {true_tyres}, grip {with_grip}");
+        assert!(model_a > 10.0 * true_tyres, "{report}");
+        assert!(with_grip < 2.0 && with_grip > 0.5 * true_tyres, "{report}");
+    }
+
+    /// Every estimator of the registry but the Luenberger observer runs on the grip model and
+    /// stays finite; the Luenberger observer is refused with a reason.
+    #[test]
+    fn the_registry_builds_every_estimator_but_luenberger() {
+        let model = grip_model();
+        let truth = truth(300);
+        let x5 = SVector::<f64, STATE_DIM>::from([20.0, 0.0, 0.0, 20.0 / 0.3, 20.0 / 0.3]);
+        let start = model.prior().extend_initial(&InitialEstimate::diagonal(
+            x5,
+            SVector::from([0.25, 0.01, 1e-4, 1.0, 1.0]),
+        ));
+        let settings = model.extend_settings(model.anchored().estimator_settings(
+            (x5, SVector::zeros()),
+            true,
+            SigmaPoints::scaled(0.5, 2.0, 0.0),
+            Ok(ParticleFilterConfig::default()),
+        ));
+        for &choice in EstimatorChoice::ALL {
+            let built = registry::build(model.clone(), choice, &settings, &start);
+            if choice == EstimatorChoice::Luenberger {
+                assert!(built.unwrap_err().0.contains("grip model"));
+                continue;
+            }
+            let mut filter = built.unwrap();
+            for (y, u) in truth.measurements.iter().zip(&truth.inputs) {
+                let _ = filter.update(y, u, &[true; ANCHORED_MEASUREMENT_DIM]);
+                let _ = filter.predict(u);
+            }
+            assert!(filter.state().iter().all(|v| v.is_finite()), "{choice:?}");
+            assert!((filter.state()[GRIP_REAR] - 1.0).abs() < 0.5, "{choice:?}");
+        }
+    }
+}
