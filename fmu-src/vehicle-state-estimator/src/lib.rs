@@ -59,6 +59,7 @@ pub mod model_description {
 
 pub mod model_a;
 pub mod model_b;
+pub mod model_grip;
 pub mod parameters;
 pub mod runner;
 mod state;
@@ -66,6 +67,7 @@ mod state;
 use model_a::RunnerA;
 use model_b::RunnerB;
 use model_description::{EstimatorModel, Variables};
+use model_grip::RunnerGrip;
 use runner::Sensors;
 
 /// Bits of the `status` output (see its description in the XML).
@@ -102,6 +104,8 @@ pub mod status {
 pub enum ModelRunner {
     A(RunnerA),
     B(RunnerB),
+    /// Model 3: model A with per-axle lateral grip states.
+    Grip(RunnerGrip),
 }
 
 /// Calls the same method of whichever runner runs.
@@ -110,6 +114,7 @@ macro_rules! on_runner {
         match $runner {
             ModelRunner::A($r) => $call,
             ModelRunner::B($r) => $call,
+            ModelRunner::Grip($r) => $call,
         }
     };
 }
@@ -119,6 +124,7 @@ impl ModelRunner {
         Ok(match parameters::estimator_model(v)? {
             EstimatorModel::SingleTrack5State => Self::A(RunnerA::build(v, start_time)?),
             EstimatorModel::TwoTrack3State => Self::B(RunnerB::build(v, start_time)?),
+            EstimatorModel::SingleTrackGrip => Self::Grip(RunnerGrip::build(v, start_time)?),
         })
     }
 
@@ -127,6 +133,7 @@ impl ModelRunner {
             match parameters::estimator_model(v).map_err(StateError::new)? {
                 EstimatorModel::SingleTrack5State => Self::A(RunnerA::read_state(v, reader)?),
                 EstimatorModel::TwoTrack3State => Self::B(RunnerB::read_state(v, reader)?),
+                EstimatorModel::SingleTrackGrip => Self::Grip(RunnerGrip::read_state(v, reader)?),
             },
         )
     }

@@ -54,7 +54,7 @@ pub const MAX_PLAUSIBLE_SPEED: f64 = 100.0;
 
 /// `vx_meas` and `ax_meas` as model A takes them: only with `use_speed_measurements`, only
 /// finite and plausible, and not in an all-zero sensor row.
-fn speed_measurements(v: &Variables, sensors: &Sensors) -> (Option<f64>, Option<f64>) {
+pub(crate) fn speed_measurements(v: &Variables, sensors: &Sensors) -> (Option<f64>, Option<f64>) {
     if !v.use_speed_measurements || sensors.all_zero() {
         return (None, None);
     }
@@ -174,34 +174,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         runner: &mut RunnerA,
         sensors: &Sensors,
     ) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32> {
-        let mut bits = 0;
-        if runner.filter.state()[state_index::VX] < runner.min_speed {
-            if !reseed(runner, sensors) {
-                // The slip quantities are singular at standstill and the wheels confirm it:
-                // hold instead of guessing.
-                return Err(status::BELOW_MIN_SPEED);
-            }
-            bits |= status::BELOW_MIN_SPEED | status::STATE_RESET;
-        }
-        let (vx, ax) = speed_measurements(&runner.parameters, sensors);
-        let mut offered = [true; ANCHORED_MEASUREMENT_DIM];
-        offered[VX_ROW] = vx.is_some();
-        Ok(Sample {
-            measurement: SVector::from([
-                sensors.yaw_rate,
-                sensors.ay,
-                sensors.omega_front,
-                sensors.omega_rear,
-                vx.unwrap_or(f64::NAN),
-            ]),
-            input: ModelA::extend_input(
-                &runner.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
-                runner.input[REAR_DRIVE_TORQUE],
-                ax,
-            ),
-            offered,
-            bits,
-        })
+        anchored_sample(runner, sensors)
     }
 
     /// `|ay| <= 1.5 g`, wheel speeds up to 1000 rad/s, `|vx| <= 100 m/s`, and no row of an
@@ -225,7 +198,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     }
 
     fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
-        measured_start(runner, sensors)
+        measured_start(&runner.parameters, runner.min_speed, sensors)
     }
 
     /// Re-admission re-seeds because one sensor stayed gated; the speed, yaw rate and wheel
@@ -384,12 +357,59 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     }
 }
 
+/// The measurement and input of one sample on model A's sensors and speed anchor, for every
+/// model built on it (model A, the grip model of `model_grip`): the sensors' rows, the `vx` row
+/// and `ax` only as [`speed_measurements`] takes them; re-seeds the filter first when its speed
+/// estimate is below `min_speed` (see [`reseed`]).
+pub(crate) fn anchored_sample<Model, const N: usize>(
+    runner: &mut Runner<Model, N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+    sensors: &Sensors,
+) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32>
+where
+    Model: EstimationModel<N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+{
+    let mut bits = 0;
+    if runner.filter.state()[state_index::VX] < runner.min_speed {
+        if !reseed(runner, sensors) {
+            // The slip quantities are singular at standstill and the wheels confirm it:
+            // hold instead of guessing.
+            return Err(status::BELOW_MIN_SPEED);
+        }
+        bits |= status::BELOW_MIN_SPEED | status::STATE_RESET;
+    }
+    let (vx, ax) = speed_measurements(&runner.parameters, sensors);
+    let mut offered = [true; ANCHORED_MEASUREMENT_DIM];
+    offered[VX_ROW] = vx.is_some();
+    Ok(Sample {
+        measurement: SVector::from([
+            sensors.yaw_rate,
+            sensors.ay,
+            sensors.omega_front,
+            sensors.omega_rear,
+            vx.unwrap_or(f64::NAN),
+        ]),
+        input: ModelA::extend_input(
+            &runner.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
+            runner.input[REAR_DRIVE_TORQUE],
+            ax,
+        ),
+        offered,
+        bits,
+    })
+}
+
 /// Re-seeds the filter from the measurements when its speed estimate fell below `min_speed`
 /// but the sensors report a speed above it: the estimate is lost (e.g. after zero sensor
 /// signals before the bus delivered data) and waiting for the filter to find back is hopeless,
 /// because the model is singular near standstill. Returns whether it re-seeded.
-fn reseed(runner: &mut RunnerA, sensors: &Sensors) -> bool {
-    match measured_start(runner, sensors) {
+fn reseed<Model, const N: usize>(
+    runner: &mut Runner<Model, N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+    sensors: &Sensors,
+) -> bool
+where
+    Model: EstimationModel<N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+{
+    match Model::measured_start(runner, sensors) {
         Some(initial) => runner.rebuild(&initial),
         None => false,
     }
@@ -399,8 +419,12 @@ fn reseed(runner: &mut RunnerA, sensors: &Sensors) -> bool {
 /// the mean of `r_F ωF`, `r_R ωR` over the plausible wheel speeds; `vy = 0`; `r` = measured yaw
 /// rate; wheel speeds as measured (free rolling on each axle's radius where missing); the
 /// initial covariance of the parameters. `None` unless that speed is at least `min_speed`.
-fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
-    let radii = WheelRadii::of(&runner.parameters);
+pub(crate) fn measured_start(
+    v: &Variables,
+    min_speed: f64,
+    sensors: &Sensors,
+) -> Option<InitialEstimate<STATE_DIM>> {
+    let radii = WheelRadii::of(v);
     let plausible_wheel = |omega: f64| {
         if omega.abs() <= MAX_PLAUSIBLE_WHEEL_SPEED {
             omega
@@ -413,13 +437,13 @@ fn measured_start(runner: &RunnerA, sensors: &Sensors) -> Option<InitialEstimate
         omega_rear: plausible_wheel(sensors.omega_rear),
         ..*sensors
     };
-    let (measured_vx, _) = speed_measurements(&runner.parameters, sensors);
+    let (measured_vx, _) = speed_measurements(v, sensors);
     let speed = measured_vx.or_else(|| wheels.wheel_speed(radii))?;
-    if !(speed >= runner.min_speed && speed.is_finite()) {
+    if !(speed >= min_speed && speed.is_finite()) {
         return None;
     }
     let [front_rolling, rear_rolling] = radii.free_rolling(speed);
-    let mut initial = ModelA::initial_estimate(&runner.parameters).ok()?;
+    let mut initial = ModelA::initial_estimate(v).ok()?;
     initial.state = StateA::from([
         speed,
         0.0,

@@ -7,6 +7,7 @@ mod c_api;
 mod car;
 mod load_unload;
 mod model_b;
+mod model_grip;
 mod parameter_bounds;
 mod rear_drive;
 mod robustness;

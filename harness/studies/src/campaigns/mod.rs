@@ -98,7 +98,7 @@ pub struct Row {
     pub car: String,
     /// The instance name, e.g. `UKF_scaled_B`.
     pub estimator: String,
-    /// "A" or "B" (the instance's `model` parameter).
+    /// "A", "B" or "A+grip" (the instance's `model` parameter: 1, 2 or 3).
     pub model: &'static str,
     /// Sideslip RMSE and largest |error|, rad.
     pub rmse: f64,
@@ -336,7 +336,11 @@ fn row(
         manoeuvre: manoeuvre.to_string(),
         car: car.to_string(),
         estimator: estimator.to_string(),
-        model: if model == Some(2) { "B" } else { "A" },
+        model: match model {
+            Some(2) => "B",
+            Some(3) => "A+grip",
+            _ => "A",
+        },
         rmse: sideslip.rmse(),
         max_error: sideslip.max_error_from(f64::NEG_INFINITY),
         mean_nees,
@@ -514,10 +518,11 @@ impl CampaignReport {
         doc.paragraph(format!(
             "Issue 13's campaigns and issue 17 point 5's table: the truth is the ReferenceVehicle's full vehicle \
              (model 3: roll, load transfer, combined-slip MF 5.2 tyres with relaxation) with a real car's parameter \
-             file and series-production sensor noise at 10 ms; every estimator kind on both estimator models at the \
-             FMU's defaults, told only the car's mass, yaw inertia, axle distances, wheel radii and inertias, brake \
-             split and static wheel loads (issue 12 point 6), and not the torques. Cars, manoeuvres and the base \
-             scenario: `harness/scenarios/campaigns/`. {} runs of {} estimators in {:.1} s.",
+             file and series-production sensor noise at 10 ms; every estimator kind on models A and B, and the EKF \
+             and UKF on model A with grip states (A+grip), at the FMU's defaults, told only the car's mass, yaw \
+             inertia, axle distances, wheel radii and inertias, brake split and static wheel loads (issue 12 point \
+             6), and not the torques. Cars, manoeuvres and the base scenario: `harness/scenarios/campaigns/`. \
+             {} runs of {} estimators in {:.1} s.",
             self.runs().len(),
             self.runs().first().map_or(0, |r| r.len()),
             self.seconds

@@ -1,0 +1,176 @@
+//! Model 3: model A with per-axle lateral grip states (`SingleTrackGripModel` of the estimation
+//! crate, issue 17 points 3 and 4) as the FMU runs it. Everything the grip states do not change
+//! is model A's ([`crate::model_a`]): the car and noise parameters, the sensors' rows and the
+//! speed anchor, the plausibility limits, the start from the measurements, the wheels' extra
+//! process noise and the derived outputs. The grip factors start at 1 with `grip_std`, also when
+//! the filter is re-seeded (the re-seed says the estimate was lost, its grip with it); `ay_est`
+//! is evaluated with the estimated grip.
+
+use estimation::kalman::InitialEstimate;
+use estimation::models::single_track::{ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM};
+use estimation::models::single_track_grip::{
+    extend_state, GripPrior, SingleTrackGripModel, GRIP_FRONT, GRIP_REAR, GRIP_STATE_DIM,
+};
+use estimation::registry::EstimatorSettings;
+use fmi_export::{StateError, StateReader, StateWriter};
+use nalgebra::{SMatrix, SVector};
+use vehicle_models::driver_input::INPUT_DIM;
+use vehicle_models::single_track::STATE_DIM;
+use vehicle_models::HsriTyre;
+
+use crate::model_a::{self, ModelA};
+use crate::model_description::{RealOutputs, Variables};
+use crate::parameters::positive;
+use crate::runner::{EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors};
+
+/// Model 3 as the filters see it.
+pub type ModelGrip = SingleTrackGripModel<HsriTyre>;
+type StateGrip = SVector<f64, GRIP_STATE_DIM>;
+type StateA = SVector<f64, STATE_DIM>;
+
+/// The running estimator on model 3.
+pub type RunnerGrip =
+    Runner<ModelGrip, GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>;
+
+/// The grip factors' prior from `grip_std` and `grip_time_constant`.
+fn prior(v: &Variables) -> Result<GripPrior, String> {
+    Ok(GripPrior {
+        std: positive("grip_std", v.grip_std)?,
+        time_constant: positive("grip_time_constant", v.grip_time_constant)?,
+    })
+}
+
+/// Model A's part `(vx, vy, r, ωF, ωR)` of the state.
+fn body(state: &StateGrip) -> StateA {
+    state.fixed_rows::<STATE_DIM>(0).into_owned()
+}
+
+/// Model A's part of a Gaussian.
+fn body_estimate(estimate: &InitialEstimate<GRIP_STATE_DIM>) -> InitialEstimate<STATE_DIM> {
+    InitialEstimate {
+        state: body(&estimate.state),
+        covariance: estimate
+            .covariance
+            .fixed_view::<STATE_DIM, STATE_DIM>(0, 0)
+            .into_owned(),
+    }
+}
+
+impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelGrip {
+    type Extra = ();
+
+    fn from_parameters(v: &Variables) -> Result<Self, String> {
+        SingleTrackGripModel::new(ModelA::from_parameters(v)?, prior(v)?)
+            .map_err(|error| format!("estimator set-up: {}", error.0))
+    }
+
+    fn initial_estimate(v: &Variables) -> Result<InitialEstimate<GRIP_STATE_DIM>, String> {
+        Ok(prior(v)?.extend_initial(&ModelA::initial_estimate(v)?))
+    }
+
+    fn registry_settings(
+        &self,
+        v: &Variables,
+    ) -> EstimatorSettings<GRIP_STATE_DIM, ANCHORED_INPUT_DIM> {
+        self.extend_settings(self.anchored().registry_settings(v))
+    }
+
+    fn start_extra(_: &Variables, _: f64) -> Self::Extra {}
+
+    fn sample(
+        runner: &mut RunnerGrip,
+        sensors: &Sensors,
+    ) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32> {
+        model_a::anchored_sample(runner, sensors)
+    }
+
+    fn plausible(
+        &self,
+        sensors: &Sensors,
+        state: &StateGrip,
+        min_speed: f64,
+    ) -> [bool; ANCHORED_MEASUREMENT_DIM] {
+        self.anchored().plausible(sensors, &body(state), min_speed)
+    }
+
+    fn measured_start(
+        runner: &RunnerGrip,
+        sensors: &Sensors,
+    ) -> Option<InitialEstimate<GRIP_STATE_DIM>> {
+        model_a::measured_start(&runner.parameters, runner.min_speed, sensors)
+            .map(|start| runner.model.prior().extend_initial(&start))
+    }
+
+    /// Model A's rule (the estimate's sideslip is kept).
+    fn readmitted_start(&self, current: &StateGrip, start: &mut InitialEstimate<GRIP_STATE_DIM>) {
+        let mut body_start = body_estimate(start);
+        self.anchored()
+            .readmitted_start(&body(current), &mut body_start);
+        start
+            .state
+            .fixed_rows_mut::<STATE_DIM>(0)
+            .copy_from(&body_start.state);
+    }
+
+    fn operating_state_at(&self, start: &StateGrip) -> Option<StateGrip> {
+        self.anchored()
+            .operating_state_at(&body(start))
+            .map(|state| extend_state(&state))
+    }
+
+    /// Model A's extra wheel noise; none on the grip factors.
+    fn extra_process_noise(
+        &self,
+        state: &StateGrip,
+        input: &InputVector,
+        v: &Variables,
+    ) -> Option<SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>> {
+        self.anchored()
+            .extra_process_noise(&body(state), input, v)
+            .map(|noise| {
+                let mut extended = SMatrix::<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>::zeros();
+                extended
+                    .fixed_view_mut::<STATE_DIM, STATE_DIM>(0, 0)
+                    .copy_from(&noise);
+                extended
+            })
+    }
+
+    /// Model A's outputs from the first five states and their covariance; `ay_est` with the
+    /// estimated grip factors (the slip angles and slips do not depend on them).
+    fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, v: &Variables) -> RealOutputs {
+        let body_sample = body_estimate(&InitialEstimate {
+            state: sample.state,
+            covariance: sample.covariance,
+        });
+        let mut values = self.anchored().outputs(
+            &OutputSample {
+                state: body_sample.state,
+                covariance: body_sample.covariance,
+                input: sample.input,
+                extra: (),
+                nis: sample.nis,
+                rows_used: sample.rows_used,
+                holding: sample.holding,
+                held_speed: sample.held_speed,
+            },
+            v,
+        );
+        let grip = [sample.state[GRIP_FRONT], sample.state[GRIP_REAR]];
+        values.ay_est = self
+            .vehicle()
+            .outputs_with_lateral_factors(
+                &body_sample.state,
+                &sample.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
+                Some(grip),
+            )
+            .lateral_acceleration;
+        values
+    }
+
+    fn write_extra(_: &(), _: &mut StateWriter) {}
+
+    fn read_extra(_: &mut (), _: &mut StateReader<'_>) -> Result<(), StateError> {
+        Ok(())
+    }
+}

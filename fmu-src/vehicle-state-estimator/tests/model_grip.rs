@@ -1,0 +1,165 @@
+//! The VehicleStateEstimator with `model = 3` (model A with per-axle lateral grip states, issue
+//! 17) through its C ABI, at its defaults, fed by the two-track Magic Formula reference vehicle
+//! (lateral load transfer: not the filter's model) on a steering step at 65 km/h: every
+//! estimator that the grip model supports runs with finite outputs and no filter repair, the
+//! sideslip std is larger than model A's (the grip uncertainty it carries), the Luenberger
+//! observer is refused, and an FMU state continues bit-identically.
+
+use fmi_export::ffi::Fmi2Status;
+use fmi_export::fmi2_api_of;
+use fmi_export::testing::Slave;
+use vehicle_models::{
+    DriverInputVector, ReferenceModelKind, ReferenceVehicle, ReferenceVehicleParams,
+};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
+use VehicleStateEstimator::status;
+
+const SAMPLE_TIME: f64 = 0.01;
+const SPEED: f64 = 65.0 / 3.6;
+/// `[sideslip_est, sideslip_std, ay_est, vx_est, nis]`.
+const OUTPUTS: [u32; 5] = [
+    vr::SIDESLIP_EST,
+    vr::SIDESLIP_STD,
+    vr::AY_EST,
+    vr::VX_EST,
+    vr::NIS,
+];
+
+fn instance(model: EstimatorModel, estimator: EstimatorKind) -> Slave {
+    let mut s =
+        Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "grip", GUID).expect("instantiate");
+    assert_eq!(s.set_integer(vr::MODEL, model as i32), Fmi2Status::Ok);
+    assert_eq!(
+        s.set_integer(vr::ESTIMATOR, estimator as i32),
+        Fmi2Status::Ok
+    );
+    assert_eq!(s.set_integer(vr::PARTICLE_COUNT, 300), Fmi2Status::Ok);
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
+    s
+}
+
+/// A 2.5° road-wheel step at 1 s (ramped over 0.1 s), about 6 m/s² on the seed car.
+fn steering(t: f64) -> f64 {
+    2.5_f64.to_radians() * ((t - 1.0) / 0.1).clamp(0.0, 1.0)
+}
+
+/// Runs `samples` doSteps of one sample each from `first` on `truth` (noise-free sensors);
+/// returns the outputs of every step bitwise, with the status, and the largest sideslip error.
+fn run(
+    s: &mut Slave,
+    truth: &mut ReferenceVehicle,
+    first: usize,
+    samples: usize,
+) -> (Vec<u64>, f64) {
+    let mut trace = Vec::new();
+    let mut worst: f64 = 0.0;
+    for k in first..first + samples {
+        let t = k as f64 * SAMPLE_TIME;
+        let input = DriverInputVector::new(steering(t), 0.0, 0.0);
+        let x = truth.truth(&input);
+        let sensors = [
+            (vr::STEERING_ANGLE, input[0]),
+            (vr::YAW_RATE_MEAS, x.yaw_rate),
+            (vr::AY_MEAS, x.lateral_acceleration),
+            (vr::OMEGA_FRONT_MEAS, x.omega_front),
+            (vr::OMEGA_REAR_MEAS, x.omega_rear),
+            (vr::VX_MEAS, x.longitudinal_velocity),
+            (vr::AX_MEAS, x.longitudinal_acceleration),
+        ];
+        for (reference, value) in sensors {
+            assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
+        }
+        assert_eq!(
+            s.do_step(t, SAMPLE_TIME),
+            Fmi2Status::Ok,
+            "{:?}",
+            s.log.last()
+        );
+        for _ in 0..10 {
+            truth.step(&input, 0.001).expect("reference step");
+        }
+        let outputs = s.reals(&OUTPUTS);
+        assert!(
+            outputs.iter().all(|v| v.is_finite()),
+            "k = {k}: {outputs:?}"
+        );
+        let bits = s.get_integer(vr::STATUS).1;
+        let repairs = status::COVARIANCE_REPAIRED | status::UPDATE_SKIPPED | status::STATE_RESET;
+        assert_eq!(bits & repairs, 0, "k = {k}: status {bits}");
+        // the outputs hold the prediction for the next sample instant; measured largest errors
+        // 0.6e-3 (EKF) to 2.0e-3 rad (LKF, UKF) against a mean sideslip std of 1.4e-3 rad
+        worst = worst.max((outputs[0] - truth.truth(&input).sideslip).abs());
+        trace.extend(outputs.iter().map(|v| v.to_bits()));
+        trace.push(bits as u64);
+    }
+    (trace, worst)
+}
+
+fn two_track() -> ReferenceVehicle {
+    let params = ReferenceVehicleParams {
+        model: ReferenceModelKind::TwoTrack,
+        ..ReferenceVehicleParams::default()
+    };
+    ReferenceVehicle::new(&params, SPEED)
+}
+
+/// The mean sideslip std over the corner (after 2 s) of 3 s of the step.
+fn mean_sideslip_std(model: EstimatorModel, estimator: EstimatorKind) -> (f64, f64) {
+    let mut s = instance(model, estimator);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    let mut truth = two_track();
+    let (trace, worst) = run(&mut s, &mut truth, 0, 300);
+    let std: Vec<f64> = trace
+        .chunks(OUTPUTS.len() + 1)
+        .skip(200)
+        .map(|step| f64::from_bits(step[1]))
+        .collect();
+    (std.iter().sum::<f64>() / std.len() as f64, worst)
+}
+
+#[test]
+fn every_supported_estimator_runs_on_the_grip_model() {
+    use EstimatorKind::*;
+    for estimator in [Lkf, Ekf, Ukf, UkfScaled, ParticleFilter] {
+        let (std, worst) = mean_sideslip_std(EstimatorModel::SingleTrackGrip, estimator);
+        println!("{estimator:?}: mean sideslip std {std} rad, largest error {worst} rad");
+        assert!(
+            std > 0.0 && worst < 0.005,
+            "{estimator:?}: std {std}, error {worst}"
+        );
+    }
+    let (grip, _) = mean_sideslip_std(EstimatorModel::SingleTrackGrip, Ekf);
+    let (model_a, _) = mean_sideslip_std(EstimatorModel::SingleTrack5State, Ekf);
+    assert!(grip > 2.0 * model_a, "grip {grip} vs model A {model_a}");
+}
+
+#[test]
+fn the_luenberger_observer_is_refused_on_the_grip_model() {
+    let mut s = instance(EstimatorModel::SingleTrackGrip, EstimatorKind::Luenberger);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Error);
+    assert!(
+        s.log
+            .lines()
+            .iter()
+            .any(|line| line.message.contains("grip model")),
+        "{:?}",
+        s.log
+    );
+}
+
+#[test]
+fn a_grip_model_state_continues_bit_identically() {
+    let mut s = instance(EstimatorModel::SingleTrackGrip, EstimatorKind::Ukf);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+    let mut truth = two_track();
+    run(&mut s, &mut truth, 0, 150);
+    let (status, mut state) = s.get_state();
+    assert_eq!(status, Fmi2Status::Ok);
+    let saved_truth = truth.clone();
+    let (first, _) = run(&mut s, &mut truth, 150, 100);
+    assert_eq!(s.set_state(&state), Fmi2Status::Ok);
+    let mut truth = saved_truth;
+    let (again, _) = run(&mut s, &mut truth, 150, 100);
+    assert_eq!(first, again);
+    assert_eq!(s.free_state(&mut state), Fmi2Status::Ok);
+}
