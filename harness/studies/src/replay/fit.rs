@@ -3,8 +3,16 @@
 //! 1. **Cornering stiffness** (model A): the per-axle scales `k_F`, `k_R` on the HSRI cornering
 //!    stiffness (000: 5.70) by the accelerated EM of seed 003 (003: §3.1) — the identification
 //!    the model-mismatch study uses ([`crate::mismatch::identification_config`]: particle filter
-//!    and smoother E-step, Q sized for the EM) — on the training segment, with the car's
-//!    vehicle data from the map and `--parameters`. For `--model b` only the noise is fitted:
+//!    and smoother E-step, Q sized for the EM) — on the linear part of the training segment,
+//!    with the car's vehicle data from the map and `--parameters`. The linear part is the
+//!    longest run of training rows whose measured `|ay|` stays below `0.5 f0 g`, where the HSRI
+//!    tyre is adhesion-only ([`super::friction`]; the whole segment if that run is shorter than
+//!    10 rows): the scales are the slope of the force curve at small slip, and above that
+//!    threshold the curve is shaped by the friction and, in the car, by the lateral load
+//!    transfer model A lacks. Measured on the example log (harness/logs/README.md): trained on
+//!    the whole of 0-20 s the EM gave k_F = 0.913, k_R = 1.090, on its linear part (0-10 s)
+//!    0.964 and 1.055 (the car's static-load equivalent: 1.072, 1.091); on 12-16 s alone,
+//!    beyond the threshold, k_R = 1.65. For `--model b` only the noise is fitted:
 //!    the FMU takes model B's per-axle tyre factors (`cornering_stiffness_scale_front/_rear`,
 //!    `tyre_front/rear_*`, issue 17 point 4), but the offline identification runs on model A
 //!    only, so a user sets them from the tyre's data (fmu-src/estimation/README.md, per-axle
@@ -17,9 +25,10 @@
 //!    innovation covariance is `s² S`, so the innovation likelihood is maximised by
 //!    `s² = Σ NIS / Σ dof` over the updates, which one FMU run on the training segment reports.
 //! 3. **Peak friction** (model A): `tyre_f00`, only where the training segment reaches the
-//!    friction limit, by the innovation likelihood with the scales and noise fixed
-//!    ([`super::friction`], which states the rule); otherwise the default stays and is not
-//!    written.
+//!    friction limit, by the innovation likelihood with the scales and noise fixed, and kept
+//!    only if model A's tyres with it can carry the measured lateral acceleration
+//!    ([`super::friction`], which states both rules and why); otherwise the default stays and is
+//!    not written.
 //! 4. **Held-out score**: the FMU replays the validation segment with the starting parameters
 //!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
 //!    freedom (1 for a consistent filter) when the log has no reference.
@@ -108,6 +117,8 @@ pub struct FitOutcome {
     pub model: FitModel,
     /// `[k_F, k_R]` (model A) and whether the EM converged.
     pub scales: Option<([f64; 2], bool)>,
+    /// Model A: the rows the scales were identified on (the training segment's linear part).
+    pub scale_rows: Option<Range<usize>>,
     /// Factors on the process- and on the measurement-noise standard deviations.
     pub noise_factors: (f64, f64),
     /// Model A: the likelihood search behind them.
@@ -164,13 +175,14 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
     let (train_rows, validate_rows) = segments(&prepared.grid, options)?;
 
     let mut fitted: Vec<(String, f64)> = Vec::new();
-    let scales = match options.model {
+    let (scales, scale_rows) = match options.model {
         FitModel::A => {
-            let (scales, converged) = identify_scales(&fmu, &prepared, &start, train_rows.clone())?;
+            let rows = linear_rows(&fmu, &prepared, &start, train_rows.clone())?;
+            let (scales, converged) = identify_scales(&fmu, &prepared, &start, rows.clone())?;
             fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
-            Some((scales, converged))
+            (Some((scales, converged)), Some(rows))
         }
-        FitModel::B => None,
+        FitModel::B => (None, None),
     };
     let with_scales = with_reals(&fmu, &start, &fitted)?;
     let (noise_factors, noise_fit) = match options.model {
@@ -220,6 +232,7 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
     Ok(FitOutcome {
         model: options.model,
         scales,
+        scale_rows,
         noise_factors,
         noise_fit,
         friction,
@@ -307,7 +320,9 @@ fn fit_friction(
     values: &[(VariableInfo, ParameterValue)],
     rows: Range<usize>,
 ) -> Result<super::friction::FrictionFit> {
-    use super::friction::{golden_section, reach, FrictionFit, F00_RANGE, F00_TOLERANCE};
+    use super::friction::{
+        axle_ceilings, golden_section, reach, FrictionFit, F00_RANGE, F00_TOLERANCE,
+    };
     let (inputs, measurements) = training_rows(prepared, rows);
     let f00_start = real_value(fmu, values, "tyre_f00")?;
     // f0 at the reference load, q = 1 (000: 5.67).
@@ -329,12 +344,66 @@ fn fit_friction(
     };
     let negative_log_likelihood_start = likelihood(f00_start)?;
     let (f00, negative_log_likelihood) = golden_section(likelihood, F00_RANGE, F00_TOLERANCE)?;
+    let trial = with_reals(fmu, values, &[("tyre_f00".to_string(), f00)])?;
+    let speed = cornering_speed(&vehicle(fmu, &trial)?, &measurements, reach.sliding_ay);
+    let ceiling_ay = axle_ceilings(&vehicle(fmu, &trial)?, speed)
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    if ceiling_ay < reach.high_ay {
+        return Ok(FrictionFit::Refused {
+            reach,
+            f00,
+            ceiling_ay,
+        });
+    }
     Ok(FrictionFit::Fitted {
         reach,
         f00,
         f00_start,
         negative_log_likelihood,
         negative_log_likelihood_start,
+    })
+}
+
+/// The speed of the rows beyond the sliding threshold `sliding_ay` (m/s², measured `|ay|`), the
+/// median of the wheel speeds times their radii: the speed at which the friction was tested,
+/// which sets the sliding speed in µ (000: 5.66, 5.69).
+fn cornering_speed(vehicle: &SingleTrackHsri, measurements: &[[f64; 4]], sliding_ay: f64) -> f64 {
+    let chassis = &vehicle.vehicle.chassis;
+    let mut speeds: Vec<f64> = measurements
+        .iter()
+        .filter(|y| y[1].abs() > sliding_ay)
+        .flat_map(|y| {
+            [
+                y[2] * chassis.front_wheel_radius,
+                y[3] * chassis.rear_wheel_radius,
+            ]
+        })
+        .filter(|v| v.is_finite())
+        .map(f64::abs)
+        .collect();
+    speeds.sort_by(f64::total_cmp);
+    speeds.get(speeds.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Model A: the longest run of `rows` where the measured `|ay|` stays below the sliding
+/// threshold of the starting tyre ([`super::friction::reach`]), or all of `rows` when that run
+/// is shorter than 10 rows (module text, step 1).
+fn linear_rows(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    rows: Range<usize>,
+) -> Result<Range<usize>> {
+    let (_, measurements) = training_rows(prepared, rows.clone());
+    let ay: Vec<f64> = measurements.iter().map(|y| y[1]).collect();
+    // f0 at the reference load, q = 1 (000: 5.67), as the friction rule reads it.
+    let f0 = real_value(fmu, values, "tyre_f00")? - real_value(fmu, values, "tyre_f01")?;
+    let run = super::friction::longest_linear_run(&ay, super::friction::reach(&ay, f0).sliding_ay);
+    Ok(if run.len() < 10 {
+        rows
+    } else {
+        rows.start + run.start..rows.start + run.end
     })
 }
 
@@ -603,11 +672,11 @@ impl FitOutcome {
             self.validate_rows.end,
             self.step
         );
-        match self.scales {
-            Some(([front, rear], converged)) => {
-                text += &format!("  cornering_stiffness_scale_front = {front:.4}, cornering_stiffness_scale_rear = {rear:.4} (EM {})\n", if converged { "converged" } else { "NOT converged" })
+        match (self.scales, &self.scale_rows) {
+            (Some(([front, rear], converged)), Some(rows)) => {
+                text += &format!("  cornering_stiffness_scale_front = {front:.4}, cornering_stiffness_scale_rear = {rear:.4} (EM {} on rows {}..{})\n", if converged { "converged" } else { "NOT converged" }, rows.start, rows.end)
             }
-            None => text += "  model B has no per-axle stiffness parameter: noise levels only\n",
+            _ => text += "  model B has no per-axle stiffness parameter: noise levels only\n",
         }
         let (process, measurement) = self.noise_factors;
         text += &format!(
