@@ -51,6 +51,19 @@ pub trait RunningEstimator<const N: usize, const M: usize, const U: usize>:
         false
     }
 
+    /// Gain scheduling of the linear estimators (LKF, Luenberger observer), which run on one
+    /// linearisation: re-linearises about the current estimate and `input` (and re-places the
+    /// observer gain) when that linearisation's error there,
+    /// [`crate::kalman::LinearisedModel::normalised_error`], exceeds `threshold` noise standard
+    /// deviations; between re-schedules the estimator stays a linear one (Rugh & Shamma,
+    /// "Research on gain scheduling", Automatica 36, 2000, §3: linearise about a family of
+    /// operating points and schedule on where the system is). Returns whether it re-linearised.
+    /// Costs one evaluation of `f` and `h`, plus the Jacobians when it re-linearises. The other
+    /// estimators linearise at every step or not at all: `false`.
+    fn reschedule(&mut self, _input: &SVector<f64, U>, _threshold: f64) -> bool {
+        false
+    }
+
     /// Writes what [`Self::restore`] needs to continue bit-identically. Kalman-type estimators
     /// are fully described by `(x̂, P)` and their settings, which is the default.
     fn save(&self, sink: &mut dyn SnapshotSink) {

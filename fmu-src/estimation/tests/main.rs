@@ -7,6 +7,7 @@ mod seed000_support;
 // EM identification is offline work (feature `offline`), which the FMU does not enable.
 #[cfg(feature = "offline")]
 mod identification_em;
+mod gain_scheduling;
 mod kalman_linear;
 mod luenberger_model_a;
 mod luenberger_placement;

@@ -8,7 +8,7 @@
 use estimation::kalman::InitialEstimate;
 use estimation::models::single_track::{
     SingleTrackEstimationModel, SpeedAnchoredModel, ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM,
-    VX_ROW,
+    AX_INPUT, AX_VALID_INPUT, VX_ROW,
 };
 use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
@@ -222,6 +222,21 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
             self.vehicle()
                 .straight_rolling_state(start[state_index::VX]),
         )
+    }
+
+    /// The sample's driver input with the operating point's `ax` and `ax_valid`: gain scheduling
+    /// keeps the linear estimator's form of the `vx` row (the kinematics at `ax_valid = 1`, seed
+    /// 000's force balance at 0, see `SpeedAnchoredModel::estimator_settings`) and `ax` enters
+    /// `f` linearly, so its value at the operating point does not change the Jacobians.
+    fn scheduling_input(
+        &self,
+        operating: &SVector<f64, ANCHORED_INPUT_DIM>,
+        sample: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SVector<f64, ANCHORED_INPUT_DIM> {
+        let mut input = *sample;
+        input[AX_INPUT] = operating[AX_INPUT];
+        input[AX_VALID_INPUT] = operating[AX_VALID_INPUT];
+        input
     }
 
     /// Extra variance of the wheel states, per sample, from two limits of the wheel model

@@ -166,6 +166,17 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
         None
     }
 
+    /// The input the linear estimators are linearised about when gain scheduling re-schedules
+    /// them in a sample with the filter input `sample` (`schedule_threshold`); `operating` is
+    /// the input of the operating point from the parameters. The default is the sample's input.
+    fn scheduling_input(
+        &self,
+        _operating: &SVector<f64, U>,
+        sample: &SVector<f64, U>,
+    ) -> SVector<f64, U> {
+        *sample
+    }
+
     /// Extra process noise for the coming sample, added to the covariance just predicted
     /// (model A: the wheels' slip while the torques are unknown, `unknown_torque_slip_std`, and
     /// the wheels' sliding step at low speed); `state` is the predicted estimate, `input` the
@@ -285,6 +296,18 @@ struct Gate {
     readmit_samples: u64,
 }
 
+/// `schedule_threshold`, finite and at least 0.
+fn schedule_threshold(v: &Variables) -> Result<f64, String> {
+    let threshold = v.schedule_threshold;
+    if threshold.is_finite() && threshold >= 0.0 {
+        Ok(threshold)
+    } else {
+        Err(format!(
+            "parameter schedule_threshold = {threshold}; expected a finite value >= 0"
+        ))
+    }
+}
+
 /// How many doSteps with a sample may pass without an output read before the outputs are
 /// computed anyway (bounds the memory; one evaluation per this many doSteps).
 const PENDING_CAPACITY: usize = 8;
@@ -314,6 +337,9 @@ where
     /// The measured speed of the last held sample (for its outputs, like `holding`).
     held_speed: Option<MeasuredSpeed>,
     gate: Option<Gate>,
+    /// `schedule_threshold`: the linear estimators re-linearise when their linearisation errs at
+    /// the estimate by more than this many noise standard deviations; 0 never.
+    schedule_threshold: f64,
     /// Samples in a row for which each plausible row was gated (FMU state).
     gated_samples: [u64; M],
     /// The filter has started: from the parameters, or with `start_from_measurements` from the
@@ -390,6 +416,7 @@ where
             holding: false,
             held_speed: None,
             gate,
+            schedule_threshold: schedule_threshold(v)?,
             gated_samples: [0; M],
             started: !v.start_from_measurements,
             parameters: Box::new(v.clone()),
@@ -498,6 +525,7 @@ where
         });
         self.nis = report.nis;
         self.rows_used = report.rows_used as i32;
+        self.reschedule(&sample.input);
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
         }
@@ -508,6 +536,19 @@ where
             self.filter.inflate_covariance(&extra);
         }
         bits | self.adapt(&report)
+    }
+
+    /// Gain scheduling of the linear estimators (`schedule_threshold`; the others ignore it):
+    /// between the update and the prediction, so the prediction runs on a linearisation about
+    /// the corrected estimate (see `RunningEstimator::reschedule`).
+    fn reschedule(&mut self, input: &SVector<f64, U>) {
+        if self.schedule_threshold == 0.0 {
+            return;
+        }
+        if let Ok((_, operating)) = &self.settings.operating_point {
+            let input = self.model.scheduling_input(operating, input);
+            self.filter.reschedule(&input, self.schedule_threshold);
+        }
     }
 
     /// The adaptive process noise (`adaptive_process_noise`): the update's NIS into the window,

@@ -1,18 +1,24 @@
-//! Linear Kalman filter on the linearisation about a fixed operating point (000: 4.64-4.75),
+//! Linear Kalman filter on the linearisation about an operating point (000: 4.64-4.75), fixed or
+//! gain-scheduled (re-linearised about the estimate when it has moved too far, see
+//! [`crate::running::RunningEstimator::reschedule`]),
 //! with the Joseph-form covariance update of seed 004 instead of the seed-000 short form
 //! `(I - K H) P⁻` (000: 4.75): both are equal for the optimal gain, the Joseph form stays
 //! symmetric positive semi-definite under rounding (SPEC §6 asks for it).
 
 use nalgebra::{SMatrix, SVector};
 
+use super::linearised::{restored_linearisation, save_operating_point};
 use super::{
     conclude_update, finish_prediction, linearised_update, validated_noise, InitialEstimate,
     LinearisedModel, MeasurementNoise, SettingsError,
 };
 use crate::linalg::congruence;
+use crate::running::Restored;
+use crate::snapshot::{read_gaussian, save_gaussian, SnapshotError, SnapshotSink, SnapshotSource};
 use crate::{Estimator, FilterIssue, MeasurementMask, StateSpaceModel, UpdateReport};
 
-/// The LKF of seed 000 on any [`StateSpaceModel`], linearised once about a fixed operating point.
+/// The LKF of seed 000 on any [`StateSpaceModel`], linearised about an operating point: once (seed
+/// 000), or again whenever the host asks it to re-schedule.
 #[derive(Debug, Clone)]
 pub struct LinearKalmanFilter<Model, const N: usize, const M: usize, const U: usize> {
     model: Model,
@@ -116,7 +122,8 @@ where
     }
 }
 
-/// In the registry: fully described by `(x̂, P)` and its settings (the default snapshot).
+/// In the registry: described by `(x̂, P)`, its settings and the operating point it runs at
+/// (which gain scheduling moves).
 impl<Model, const N: usize, const M: usize, const U: usize>
     crate::running::RunningEstimator<N, M, U> for LinearKalmanFilter<Model, N, M, U>
 where
@@ -124,6 +131,43 @@ where
 {
     fn last_report(&self) -> UpdateReport<M> {
         self.last_report
+    }
+
+    /// Re-linearises about `(x̂, input)` when the linearisation errs there by more than
+    /// `threshold` noise standard deviations; the filter stays a linear Kalman filter on the new
+    /// linearisation (000: 4.64-4.75) until the next re-schedule.
+    fn reschedule(&mut self, input: &SVector<f64, U>, threshold: f64) -> bool {
+        let error = self.linear.normalised_error(
+            &self.model,
+            &self.state,
+            input,
+            &self.process_noise,
+            &self.measurement_noise.covariance,
+        );
+        if error <= threshold {
+            return false;
+        }
+        match LinearisedModel::about(&self.model, &self.state, input) {
+            Ok(linear) => {
+                self.linear = linear;
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    fn save(&self, sink: &mut dyn SnapshotSink) {
+        save_gaussian(sink, &self.state, &self.covariance);
+        save_operating_point(sink, &self.linear);
+    }
+
+    fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<Restored<N>, SnapshotError> {
+        let (state, covariance) = read_gaussian(source)?;
+        self.linear = restored_linearisation(&self.model, &self.linear, source)?;
+        self.state = state;
+        self.covariance = covariance;
+        self.last_report = UpdateReport::skipped();
+        Ok(Restored::InPlace)
     }
 
     /// `P` is this filter's own Gaussian: adding to it is a larger `Q` in the last prediction.

@@ -14,7 +14,7 @@
 //! update is exactly the update with the used rows alone.
 
 mod ekf;
-mod linearised;
+pub(crate) mod linearised;
 mod lkf;
 mod ukf;
 
