@@ -49,6 +49,20 @@ const PEAK_SLIP: f64 = 0.15;
 /// Bosch ESP Systems: 5 Years of Experience, SAE 2000-01-1633).
 const MAX_KEPT_SIDESLIP: f64 = 0.2;
 
+/// Below this speed a start from the measurements takes its lateral speed from the rear axle's
+/// kinematics, m/s (18 km/h: parking and manoeuvring, where the lateral acceleration and with it
+/// the tyres' slip angles are small against the steering geometry's angles; Rajamani, Vehicle
+/// Dynamics and Control, 2nd ed., §2.2 assumes zero slip angles for the kinematic model at low
+/// speed).
+pub(crate) const KINEMATIC_SPEED: f64 = 5.0;
+
+/// The road-wheel angle of full lock, rad: 45°, the declared range of `steering_angle` (issue 12
+/// point 5, parking manoeuvres).
+const FULL_LOCK: f64 = std::f64::consts::FRAC_PI_4;
+
+/// Standard gravity, m/s².
+const GRAVITY: f64 = 9.81;
+
 /// Above this |vx_meas| is a glitch, m/s (360 km/h).
 pub const MAX_PLAUSIBLE_SPEED: f64 = 100.0;
 
@@ -208,9 +222,13 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     /// `vy = vx tan β` at the measured speed, when it is one a car can have
     /// (|β| <= [`MAX_KEPT_SIDESLIP`]); a filter that lost its way further starts from 0 as at
     /// the start.
+    /// Below [`KINEMATIC_SPEED`] the start's rear-axle kinematics are kept instead (see
+    /// [`measured_start`]): manoeuvring at full lock a car's sideslip exceeds that bound (24° at
+    /// 45° steer on the Escort) without spinning.
     fn readmitted_start(&self, current: &StateA, start: &mut InitialEstimate<STATE_DIM>) {
         let sideslip = current[state_index::VY].atan2(current[state_index::VX]);
-        if sideslip.abs() <= MAX_KEPT_SIDESLIP {
+        let manoeuvring = start.state[state_index::VX] < KINEMATIC_SPEED;
+        if sideslip.abs() <= MAX_KEPT_SIDESLIP && !manoeuvring {
             start.state[state_index::VY] = start.state[state_index::VX] * sideslip.tan();
         }
     }
@@ -270,6 +288,15 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     ///   re-admission re-seeded every 0.5 s, each time 0.2-0.4 m/s off). Below that speed the
     ///   wheel state gets `Δω²`, so each update puts it back on its measurement (the wheel is
     ///   algebraic at this sample time) and the limit cycle cannot build up.
+    ///
+    /// And below [`KINEMATIC_SPEED`] (manoeuvring, issue 12 point 4) `vx` and `vy` each get
+    /// `(|δ| / δ_lock · f00 g T)²`, δ_lock = [`FULL_LOCK`]: at full lock one sample of the
+    /// friction-limited acceleration. At walking pace and full lock the single-track model's
+    /// tyre forces are its largest error (the front tyres scrub at their limit, the slip angles
+    /// are tens of degrees), of the order of what a tyre can transmit; steering straight or
+    /// nearly so, the model holds and the term vanishes with the steering angle. Without it the filter trusted that model over `vx_meas`: at 45° steer and 3 m/s
+    /// its vx std was 0.02 m/s against an error of 0.2 m/s, the gate rejected the measured
+    /// speed, and the robustness case `out_of_range` ended 146 % off in vx.
     fn extra_process_noise(
         &self,
         state: &StateA,
@@ -320,6 +347,14 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
                 0.0
             };
             noise[(index, index)] = unknown_torque.max(low_speed).powi(2);
+        }
+        if speed < KINEMATIC_SPEED {
+            let lock = (input[input_index::STEERING_ANGLE] / FULL_LOCK)
+                .abs()
+                .min(1.0);
+            let step = lock * friction_base * GRAVITY * v.sample_time;
+            noise[(state_index::VX, state_index::VX)] = step * step;
+            noise[(state_index::VY, state_index::VY)] = step * step;
         }
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
@@ -431,7 +466,10 @@ where
 }
 
 /// The start from one sample's sensors: `vx` = `vx_meas` (with `use_speed_measurements`), else
-/// the mean of `r_F ωF`, `r_R ωR` over the plausible wheel speeds; `vy = 0`; `r` = measured yaw
+/// the mean of `r_F ωF`, `r_R ωR` over the plausible wheel speeds; `vy = 0`, below
+/// [`KINEMATIC_SPEED`] `vy = lR r` (the rear axle rolls without sliding sideways, Rajamani,
+/// Vehicle Dynamics and Control, 2nd ed., §2.2: at 4 m/s and 45° steer `vy = 0` was a sideslip
+/// 27° off, and the next updates drove vx to twice the measured speed); `r` = measured yaw
 /// rate; wheel speeds as measured (free rolling on each axle's radius where missing); the
 /// initial covariance of the parameters. `None` unless that speed is at least `min_speed`.
 pub(crate) fn measured_start(
@@ -459,10 +497,17 @@ pub(crate) fn measured_start(
     }
     let [front_rolling, rear_rolling] = radii.free_rolling(speed);
     let mut initial = ModelA::initial_estimate(v).ok()?;
+    let yaw_rate = finite_or(sensors.yaw_rate, 0.0);
+    // Rear axle without slip (Rajamani §2.2): its lateral velocity vy − lR r vanishes.
+    let lateral_speed = if speed < KINEMATIC_SPEED {
+        v.cog_to_rear_axle * yaw_rate
+    } else {
+        0.0
+    };
     initial.state = StateA::from([
         speed,
-        0.0,
-        finite_or(sensors.yaw_rate, 0.0),
+        lateral_speed,
+        yaw_rate,
         finite_or(wheels.omega_front, front_rolling),
         finite_or(wheels.omega_rear, rear_rolling),
     ]);

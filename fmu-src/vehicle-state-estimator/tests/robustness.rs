@@ -610,3 +610,45 @@ fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seed
     );
     assert!(moving > 300);
 }
+
+/// Parking steer at walking pace (issue 12 point 4, the robustness case `out_of_range`): a steady
+/// turn at 3 m/s with the road wheels at 45° and 1 rad/s of yaw rate, every sensor consistent
+/// with it. The rear axle rolls without sliding sideways at such speeds (Rajamani, Vehicle
+/// Dynamics and Control, 2nd ed., §2.2), so the sideslip is `atan(lR r / vx)` = 26.7° on the
+/// Escort. Started with `vy = 0`, as before, the estimate stayed tens of degrees off and its vx
+/// left the measured speed; the start from the rear axle's kinematics and the low-speed model
+/// noise keep both sane.
+#[test]
+fn a_parking_steer_at_walking_pace_gives_the_rear_axles_kinematic_sideslip() {
+    let (speed, yaw_rate, steer) = (3.0, 1.0, std::f64::consts::FRAC_PI_4);
+    let car = escort();
+    let expected = (car.cog_to_rear_axle * yaw_rate / speed).atan();
+    let mut s = estimator(EstimatorKind::Ekf as i32);
+    let wheel = speed / car.front_wheel_radius;
+    // Centripetal only: ay = vx r, and ax = -r vy of the steady turn (dvx/dt = 0).
+    let lateral_speed = car.cog_to_rear_axle * yaw_rate;
+    let sensors = [
+        yaw_rate,
+        speed * yaw_rate,
+        wheel,
+        wheel,
+        -yaw_rate * lateral_speed,
+        speed,
+    ];
+    let mut worst = (0.0f64, 0.0f64);
+    for k in 0..100 {
+        assert_eq!(s.set_real(vr::STEERING_ANGLE, steer), Fmi2Status::Ok);
+        assert_eq!(s.set_reals(&SENSORS, &sensors), Fmi2Status::Ok);
+        assert_eq!(s.do_step(k as f64 * STEP, STEP), Fmi2Status::Ok);
+        let [vx, sideslip] = [vr::VX_EST, vr::SIDESLIP_EST].map(|r| s.reals(&[r])[0]);
+        worst.0 = worst.0.max((sideslip - expected).abs());
+        worst.1 = worst.1.max((vx - speed).abs() / speed);
+    }
+    assert!(
+        worst.0 < 5f64.to_radians() && worst.1 < 0.05,
+        "largest sideslip error {:.1}°, largest vx error {:.1} % (expected sideslip {:.1}°)",
+        worst.0.to_degrees(),
+        100.0 * worst.1,
+        expected.to_degrees()
+    );
+}
