@@ -5,9 +5,9 @@
 mod kalman_support;
 mod seed000_support;
 // EM identification is offline work (feature `offline`), which the FMU does not enable.
+mod gain_scheduling;
 #[cfg(feature = "offline")]
 mod identification_em;
-mod gain_scheduling;
 mod kalman_linear;
 mod luenberger_model_a;
 mod luenberger_placement;
