@@ -118,6 +118,15 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             .map(|state| extend_state(&state))
     }
 
+    /// Model A's rule (the operating point's `ax` and `ax_valid`): the inputs are model A's.
+    fn scheduling_input(
+        &self,
+        operating: &SVector<f64, ANCHORED_INPUT_DIM>,
+        sample: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> SVector<f64, ANCHORED_INPUT_DIM> {
+        self.anchored().scheduling_input(operating, sample)
+    }
+
     /// Model A's extra wheel noise; none on the grip factors.
     fn extra_process_noise(
         &self,
