@@ -1,8 +1,9 @@
 //! The project's own test drives: a ReferenceVehicle run (scenario
 //! `harness/logs/record_ford_escort.toml`, co-simulated by the master) written as a log the way
 //! a car's data logger would: CAN units and signs, no torques, multi-rate channels, jittered time
-//! stamps, a text column; as CSV and as MDF4. `harness/logs/ford_escort_sis.{csv,mf4}` are made
-//! by `cargo run --release -p harness --example record_example_log`, and the tests make fresh ones.
+//! stamps, a text column; as CSV and as MDF4. `harness/logs/ford_escort_sis.{csv,mf4}` and the
+//! drive past the limit `ford_escort_limit.csv` (`record_ford_escort_limit.toml`) are made by
+//! `cargo run --release -p harness --example record_example_log`, and the tests make fresh ones.
 
 use std::path::{Path, PathBuf};
 
@@ -74,11 +75,15 @@ fn stamp(t: f64, n: usize) -> f64 {
     t + 0.002 * (1.7 * n as f64).sin()
 }
 
-/// The recorded drive.
+/// The recorded drive of the example log (`harness/logs/record_ford_escort.toml`).
 pub fn record_drive(fmu_dir: &Path, out_dir: &Path) -> Result<RunResult> {
+    record_scenario(fmu_dir, "record_ford_escort.toml", out_dir)
+}
+
+/// The drive of the scenario file `name` in `harness/logs`.
+pub fn record_scenario(fmu_dir: &Path, name: &str, out_dir: &Path) -> Result<RunResult> {
     let fmu_dir = &fmi_master::runner::packaged_fmus_in(fmu_dir)?;
-    let scenario =
-        Scenario::from_file(&workspace_root().join("harness/logs/record_ford_escort.toml"))?;
+    let scenario = Scenario::from_file(&workspace_root().join("harness/logs").join(name))?;
     let env = Environment {
         fmu_dir: fmu_dir.to_path_buf(),
         out_dir: out_dir.join("recording"),
