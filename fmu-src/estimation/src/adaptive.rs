@@ -1,36 +1,52 @@
-//! Innovation-based adaptive process noise: the filter watches its own normalised innovations
-//! and scales its process noise `Q` when they say the model is worse than `Q` claims.
+//! Innovation-based adaptive process noise: the filter watches its own corrections and
+//! normalised innovations and raises the process noise of the states that its updates correct
+//! by more than `Q` claims.
 //!
-//! **What is watched.** The NIS `νᵀ S⁻¹ ν` of every update is chi-square with `m` degrees of
-//! freedom (the rows used) when the filter is consistent. Over a moving window of the last `W`
+//! **What is watched.** The corrections of every state (below), and for the status the NIS:
+//! the NIS `νᵀ S⁻¹ ν` of every update is chi-square with `m` degrees of freedom (the rows used)
+//! when the filter is consistent. Over a moving window of the last `W`
 //! updates the sum of the NIS is chi-square with the summed rows `D` as degrees of freedom
 //! (independent innovations, Bar-Shalom, Li and Kirubarajan, *Estimation with Applications to
 //! Tracking and Navigation*, 2001, §5.4.2), so the ratio `ρ = ΣNIS / D` lies inside the 95 %
 //! band `[q(0.025, D)/D, q(0.975, D)/D]` 95 % of the time. The quantiles are Wilson and
 //! Hilferty's cube-root approximation (1931), accurate to well under 1 % for `D ≥ 10`.
 //!
-//! **How `Q` adapts.** The scheme is covariance matching on the innovations (Mehra, "Approaches
-//! to adaptive filtering", IEEE TAC 17, 1972; Mohamed and Schwarz, "Adaptive Kalman filtering
-//! for INS/GPS", J. Geodesy 73, 1999): choose the noise so that the innovations' sample
-//! covariance matches the one the filter predicts, `E[ν νᵀ] = S`. With one scale factor on the
-//! process noise, `Q(k) = s(k) Q₀`, as in Bar-Shalom et al.'s continuous noise-level adjustment
-//! (2001, §11.7.2), the match is `ρ = 1`; each update moves `s` by the factor `ρ^(1/W)`, so that
-//! over one window `s` changes by about `ρ`:
+//! **How `Q` adapts.** Covariance matching, per state (Mohamed and Schwarz, "Adaptive Kalman
+//! filtering for INS/GPS", J. Geodesy 73, 1999: the process noise estimated from the state
+//! corrections `Δx = K ν` over a moving window, `Q̂_k = (1/W) Σ Δx Δxᵀ + P⁺_k − Φ P⁺_{k−1} Φᵀ`;
+//! after Mehra, "Approaches to adaptive filtering", IEEE TAC 17, 1972). With the prior
+//! `P⁻_k = Φ P⁺_{k−1} Φᵀ + Q₀` that is `Q̂ = Q₀ + (1/W) Σ (Δx Δxᵀ − (P⁻ − P⁺))`: the process
+//! noise the filter was tuned with plus the excess of the corrections it actually made over
+//! those its own covariance predicts (`E[Δx Δxᵀ] = K S Kᵀ = P⁻ − P⁺` when it is consistent).
+//! A state whose model is wrong is corrected by more than predicted, and only that state's
+//! noise grows; the well-modelled ones (wheel speeds, `vx` in a corner) keep their `Q₀`.
 //!
-//! - `ρ` above the band (innovations larger than the filter believes): `s` grows;
-//! - `ρ < 1` while `s > 1` (the inflated `Q` now over-explains the innovations): `s` shrinks,
-//!   ten times more slowly (`ρ^(1/(10 W))` per update), because a model error that shows in the
-//!   innovations only while excited still biases the unmeasured states afterwards;
-//! - otherwise `s` holds (`1 ≤ ρ ≤` the upper band edge is consistent enough);
+//! The first scheme of this module, one scale on the whole `Q` driven by the windowed NIS
+//! (Bar-Shalom et al.'s noise-level adjustment, §11.7.2), inflated every state when one row's
+//! innovations grew (the wheel speeds under braking) and let the lateral states drift: 16-24 deg
+//! sideslip RMSE on braking in a turn in the mismatch campaigns, and no row nearer its NEES
+//! target. Here only the diagonal is kept (a sum of squares, so the added noise stays positive
+//! semi-definite), and each state's excess is taken only when its windowed ratio
+//! `ρ_i = Σ Δx_i² / Σ (P⁻ − P⁺)_ii` lies above the upper edge of the chi-square band of `W`
+//! degrees of freedom (a consistent filter's ratio stays inside 97.5 % of the time, so its `Q`
+//! is not changed by chance). The noise of state `i` is `s_i Q₀_ii` with
 //!
-//! bounded to `1 ≤ s ≤ s_max`, so the adaptation never makes the filter more confident than its
-//! tuned `Q₀` and never lets `Q` run away. No decision is taken before the window is full.
-//! The filter applies `s` by adding `(s − 1) Q₀` to its prior covariance after each prediction
-//! ([`crate::running::RunningEstimator::inflate_covariance`]), which is the prediction with `s Q₀`.
+//! `s_i = min(max(1 + excess_i / Q₀_ii, s_i,released), s_max)`, `s_i ≥ 1`,
 //!
-//! The scale and the window are part of the running state ([`NoiseAdaptation::save`]).
+//! where `s_i,released` is the previous `s_i` decayed towards 1 by `exp(−1/(10 W))` per update:
+//! the noise follows a larger correction at once and falls back over about ten windows, because
+//! a model error that shows in the corrections only while excited still biases the unmeasured
+//! states afterwards. No decision is taken before the window is full. The filter applies it by
+//! adding `diag((s_i − 1) Q₀_ii)` to its prior covariance after each prediction
+//! ([`crate::running::RunningEstimator::inflate_covariance`]).
+//!
+//! **Status.** `adapting`: some `s_i` is above 1; `inconsistent`: the windowed NIS ratio
+//! `ΣNIS / D` is outside its band.
+//!
+//! The window, the scales and the status are part of the running state
+//! ([`NoiseAdaptation::save`]).
 
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 
 use crate::kalman::SettingsError;
 use crate::snapshot::{SnapshotError, SnapshotSink, SnapshotSource};
@@ -42,7 +58,7 @@ pub struct AdaptationConfig {
     /// Updates in the moving window, at least 10 (the FMU: its window in seconds over its
     /// sample time).
     pub window: usize,
-    /// The largest scale `s_max` of `Q`, at least 1.
+    /// The largest scale `s_max` of a state's process noise, at least 1.
     pub max_scale: f64,
 }
 
@@ -74,21 +90,27 @@ pub const MAX_WINDOW: usize = 1_000_000;
 /// What the last observed update said.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct AdaptationStatus {
-    /// The process noise is inflated by more than the window can resolve (`s` above the upper
-    /// edge of the NIS ratio's band).
+    /// Some state's process noise is inflated (`s_i > 1`).
     pub adapting: bool,
     /// The window's NIS ratio is outside its 95 % band.
     pub inconsistent: bool,
 }
 
-/// The scale falls this many times slower than it rises (fast attack, slow release): a model
-/// error that shows in the innovations only while it is excited (a tyre law that is wrong in a
-/// transient but fits in steady cornering) still biases the estimate afterwards, so the
-/// inflated `Q` is kept for about this many windows.
+/// A raised noise decays back to `Q₀` over about this many windows (fast attack, slow
+/// release): a model error that shows in the corrections only while it is excited (a tyre law
+/// that is wrong in a transient but fits in steady cornering) still biases the estimate
+/// afterwards.
 const RELEASE_WINDOWS: f64 = 10.0;
 
 /// The 0.025 and 0.975 quantiles of the standard normal distribution.
 const Z_975: f64 = 1.959_963_984_540_054;
+
+/// The 0.9995 quantile of the standard normal distribution: the gate of a state's correction
+/// ratio. The windowed ratio of a consistent filter moves slowly (consecutive windows share all
+/// but one update), so a 97.5 % gate is crossed in long stretches and, against a state whose
+/// `Q₀` is tiny beside the variance its updates remove (a position beside its velocity), the
+/// excess of such a stretch is many times `Q₀`.
+const Z_9995: f64 = 3.290_526_731_491_926;
 
 /// Wilson-Hilferty: `q(p, d) ≈ d (1 − 2/(9d) + z_p √(2/(9d)))³`.
 fn chi_square_quantile(z: f64, dof: f64) -> f64 {
@@ -104,39 +126,92 @@ pub fn nis_ratio_band(dof: f64) -> (f64, f64) {
     )
 }
 
-/// The monitor and the scale of `Q`: feed it every update's report, inflate the prior with
-/// [`Self::inflation`] after every prediction.
+/// What one measurement update did to the state, per state: the squared correction `Δx_i²`
+/// (`x⁺ − x⁻`) and the variance the filter removed, `(P⁻ − P⁺)_ii`, which is what it expects
+/// `Δx_i²` to be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Correction<const N: usize> {
+    pub squared: SVector<f64, N>,
+    pub expected: SVector<f64, N>,
+}
+
+impl<const N: usize> Correction<N> {
+    /// From the estimate and covariance before (`x⁻`, `P⁻`) and after (`x⁺`, `P⁺`) an update.
+    pub fn between(
+        prior: (&SVector<f64, N>, &SMatrix<f64, N, N>),
+        posterior: (&SVector<f64, N>, &SMatrix<f64, N, N>),
+    ) -> Self {
+        Self {
+            squared: (posterior.0 - prior.0).map(|d| d * d),
+            expected: (prior.1.diagonal() - posterior.1.diagonal()).map(|v| v.max(0.0)),
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.squared
+            .iter()
+            .chain(self.expected.iter())
+            .all(|v| v.is_finite())
+    }
+}
+
+/// One update in the window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Entry<const N: usize> {
+    nis: f64,
+    rows: f64,
+    correction: Correction<N>,
+}
+
+impl<const N: usize> Entry<N> {
+    const EMPTY: Self = Self {
+        nis: 0.0,
+        rows: 0.0,
+        correction: Correction {
+            squared: SVector::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; 1])),
+            expected: SVector::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; 1])),
+        },
+    };
+}
+
+/// The monitor and the per-state scales of `Q`: feed it every update's report and correction,
+/// inflate the prior with [`Self::inflation`] after every prediction.
 #[derive(Debug, Clone, PartialEq)]
-pub struct NoiseAdaptation {
+pub struct NoiseAdaptation<const N: usize> {
     config: AdaptationConfig,
-    /// `(NIS, rows)` of the last updates, a ring; allocated once.
-    window: Vec<(f64, f64)>,
+    /// The last updates, a ring; allocated once.
+    window: Vec<Entry<N>>,
     next: usize,
     filled: usize,
-    nis_sum: f64,
-    dof_sum: f64,
-    scale: f64,
+    /// The window's sums of every field of [`Entry`].
+    sum: Entry<N>,
+    /// `s_i`: state `i`'s process noise is `s_i Q₀_ii`.
+    scales: SVector<f64, N>,
     status: AdaptationStatus,
 }
 
-impl NoiseAdaptation {
+impl<const N: usize> NoiseAdaptation<N> {
     pub fn new(config: AdaptationConfig) -> Result<Self, SettingsError> {
         config.validate()?;
         Ok(Self {
             config,
-            window: vec![(0.0, 0.0); config.window],
+            window: vec![Entry::EMPTY; config.window],
             next: 0,
             filled: 0,
-            nis_sum: 0.0,
-            dof_sum: 0.0,
-            scale: 1.0,
+            sum: Entry::EMPTY,
+            scales: SVector::repeat(1.0),
             status: AdaptationStatus::default(),
         })
     }
 
-    /// The current scale `s` of `Q`.
+    /// The largest scale `s_i` of the states' process noise.
     pub fn scale(&self) -> f64 {
-        self.scale
+        self.scales.max()
+    }
+
+    /// Every state's scale `s_i`.
+    pub fn scales(&self) -> &SVector<f64, N> {
+        &self.scales
     }
 
     /// The status after the last update.
@@ -144,69 +219,90 @@ impl NoiseAdaptation {
         self.status
     }
 
-    /// Takes one update's NIS into the window and moves the scale; an update that used no row
-    /// says nothing and changes nothing.
-    pub fn observe<const M: usize>(&mut self, report: &UpdateReport<M>) -> AdaptationStatus {
-        if report.rows_used == 0 || !report.nis.is_finite() {
+    /// Takes one update's NIS and correction into the window and moves the scales of
+    /// `process_noise` (`Q₀`); an update that used no row says nothing and changes nothing.
+    pub fn observe<const M: usize>(
+        &mut self,
+        report: &UpdateReport<M>,
+        correction: &Correction<N>,
+        process_noise: &SMatrix<f64, N, N>,
+    ) -> AdaptationStatus {
+        if report.rows_used == 0 || !report.nis.is_finite() || !correction.is_finite() {
             return self.status;
         }
-        self.push(report.nis, report.rows_used as f64);
+        self.push(Entry {
+            nis: report.nis,
+            rows: report.rows_used as f64,
+            correction: *correction,
+        });
         if self.filled < self.window.len() {
             return self.status;
         }
-        let ratio = self.nis_sum / self.dof_sum;
-        let (low, high) = nis_ratio_band(self.dof_sum);
         let updates = self.window.len() as f64;
-        if ratio > high {
-            self.scale = (self.scale * ratio.powf(1.0 / updates)).min(self.config.max_scale);
-        } else if ratio < 1.0 && self.scale > 1.0 {
-            let release = ratio.powf(1.0 / (RELEASE_WINDOWS * updates));
-            self.scale = (self.scale * release).max(1.0);
+        let high = chi_square_quantile(Z_9995, updates) / updates;
+        let release = (-1.0 / (RELEASE_WINDOWS * updates)).exp();
+        for i in 0..N {
+            let (made, expected) = (
+                self.sum.correction.squared[i],
+                self.sum.correction.expected[i],
+            );
+            let q0 = process_noise[(i, i)];
+            let released = 1.0 + (self.scales[i] - 1.0) * release;
+            let matched = if made > high * expected && q0 > 0.0 {
+                1.0 + (made - expected) / (updates * q0)
+            } else {
+                1.0
+            };
+            self.scales[i] = matched.max(released).min(self.config.max_scale);
         }
-        // A scale within the band's width is not told apart from 1 by the window: only a larger
-        // one counts as adapting (a consistent filter's scale wanders just above 1).
+        let ratio = self.sum.nis / self.sum.rows;
+        let (low, high) = nis_ratio_band(self.sum.rows);
         self.status = AdaptationStatus {
-            adapting: self.scale > high,
+            adapting: self.scales.iter().any(|&s| s > 1.0),
             inconsistent: !(low..=high).contains(&ratio),
         };
         self.status
     }
 
-    /// Adds a sample to the ring; the sums are summed afresh each time the ring wraps, so
+    /// Adds an update to the ring; the sums are summed afresh each time the ring wraps, so
     /// rounding does not accumulate over a long run.
-    fn push(&mut self, nis: f64, dof: f64) {
-        let (old_nis, old_dof) = self.window[self.next];
-        self.window[self.next] = (nis, dof);
+    fn push(&mut self, entry: Entry<N>) {
+        let old = std::mem::replace(&mut self.window[self.next], entry);
         self.next = (self.next + 1) % self.window.len();
         self.filled = (self.filled + 1).min(self.window.len());
         if self.next == 0 {
-            self.nis_sum = self.window.iter().map(|w| w.0).sum();
-            self.dof_sum = self.window.iter().map(|w| w.1).sum();
+            self.sum = Entry::EMPTY;
+            for e in &self.window {
+                self.sum.add(e, 1.0);
+            }
         } else {
-            self.nis_sum += nis - old_nis;
-            self.dof_sum += dof - old_dof;
+            self.sum.add(&entry, 1.0);
+            self.sum.add(&old, -1.0);
         }
     }
 
-    /// What to add to the prior covariance after a prediction with `Q₀`: `(s − 1) Q₀`, or
-    /// `None` while `s = 1`.
-    pub fn inflation<const N: usize>(
-        &self,
-        process_noise: &SMatrix<f64, N, N>,
-    ) -> Option<SMatrix<f64, N, N>> {
-        (self.scale > 1.0).then(|| process_noise * (self.scale - 1.0))
+    /// What to add to the prior covariance after a prediction with `Q₀`:
+    /// `diag((s_i − 1) Q₀_ii)`, or `None` while every `s_i = 1`.
+    pub fn inflation(&self, process_noise: &SMatrix<f64, N, N>) -> Option<SMatrix<f64, N, N>> {
+        (self.scale() > 1.0).then(|| {
+            let extra = process_noise
+                .diagonal()
+                .component_mul(&self.scales.add_scalar(-1.0));
+            SMatrix::from_diagonal(&extra)
+        })
     }
 
-    /// Writes the running state (scale, window, position).
+    /// Writes the running state (scales, window, position, sums, status).
     pub fn save(&self, sink: &mut dyn SnapshotSink) {
-        sink.f64(self.scale);
+        sink.f64s(self.scales.as_slice());
         sink.u64(self.next as u64);
         sink.u64(self.filled as u64);
-        let (nis, dof): (Vec<f64>, Vec<f64>) = self.window.iter().copied().unzip();
-        sink.f64s(&nis);
-        sink.f64s(&dof);
-        sink.f64(self.nis_sum);
-        sink.f64(self.dof_sum);
+        for entry in self.window.iter().chain(std::iter::once(&self.sum)) {
+            sink.f64(entry.nis);
+            sink.f64(entry.rows);
+            sink.f64s(entry.correction.squared.as_slice());
+            sink.f64s(entry.correction.expected.as_slice());
+        }
         sink.bool(self.status.adapting);
         sink.bool(self.status.inconsistent);
     }
@@ -214,31 +310,43 @@ impl NoiseAdaptation {
     /// Reads what [`Self::save`] wrote into an adaptation built with the same settings.
     pub fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
         let length = self.window.len();
-        let scale = source.f64("adaptation scale")?;
+        let mut scales = SVector::<f64, N>::zeros();
+        source.f64s_into(scales.as_mut_slice(), "adaptation scales")?;
         let next = source.u64("adaptation position")? as usize;
         let filled = source.u64("adaptation fill")? as usize;
-        if !(scale >= 1.0 && scale <= self.config.max_scale) || next >= length || filled > length {
+        let max = self.config.max_scale;
+        if !scales.iter().all(|s| (1.0..=max).contains(s)) || next >= length || filled > length {
             return Err(SnapshotError(format!(
-                "adaptation state: scale {scale}, position {next}, fill {filled} do not fit a \
-                 window of {length} with max scale {}",
-                self.config.max_scale
+                "adaptation state: scales {:?}, position {next}, fill {filled} do not fit a \
+                 window of {length} with max scale {max}",
+                scales.as_slice()
             )));
         }
-        let mut nis = vec![0.0; length];
-        let mut dof = vec![0.0; length];
-        source.f64s_into(&mut nis, "adaptation window NIS")?;
-        source.f64s_into(&mut dof, "adaptation window rows")?;
-        self.nis_sum = source.f64("adaptation NIS sum")?;
-        self.dof_sum = source.f64("adaptation rows sum")?;
+        for entry in self.window.iter_mut().chain(std::iter::once(&mut self.sum)) {
+            entry.nis = source.f64("adaptation NIS")?;
+            entry.rows = source.f64("adaptation rows")?;
+            let c = &mut entry.correction;
+            source.f64s_into(c.squared.as_mut_slice(), "adaptation corrections")?;
+            source.f64s_into(c.expected.as_mut_slice(), "adaptation expected corrections")?;
+        }
         self.status = AdaptationStatus {
             adapting: source.bool("adaptation adapting")?,
             inconsistent: source.bool("adaptation inconsistent")?,
         };
-        self.window = nis.into_iter().zip(dof).collect();
-        self.scale = scale;
+        self.scales = scales;
         self.next = next;
         self.filled = filled;
         Ok(())
+    }
+}
+
+impl<const N: usize> Entry<N> {
+    /// `self += sign · other`, field by field.
+    fn add(&mut self, other: &Self, sign: f64) {
+        self.nis += sign * other.nis;
+        self.rows += sign * other.rows;
+        self.correction.squared += other.correction.squared * sign;
+        self.correction.expected += other.correction.expected * sign;
     }
 }
 
@@ -342,9 +450,12 @@ mod tests {
         for k in 0..steps {
             let t = k as f64 * T;
             let y = SVector::<f64, 1>::new(truth[0] + model.r.sqrt() * normal());
+            let (prior, prior_p) = (*filter.state(), *filter.covariance());
             let report = filter.update(&y, &input, &[true]).unwrap();
             if adapt {
-                adaptation.observe(&report);
+                let posterior = (filter.state(), filter.covariance());
+                let correction = Correction::between((&prior, &prior_p), posterior);
+                adaptation.observe(&report, &correction, &q);
             }
             filter.predict(&input).unwrap();
             if let Some(extra) = adaptation.inflation(&q) {
@@ -373,18 +484,23 @@ mod tests {
         2.0 * (std::f64::consts::PI * t).sin()
     }
 
+    /// The acceleration is a deterministic error, not the white noise the match assumes: the
+    /// per-state match takes the velocity's noise to about the size of its corrections (scale
+    /// above 100) and the NEES down by two orders of magnitude, not to 1 (measured 6690 -> 50;
+    /// the first scheme, one scale on `Q` driven by the NIS, reached about 1 here, and on the
+    /// vehicle's campaigns inflated the well-modelled states with the rest).
     #[test]
     fn a_mismatched_model_grows_q_and_brings_the_nees_down() {
         let fixed = run(manoeuvre, false);
         let adapted = run(manoeuvre, true);
         assert!(
-            fixed.velocity_nees > 50.0,
+            fixed.velocity_nees > 1000.0,
             "fixed Q NEES {}",
             fixed.velocity_nees
         );
         assert!(adapted.max_scale > 100.0, "scale {}", adapted.max_scale);
         assert!(
-            adapted.velocity_nees < 3.0 && adapted.velocity_nees > 0.3,
+            adapted.velocity_nees < fixed.velocity_nees / 50.0,
             "adapted NEES {} (fixed {})",
             adapted.velocity_nees,
             fixed.velocity_nees
@@ -477,15 +593,21 @@ mod tests {
             window: 12,
             max_scale: 100.0,
         };
-        let mut original = NoiseAdaptation::new(config).unwrap();
+        let mut original = NoiseAdaptation::<2>::new(config).unwrap();
         let report = |nis: f64| UpdateReport::<1> {
             innovation: SVector::zeros(),
             nis,
             rows_used: 1,
             used: [true],
         };
+        let q = SMatrix::<f64, 2, 2>::from_diagonal(&SVector::from([1e-4, 2e-4]));
+        let correction = |k: f64| Correction {
+            squared: SVector::from([1e-3 * k, 1e-5 * k]),
+            expected: SVector::from([1e-4, 1e-4]),
+        };
         for k in 0..30 {
-            original.observe(&report(1.0 + 0.37 * k as f64));
+            let k = k as f64;
+            original.observe(&report(1.0 + 0.37 * k), &correction(k), &q);
         }
         assert!(original.scale() > 1.0);
         let mut tape = Tape::default();
@@ -493,8 +615,8 @@ mod tests {
         let mut restored = NoiseAdaptation::new(config).unwrap();
         restored.restore(&mut tape).unwrap();
         for k in 0..20 {
-            let r = report(0.1 * k as f64);
-            assert_eq!(original.observe(&r), restored.observe(&r));
+            let (r, c) = (report(0.1 * k as f64), correction(30.0 - k as f64));
+            assert_eq!(original.observe(&r, &c, &q), restored.observe(&r, &c, &q));
         }
         assert_eq!(original, restored);
     }

@@ -5,7 +5,7 @@
 
 use std::fmt::Debug;
 
-use estimation::adaptive::NoiseAdaptation;
+use estimation::adaptive::{Correction, NoiseAdaptation};
 use estimation::kalman::InitialEstimate;
 use estimation::registry::{
     self, BoxedEstimator, EstimatorChoice, EstimatorSettings, RegistryModel,
@@ -355,7 +355,7 @@ where
     /// kept and a non-finite output is looked up in the older ones, newest first.
     pending: Vec<OutputSample<N, Model::Extra>>,
     /// The adaptive process noise (`adaptive_process_noise`; FMU state).
-    adaptation: Option<NoiseAdaptation>,
+    adaptation: Option<NoiseAdaptation<N>>,
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
@@ -516,6 +516,11 @@ where
             *used &= offered;
         }
         // Non-finite rows are skipped by the filters themselves (SPEC §6).
+        // The adaptation compares the update's correction with the variance it removed.
+        let prior = self
+            .adaptation
+            .is_some()
+            .then(|| (*self.filter.state(), *self.filter.covariance()));
         let report = self
             .filter
             .update(&sample.measurement, &sample.input, &mask);
@@ -525,6 +530,9 @@ where
         });
         self.nis = report.nis;
         self.rows_used = report.rows_used as i32;
+        let correction = prior.map(|(x, p)| {
+            Correction::between((&x, &p), (self.filter.state(), self.filter.covariance()))
+        });
         self.reschedule(&sample.input);
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
@@ -535,7 +543,7 @@ where
         {
             self.filter.inflate_covariance(&extra);
         }
-        bits | self.adapt(&report)
+        bits | self.adapt(&report, correction.as_ref())
     }
 
     /// Gain scheduling of the linear estimators (`schedule_threshold`; the others ignore it):
@@ -551,14 +559,16 @@ where
         }
     }
 
-    /// The adaptive process noise (`adaptive_process_noise`): the update's NIS into the window,
-    /// the prior just predicted inflated by `(s − 1) Q`; returns status bits 4096 and 8192.
-    fn adapt(&mut self, report: &UpdateReport<M>) -> i32 {
-        let Some(adaptation) = self.adaptation.as_mut() else {
+    /// The adaptive process noise (`adaptive_process_noise`, `estimation::adaptive`): the
+    /// update's NIS and state correction into the window, the prior just predicted inflated by
+    /// `diag((s_i − 1) Q_ii)`; returns status bits 4096 and 8192.
+    fn adapt(&mut self, report: &UpdateReport<M>, correction: Option<&Correction<N>>) -> i32 {
+        let (Some(adaptation), Some(correction)) = (self.adaptation.as_mut(), correction) else {
             return 0;
         };
-        let state = adaptation.observe(report);
-        if let Some(extra) = adaptation.inflation(&self.model.process_noise()) {
+        let process_noise = self.model.process_noise();
+        let state = adaptation.observe(report, correction, &process_noise);
+        if let Some(extra) = adaptation.inflation(&process_noise) {
             self.filter.inflate_covariance(&extra);
         }
         let adapting = i32::from(state.adapting) * status::ADAPTING;
