@@ -172,6 +172,14 @@ impl<const N: usize> Entry<N> {
             expected: SVector::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; 1])),
         },
     };
+
+    /// `self += sign · other`, field by field.
+    fn add(&mut self, other: &Self, sign: f64) {
+        self.nis += sign * other.nis;
+        self.rows += sign * other.rows;
+        self.correction.squared += other.correction.squared * sign;
+        self.correction.expected += other.correction.expected * sign;
+    }
 }
 
 /// The monitor and the per-state scales of `Q`: feed it every update's report and correction,
@@ -337,16 +345,6 @@ impl<const N: usize> NoiseAdaptation<N> {
         self.next = next;
         self.filled = filled;
         Ok(())
-    }
-}
-
-impl<const N: usize> Entry<N> {
-    /// `self += sign · other`, field by field.
-    fn add(&mut self, other: &Self, sign: f64) {
-        self.nis += sign * other.nis;
-        self.rows += sign * other.rows;
-        self.correction.squared += other.correction.squared * sign;
-        self.correction.expected += other.correction.expected * sign;
     }
 }
 

@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
-use harness::replay::fit::{fit, FitModel, FitOptions};
+use harness::replay::fit::{fit, start_value, FitModel, FitOptions};
 use harness::replay::friction::FrictionFit;
 use harness::replay::{estimator_path, prepare, record, replay, ReplayOptions};
 
@@ -418,18 +418,10 @@ fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
 
 /// The start value of the estimator FMU's Real parameter `name`.
 fn default_real(name: &str) -> f64 {
-    use fmi::fmi2::schema::ScalarVariableElement;
     let fmu = LoadedFmu::load(
         &estimator_path(None, &default_fmu_dir()),
         &scratch(&format!("start-{name}")),
     )
     .unwrap_or_else(|e| panic!("{e:#}"));
-    let variable = fmu
-        .model_description()
-        .model_variable_by_name(name)
-        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-    match &variable.elem {
-        ScalarVariableElement::Real(real) => real.start.expect("a start value"),
-        other => panic!("{name} is not Real: {other:?}"),
-    }
+    start_value(&fmu, name).unwrap_or_else(|| panic!("{name}: no Real start value"))
 }

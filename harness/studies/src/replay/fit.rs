@@ -479,7 +479,8 @@ fn real_value(
     })
 }
 
-fn start_value(fmu: &LoadedFmu, name: &str) -> Option<f64> {
+/// The start value of the FMU's Real variable `name` in its model description, if it has one.
+pub fn start_value(fmu: &LoadedFmu, name: &str) -> Option<f64> {
     use fmi::fmi2::schema::ScalarVariableElement;
     let variable = fmu.model_description().model_variable_by_name(name).ok()?;
     match &variable.elem {
