@@ -514,6 +514,11 @@ where
         self.last_report
     }
 
+    // The gain is fixed (seed 002's poles), so the estimate does not see `extra`; the covariance
+    // the observer reports, propagated with that gain in the Joseph form (004), does:
+    // `+ L extra Lᵀ`.
+    crate::kalman::update_with_r_plus_extra!();
+
     /// Re-linearises about `(x̂, input)` when the linearisation errs there by more than
     /// `threshold` noise standard deviations, and places the gain again by the same design
     /// ([`scheduled_observer_gain`]); keeps the old linearisation and gain when the new one

@@ -1033,6 +1033,11 @@ where
         UpdateReport::skipped()
     }
 
+    // `R + extra` for one update, in the likelihood `N(y; h(x_i, u), R)` (003: 2.60), the
+    // optimal proposal and the reported innovation covariance; the same for every particle (the
+    // host sizes it from the estimate).
+    crate::kalman::update_with_r_plus_extra!();
+
     fn save(&self, sink: &mut dyn SnapshotSink) {
         let snapshot = self.snapshot();
         sink.u8(SNAPSHOT_LAYOUT);

@@ -51,6 +51,25 @@ pub trait RunningEstimator<const N: usize, const M: usize, const U: usize>:
         false
     }
 
+    /// The measurement update with `extra` (symmetric positive semi-definite) added to `R` for
+    /// this update only: a state-dependent measurement noise, such as a model error that grows
+    /// with the predicted measurement: the uncertainty of a model parameter the filter does not
+    /// estimate (Schmidt's "consider" parameters, S. F. Schmidt, NASA Ames, mid-1960s; Zanetti &
+    /// D'Souza, "Recursive implementations of the consider filter", AAS 12-619, 2012), carried
+    /// here as white noise on the rows it enters instead of as a cross-covariance with the
+    /// state. The filter's own `R` is unchanged
+    /// afterwards. The default ignores `extra`; every estimator of this crate overrides it (the
+    /// Luenberger observer's gain is fixed, so there only its reported covariance sees `extra`).
+    fn update_with_extra_noise(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        mask: &crate::MeasurementMask<M>,
+        _extra: &nalgebra::SMatrix<f64, M, M>,
+    ) -> Result<UpdateReport<M>, crate::FilterIssue> {
+        self.update(measurement, input, mask)
+    }
+
     /// Gain scheduling of the linear estimators (LKF, Luenberger observer), which run on one
     /// linearisation: re-linearises about the current estimate and `input` (and re-places the
     /// observer gain) when that linearisation's error there,

@@ -120,4 +120,7 @@ where
         self.covariance += extra;
         true
     }
+
+    // `R + extra` for one update: the EKF's gain and Joseph form (004) with that `R`.
+    super::update_with_r_plus_extra!();
 }

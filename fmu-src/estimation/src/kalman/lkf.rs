@@ -175,4 +175,7 @@ where
         self.covariance += extra;
         true
     }
+
+    // `R + extra` for one update: the LKF's gain and Joseph form (004) with that `R`.
+    super::update_with_r_plus_extra!();
 }

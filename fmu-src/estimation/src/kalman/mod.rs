@@ -308,6 +308,52 @@ impl<const M: usize> MeasurementNoise<M> {
     }
 }
 
+/// An `R` to which one update's extra noise is added
+/// ([`crate::running::RunningEstimator::update_with_extra_noise`]).
+pub(crate) trait NoisePlus<const M: usize>: Copy {
+    /// `R + extra`, exactly symmetric (the filters rely on a symmetric `R`, see
+    /// [`validated_noise`]).
+    fn plus(&self, extra: &SMatrix<f64, M, M>) -> Self;
+}
+
+impl<const M: usize> NoisePlus<M> for SMatrix<f64, M, M> {
+    fn plus(&self, extra: &SMatrix<f64, M, M>) -> Self {
+        let mut sum = self + extra;
+        symmetrize(&mut sum);
+        sum
+    }
+}
+
+/// A diagonal `extra` keeps the row-by-row update.
+impl<const M: usize> NoisePlus<M> for MeasurementNoise<M> {
+    fn plus(&self, extra: &SMatrix<f64, M, M>) -> Self {
+        Self::new(self.covariance.plus(extra))
+    }
+}
+
+/// [`crate::running::RunningEstimator::update_with_extra_noise`] for an estimator whose `R` is
+/// its field `measurement_noise` (a [`NoisePlus`]): the update with `R + extra`, then `R` back
+/// as it was, bit for bit.
+macro_rules! update_with_r_plus_extra {
+    () => {
+        fn update_with_extra_noise(
+            &mut self,
+            measurement: &nalgebra::SVector<f64, M>,
+            input: &nalgebra::SVector<f64, U>,
+            mask: &crate::MeasurementMask<M>,
+            extra: &nalgebra::SMatrix<f64, M, M>,
+        ) -> Result<crate::UpdateReport<M>, crate::FilterIssue> {
+            use crate::kalman::NoisePlus;
+            let own = self.measurement_noise;
+            self.measurement_noise = own.plus(extra);
+            let outcome = crate::Estimator::update(self, measurement, input, mask);
+            self.measurement_noise = own;
+            outcome
+        }
+    };
+}
+pub(crate) use update_with_r_plus_extra;
+
 /// A posterior step common to the LKF and EKF: gain, state correction and Joseph-form
 /// covariance (004) from the prediction `ŷ` and the measurement matrix `H` at the prior. Returns
 /// the report and whether the covariance needed a repair; leaves state and covariance untouched

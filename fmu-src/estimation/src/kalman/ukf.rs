@@ -331,4 +331,7 @@ where
         self.covariance += extra;
         true
     }
+
+    // `R + extra` for one update, in the innovation covariance (000: 4.140).
+    super::update_with_r_plus_extra!();
 }
