@@ -7,16 +7,20 @@
 use estimation::kalman::InitialEstimate;
 use estimation::models::two_track::TwoTrackEstimationModel;
 use estimation::registry::EstimatorSettings;
+use estimation::StateSpaceModel;
 use fmi_export::{StateError, StateReader, StateWriter};
-use nalgebra::SVector;
-use vehicle_models::two_track_lateral::{state_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM};
+use nalgebra::{SMatrix, SVector};
+use vehicle_models::two_track_lateral::{
+    measurement_index, state_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM,
+};
 use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 
 use crate::model_a::MAX_PLAUSIBLE_AY;
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
-    finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors, WheelRadii,
+    ay_model_error_noise, finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors,
+    WheelRadii,
 };
 use crate::status;
 
@@ -174,6 +178,18 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             ay.map_or(0.0, |ay| finite_or(ay, 0.0)),
         ]);
         Some(initial)
+    }
+
+    /// The `ay` row's model error (`ay_model_error`, [`ay_model_error_noise`]) from the model's
+    /// `ay` at the predicted estimate.
+    fn extra_measurement_noise(
+        &self,
+        state: &StateB,
+        input: &SVector<f64, INPUT_DIM>,
+        v: &Variables,
+    ) -> Option<SMatrix<f64, MEASUREMENT_DIM, MEASUREMENT_DIM>> {
+        let row = measurement_index::LATERAL_ACCELERATION;
+        ay_model_error_noise(v, row, || self.measurement(state, input)[row])
     }
 
     /// The outputs as the XML descriptions state them for model B.

@@ -191,6 +191,19 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
         None
     }
 
+    /// Extra measurement noise for this sample's update only, added to `R` (and to the gate's
+    /// `S`; model B: the `ay` row's model error, [`ay_model_error_noise`]); `state`
+    /// is the predicted estimate, `input` the sample's filter input. The Luenberger observer's
+    /// fixed gain ignores it (its reported covariance does not).
+    fn extra_measurement_noise(
+        &self,
+        _state: &SVector<f64, N>,
+        _input: &SVector<f64, U>,
+        _v: &Variables,
+    ) -> Option<SMatrix<f64, M, M>> {
+        None
+    }
+
     /// The outputs of one sample's result.
     fn outputs(&self, sample: &OutputSample<N, Self::Extra>, v: &Variables) -> RealOutputs;
 
@@ -298,14 +311,47 @@ struct Gate {
 
 /// `schedule_threshold`, finite and at least 0.
 fn schedule_threshold(v: &Variables) -> Result<f64, String> {
-    let threshold = v.schedule_threshold;
-    if threshold.is_finite() && threshold >= 0.0 {
-        Ok(threshold)
+    non_negative("schedule_threshold", v.schedule_threshold)
+}
+
+/// A parameter that must be finite and at least 0.
+fn non_negative(name: &str, value: f64) -> Result<f64, String> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
     } else {
         Err(format!(
-            "parameter schedule_threshold = {threshold}; expected a finite value >= 0"
+            "parameter {name} = {value}; expected a finite value >= 0"
         ))
     }
+}
+
+/// The `ay` row's model error as measurement noise (`ay_model_error` = k): `(k ŷ_ay)²` on row
+/// `row`'s variance, `predicted_ay` the model's `ay` at the predicted estimate (evaluated only
+/// for `k > 0`); `None` for `k = 0` (the filter's `R` as it is, bit for bit).
+///
+/// The measured `ay` is the tyre forces over the mass, so it enters the update through the
+/// model's tyre law; on another car that law errs by a share of the force, not by a constant
+/// (the sensor's noise). That error is the effect of a parameter the filter does not estimate
+/// (Schmidt's "consider" parameters; Zanetti & D'Souza, "Recursive implementations of the
+/// consider filter", AAS 12-619, 2012), carried here as white noise on the row it enters, with
+/// a variance that grows with the predicted `ay`: at small `ay` the sensor dominates, near the
+/// limit the model error does, and `ay` no longer pins the lateral states through a wrong tyre
+/// law.
+pub(crate) fn ay_model_error_noise<const M: usize>(
+    v: &Variables,
+    row: usize,
+    predicted_ay: impl FnOnce() -> f64,
+) -> Option<SMatrix<f64, M, M>> {
+    if v.ay_model_error == 0.0 {
+        return None;
+    }
+    let deviation = v.ay_model_error * predicted_ay();
+    if !(deviation != 0.0 && deviation.is_finite()) {
+        return None;
+    }
+    let mut noise = SMatrix::<f64, M, M>::zeros();
+    noise[(row, row)] = deviation * deviation;
+    Some(noise)
 }
 
 /// How many doSteps with a sample may pass without an output read before the outputs are
@@ -379,6 +425,7 @@ where
             )
         })?;
         let min_speed = positive("min_speed", v.min_speed)?;
+        non_negative("ay_model_error", v.ay_model_error)?;
         let sample_time = positive("sample_time", v.sample_time)?;
         let gate = if v.gate_measurements {
             let readmit_time = finite_or(v.readmit_time, -1.0);
@@ -521,9 +568,18 @@ where
             .adaptation
             .is_some()
             .then(|| (*self.filter.state(), *self.filter.covariance()));
-        let report = self
-            .filter
-            .update(&sample.measurement, &sample.input, &mask);
+        let extra_noise = self.extra_measurement_noise(&sample.input);
+        let report = match &extra_noise {
+            Some(extra) => self.filter.update_with_extra_noise(
+                &sample.measurement,
+                &sample.input,
+                &mask,
+                extra,
+            ),
+            None => self
+                .filter
+                .update(&sample.measurement, &sample.input, &mask),
+        };
         let report = report.unwrap_or_else(|issue| {
             bits |= issue_bit(issue);
             self.filter.last_report()
@@ -544,6 +600,12 @@ where
             self.filter.inflate_covariance(&extra);
         }
         bits | self.adapt(&report, correction.as_ref())
+    }
+
+    /// The model's extra measurement noise at the filter's current (predicted) estimate.
+    fn extra_measurement_noise(&self, input: &SVector<f64, U>) -> Option<SMatrix<f64, M, M>> {
+        self.model
+            .extra_measurement_noise(self.filter.state(), input, &self.parameters)
     }
 
     /// Gain scheduling of the linear estimators (`schedule_threshold`; the others ignore it):
@@ -594,7 +656,10 @@ where
         let covariance = self.filter.covariance();
         let plausible = self.model.plausible(sensors, &state, self.min_speed);
         let (predicted, jacobian) = self.model.measurement_and_jacobian(&state, &sample.input);
-        let noise = self.model.measurement_noise();
+        let mut noise = self.model.measurement_noise();
+        if let Some(extra) = self.extra_measurement_noise(&sample.input) {
+            noise += extra;
+        }
         let mut passed = [true; M];
         let mut bits = 0;
         let mut readmit = false;
