@@ -359,45 +359,10 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
 
-    fn outputs(&self, sample: &OutputSample<STATE_DIM, ()>, _: &Variables) -> RealOutputs {
-        let x = sample.state;
-        let variances = sample.covariance.diagonal();
-        let u = sample.input;
-        // One model evaluation for every derived output: its ay is v̇y + vx r (000: 5.40), the
-        // measurement function h(x, u) of the ay row in exact arithmetic, so evaluating h again
-        // would only repeat the tyre forces.
-        let derived = self
-            .vehicle()
-            .outputs(&x, &u.fixed_rows::<INPUT_DIM>(0).into_owned());
-        let std = |i: usize| variances[i].max(0.0).sqrt();
-        // First-order propagation of P through atan2(vy, vx).
-        let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
-        let speed_squared = vx * vx + vy * vy;
-        let gradient = [-vy / speed_squared, vx / speed_squared];
-        let covariance_vx_vy = sample.covariance[(state_index::VX, state_index::VY)];
-        let sideslip_variance = gradient[0] * gradient[0] * variances[state_index::VX]
-            + 2.0 * gradient[0] * gradient[1] * covariance_vx_vy
-            + gradient[1] * gradient[1] * variances[state_index::VY];
-        RealOutputs {
-            vx_est: x[state_index::VX],
-            vy_est: x[state_index::VY],
-            yaw_rate_est: x[state_index::YAW_RATE],
-            omega_front_est: x[state_index::OMEGA_FRONT],
-            omega_rear_est: x[state_index::OMEGA_REAR],
-            sideslip_est: derived.sideslip,
-            ay_est: derived.lateral_acceleration,
-            slip_angle_front_est: derived.slip_angle_front,
-            slip_angle_rear_est: derived.slip_angle_rear,
-            slip_front_est: derived.slip_front,
-            slip_rear_est: derived.slip_rear,
-            vx_std: std(state_index::VX),
-            vy_std: std(state_index::VY),
-            yaw_rate_std: std(state_index::YAW_RATE),
-            omega_front_std: std(state_index::OMEGA_FRONT),
-            omega_rear_std: std(state_index::OMEGA_REAR),
-            sideslip_std: sideslip_variance.max(0.0).sqrt(),
-            nis: sample.nis,
-        }
+    /// The estimate's outputs with the rear tyre's stiffness uncertainty added to the reported
+    /// lateral velocity and sideslip standard deviations ([`with_stiffness_consider`]).
+    fn outputs(&self, sample: &OutputSample<STATE_DIM, ()>, v: &Variables) -> RealOutputs {
+        with_stiffness_consider(estimate_outputs(self, sample), v)
     }
 
     fn write_extra(_: &(), _: &mut StateWriter) {}
@@ -405,6 +370,72 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     fn read_extra(_: &mut (), _: &mut StateReader<'_>) -> Result<(), StateError> {
         Ok(())
     }
+}
+
+/// The outputs of one sample as the filter's state and covariance give them (the grip model's
+/// too, which estimates the tyres' force error instead of considering it).
+pub(crate) fn estimate_outputs(
+    model: &ModelA,
+    sample: &OutputSample<STATE_DIM, ()>,
+) -> RealOutputs {
+    let x = sample.state;
+    let variances = sample.covariance.diagonal();
+    let u = sample.input;
+    // One model evaluation for every derived output: its ay is v̇y + vx r (000: 5.40), the
+    // measurement function h(x, u) of the ay row in exact arithmetic, so evaluating h again
+    // would only repeat the tyre forces.
+    let derived = model
+        .vehicle()
+        .outputs(&x, &u.fixed_rows::<INPUT_DIM>(0).into_owned());
+    let std = |i: usize| variances[i].max(0.0).sqrt();
+    // First-order propagation of P through atan2(vy, vx).
+    let (vx, vy) = (x[state_index::VX], x[state_index::VY]);
+    let speed_squared = vx * vx + vy * vy;
+    let gradient = [-vy / speed_squared, vx / speed_squared];
+    let covariance_vx_vy = sample.covariance[(state_index::VX, state_index::VY)];
+    let sideslip_variance = gradient[0] * gradient[0] * variances[state_index::VX]
+        + 2.0 * gradient[0] * gradient[1] * covariance_vx_vy
+        + gradient[1] * gradient[1] * variances[state_index::VY];
+    RealOutputs {
+        vx_est: x[state_index::VX],
+        vy_est: x[state_index::VY],
+        yaw_rate_est: x[state_index::YAW_RATE],
+        omega_front_est: x[state_index::OMEGA_FRONT],
+        omega_rear_est: x[state_index::OMEGA_REAR],
+        sideslip_est: derived.sideslip,
+        ay_est: derived.lateral_acceleration,
+        slip_angle_front_est: derived.slip_angle_front,
+        slip_angle_rear_est: derived.slip_angle_rear,
+        slip_front_est: derived.slip_front,
+        slip_rear_est: derived.slip_rear,
+        vx_std: std(state_index::VX),
+        vy_std: std(state_index::VY),
+        yaw_rate_std: std(state_index::YAW_RATE),
+        omega_front_std: std(state_index::OMEGA_FRONT),
+        omega_rear_std: std(state_index::OMEGA_REAR),
+        sideslip_std: sideslip_variance.max(0.0).sqrt(),
+        nis: sample.nis,
+    }
+}
+
+/// Model A's sideslip rests on its rear tyre law: in a steady corner the yaw rate and `ay` fix
+/// the rear axle's force `Fyr`, and the sideslip follows from the rear slip angle
+/// `αR = Fyr / CαR` (000: 5.16-5.22, 5.70), so a relative error `ε` of the rear cornering
+/// stiffness moves the sideslip by `−ε αR` (and `vy` by `vx` times that), an error no sensor
+/// reveals and the filter's covariance does not contain. `cornering_stiffness_uncertainty` = σ
+/// is that error's standard deviation; its first-order effect `σ |αR|` is added in quadrature
+/// to the reported standard deviations, the consider covariance of a parameter left
+/// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
+/// sect. 6.3). The estimate itself is unchanged.
+fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
+    let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
+    if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {
+        return values;
+    }
+    let lateral_velocity_consider = values.vx_est.abs() * sideslip_consider;
+    values.sideslip_std = values.sideslip_std.hypot(sideslip_consider);
+    values.vy_std = values.vy_std.hypot(lateral_velocity_consider);
+    values
 }
 
 /// The measurement and input of one sample on model A's sensors and speed anchor, for every

@@ -147,12 +147,13 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
 
     /// Model A's outputs from the first five states and their covariance; `ay_est` with the
     /// estimated grip factors (the slip angles and slips do not depend on them).
-    fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, v: &Variables) -> RealOutputs {
+    fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, _: &Variables) -> RealOutputs {
         let body_sample = body_estimate(&InitialEstimate {
             state: sample.state,
             covariance: sample.covariance,
         });
-        let mut values = self.anchored().outputs(
+        let mut values = model_a::estimate_outputs(
+            self.anchored(),
             &OutputSample {
                 state: body_sample.state,
                 covariance: body_sample.covariance,
@@ -163,7 +164,6 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 holding: sample.holding,
                 held_speed: sample.held_speed,
             },
-            v,
         );
         let grip = [sample.state[GRIP_FRONT], sample.state[GRIP_REAR]];
         values.ay_est = self

@@ -426,6 +426,10 @@ where
         })?;
         let min_speed = positive("min_speed", v.min_speed)?;
         non_negative("ay_model_error", v.ay_model_error)?;
+        non_negative(
+            "cornering_stiffness_uncertainty",
+            v.cornering_stiffness_uncertainty,
+        )?;
         let sample_time = positive("sample_time", v.sample_time)?;
         let gate = if v.gate_measurements {
             let readmit_time = finite_or(v.readmit_time, -1.0);

@@ -11,5 +11,6 @@ mod model_grip;
 mod parameter_bounds;
 mod rear_drive;
 mod robustness;
+mod stiffness_consider;
 mod tunable;
 mod wheel_lift;

@@ -9,7 +9,7 @@ use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use vehicle_models::{
-    DriverInputVector, ReferenceModelKind, ReferenceVehicle, ReferenceVehicleParams,
+    DriverInputVector, ReferenceModelKind, ReferenceVehicle, ReferenceVehicleParams, VehicleTruth,
 };
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
@@ -35,12 +35,35 @@ fn instance(model: EstimatorModel, estimator: EstimatorKind) -> Slave {
     );
     assert_eq!(s.set_integer(vr::PARTICLE_COUNT, 300), Fmi2Status::Ok);
     assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
+    // Model A's own covariance, the one the grip states widen (not the consider term for the
+    // rear stiffness that its reported std carries by default).
+    assert_eq!(
+        s.set_real(vr::CORNERING_STIFFNESS_UNCERTAINTY, 0.0),
+        Fmi2Status::Ok
+    );
     s
 }
 
 /// A 2.5° road-wheel step at 1 s (ramped over 0.1 s), about 6 m/s² on the seed car.
 fn steering(t: f64) -> f64 {
     2.5_f64.to_radians() * ((t - 1.0) / 0.1).clamp(0.0, 1.0)
+}
+
+/// Sets the steering angle and noise-free sensors of the truth `x` (the yaw rate, ay, wheel
+/// speeds, speed and ax) as the estimator's inputs.
+pub(crate) fn set_sensors(s: &mut Slave, steering_angle: f64, x: &VehicleTruth) {
+    let sensors = [
+        (vr::STEERING_ANGLE, steering_angle),
+        (vr::YAW_RATE_MEAS, x.yaw_rate),
+        (vr::AY_MEAS, x.lateral_acceleration),
+        (vr::OMEGA_FRONT_MEAS, x.omega_front),
+        (vr::OMEGA_REAR_MEAS, x.omega_rear),
+        (vr::VX_MEAS, x.longitudinal_velocity),
+        (vr::AX_MEAS, x.longitudinal_acceleration),
+    ];
+    for (reference, value) in sensors {
+        assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
+    }
 }
 
 /// Runs `samples` doSteps of one sample each from `first` on `truth` (noise-free sensors);
@@ -56,19 +79,7 @@ fn run(
     for k in first..first + samples {
         let t = k as f64 * SAMPLE_TIME;
         let input = DriverInputVector::new(steering(t), 0.0, 0.0);
-        let x = truth.truth(&input);
-        let sensors = [
-            (vr::STEERING_ANGLE, input[0]),
-            (vr::YAW_RATE_MEAS, x.yaw_rate),
-            (vr::AY_MEAS, x.lateral_acceleration),
-            (vr::OMEGA_FRONT_MEAS, x.omega_front),
-            (vr::OMEGA_REAR_MEAS, x.omega_rear),
-            (vr::VX_MEAS, x.longitudinal_velocity),
-            (vr::AX_MEAS, x.longitudinal_acceleration),
-        ];
-        for (reference, value) in sensors {
-            assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
-        }
+        set_sensors(s, input[0], &truth.truth(&input));
         assert_eq!(
             s.do_step(t, SAMPLE_TIME),
             Fmi2Status::Ok,

@@ -1,0 +1,126 @@
+//! `cornering_stiffness_uncertainty` (model A): the rear tyre's stiffness uncertainty enters the
+//! reported sideslip and lateral-velocity standard deviations as a consider term `σ |αR|`, and
+//! nothing else. Truth: the two-track Magic Formula reference vehicle (lateral load transfer,
+//! another tyre law: not the filter's model) on a 2.5° road-wheel step at 65 km/h, noise-free
+//! sensors; the EKF on model A at its defaults.
+
+use fmi_export::ffi::Fmi2Status;
+use fmi_export::fmi2_api_of;
+use fmi_export::testing::Slave;
+use vehicle_models::{
+    DriverInputVector, ReferenceModelKind, ReferenceVehicle, ReferenceVehicleParams,
+};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
+
+use crate::model_grip::set_sensors;
+
+const SAMPLE_TIME: f64 = 0.01;
+const SPEED: f64 = 65.0 / 3.6;
+const SAMPLES: usize = 300;
+/// `[sideslip_est, vy_est, vx_est, yaw_rate_est, sideslip_std, vy_std, slip_angle_rear_est]`.
+const OUTPUTS: [u32; 7] = [
+    vr::SIDESLIP_EST,
+    vr::VY_EST,
+    vr::VX_EST,
+    vr::YAW_RATE_EST,
+    vr::SIDESLIP_STD,
+    vr::VY_STD,
+    vr::SLIP_ANGLE_REAR_EST,
+];
+
+/// The EKF on model A at its defaults, with `uncertainty` as the parameter when given.
+fn estimator(uncertainty: Option<f64>) -> Slave {
+    let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "consider", GUID)
+        .expect("instantiate");
+    assert_eq!(
+        s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
+        Fmi2Status::Ok
+    );
+    assert_eq!(
+        s.set_integer(vr::ESTIMATOR, EstimatorKind::Ekf as i32),
+        Fmi2Status::Ok
+    );
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
+    if let Some(sigma) = uncertainty {
+        assert_eq!(
+            s.set_real(vr::CORNERING_STIFFNESS_UNCERTAINTY, sigma),
+            Fmi2Status::Ok
+        );
+    }
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    s
+}
+
+/// Every step's outputs ([`OUTPUTS`]) and true sideslip of `s` on the step steer.
+fn run(s: &mut Slave) -> Vec<([f64; 7], f64)> {
+    let params = ReferenceVehicleParams {
+        model: ReferenceModelKind::TwoTrack,
+        ..ReferenceVehicleParams::default()
+    };
+    let mut truth = ReferenceVehicle::new(&params, SPEED);
+    let mut trace = Vec::new();
+    for k in 0..SAMPLES {
+        let t = k as f64 * SAMPLE_TIME;
+        let steering = 2.5_f64.to_radians() * ((t - 1.0) / 0.1).clamp(0.0, 1.0);
+        let input = DriverInputVector::new(steering, 0.0, 0.0);
+        set_sensors(s, steering, &truth.truth(&input));
+        assert_eq!(s.do_step(t, SAMPLE_TIME), Fmi2Status::Ok);
+        for _ in 0..10 {
+            truth.step(&input, 0.001).expect("reference step");
+        }
+        let outputs: [f64; 7] = s.reals(&OUTPUTS).try_into().expect("seven outputs");
+        trace.push((outputs, truth.truth(&input).sideslip));
+    }
+    trace
+}
+
+#[test]
+fn the_consider_term_widens_the_reported_std_and_leaves_the_estimate_alone() {
+    let sigma = 0.25;
+    let with = run(&mut estimator(Some(sigma)));
+    let without = run(&mut estimator(Some(0.0)));
+    let default = run(&mut estimator(None));
+    for (k, ((w, _), (o, _))) in with.iter().zip(&without).enumerate() {
+        // The estimate (sideslip, vy, vx, yaw rate, rear slip angle) is the same to the bit.
+        for i in [0, 1, 2, 3, 6] {
+            assert_eq!(w[i].to_bits(), o[i].to_bits(), "k = {k}, output {i}");
+        }
+        // std² = P + (σ αR)², and vy's with vx times that (first order through β = vy / vx).
+        let consider = sigma * w[6].abs();
+        let expected = o[4].hypot(consider);
+        assert!(
+            (w[4] - expected).abs() <= 1e-12 * expected.max(1e-9),
+            "k = {k}"
+        );
+        let expected_vy = o[5].hypot(w[2].abs() * consider);
+        assert!(
+            (w[5] - expected_vy).abs() <= 1e-12 * expected_vy.max(1e-9),
+            "k = {k}"
+        );
+    }
+    // The default is the documented 0.25.
+    assert!(with.iter().zip(&default).all(|(a, b)| a.0 == b.0));
+}
+
+#[test]
+fn in_the_corner_the_consider_term_covers_the_error_the_filter_covariance_does_not() {
+    let covered = |trace: &[([f64; 7], f64)]| {
+        let corner = &trace[200..];
+        let inside = corner
+            .iter()
+            .filter(|(outputs, truth)| (outputs[0] - truth).abs() <= 1.96 * outputs[4])
+            .count();
+        inside as f64 / corner.len() as f64
+    };
+    let with = covered(&run(&mut estimator(None)));
+    let without = covered(&run(&mut estimator(Some(0.0))));
+    println!("inside the 95 % bound in the corner: {with:.2} with, {without:.2} without");
+    assert!(
+        with >= 0.9,
+        "with the consider term {with:.2} inside the 95 % bound"
+    );
+    assert!(
+        without < 0.5,
+        "the filter's covariance alone {without:.2} inside"
+    );
+}
