@@ -33,9 +33,12 @@
 //!   is linearised about straight driving at that speed.
 //! - `gate_measurements`: the **runner** gates each row before the update, the same for every
 //!   estimator: physical plausibility and the chi-square test `nu² <= gate_threshold · S`
-//!   (bit 128); a plausible row gated for `readmit_time` re-seeds the filter from the
-//!   measurements (bit 256), so it cannot lock itself out. Bit 1024: an input outside its
-//!   declared range was clamped by the FMI layer (fmi2Warning) since the previous doStep.
+//!   (bit 128), for the model's model-error rows (the yaw rate; model B also ay,
+//!   [`runner::EstimationModel::model_error_rows`]) about the median of their recent innovations
+//!   and clipped to the gate's edge when they fail; a plausible row gated for `readmit_time`
+//!   re-seeds the filter from the measurements (bit 256), so it cannot lock itself out. Bit
+//!   1024: an input outside its declared range was clamped by the FMI layer (fmi2Warning) since
+//!   the previous doStep.
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
 //! `u = [steering_angle, vx]` and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,

@@ -20,7 +20,7 @@ use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri};
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
 
-const STEP: f64 = 0.01;
+pub(crate) const STEP: f64 = 0.01;
 const GRAVITY: f64 = 9.81;
 
 /// The Ford Escort's model-A parameters (see the module documentation).
@@ -50,18 +50,18 @@ fn escort() -> Chassis {
 const SENSOR_STD: [f64; 6] = [0.0035, 0.1, 0.1, 0.1, 0.1, 0.05];
 
 /// `[yaw_rate, ay, omega_front, omega_rear, ax, vx]` measured.
-type Sensors = [f64; 6];
+pub(crate) type Sensors = [f64; 6];
 
 use car::SENSORS;
 
-struct Truth {
+pub(crate) struct Truth {
     model: SingleTrackHsri,
-    state: SingleTrackState,
-    rng: ChaCha20Rng,
+    pub(crate) state: SingleTrackState,
+    pub(crate) rng: ChaCha20Rng,
 }
 
 impl Truth {
-    fn new(speed: f64, seed: u64) -> Self {
+    pub(crate) fn new(speed: f64, seed: u64) -> Self {
         let vehicle = SingleTrackParams {
             chassis: escort(),
             ..SingleTrackParams::default()
@@ -74,7 +74,7 @@ impl Truth {
         }
     }
 
-    fn sensors(&mut self, input: &DriverInputVector) -> Sensors {
+    pub(crate) fn sensors(&mut self, input: &DriverInputVector) -> Sensors {
         let y = self.model.measurement(&self.state, input);
         let outputs = self.model.outputs(&self.state, input);
         let clean = [
@@ -93,7 +93,7 @@ impl Truth {
         noisy
     }
 
-    fn step(&mut self, input: &DriverInputVector) {
+    pub(crate) fn step(&mut self, input: &DriverInputVector) {
         // Internal steps of 1 ms, as the reference vehicle runs model A.
         for _ in 0..10 {
             self.state = self
@@ -113,7 +113,7 @@ fn estimator(kind: i32) -> Slave {
 }
 
 /// [`estimator`] with more settings before initialisation.
-fn estimator_with(kind: i32, settings: impl FnOnce(&mut Slave)) -> Slave {
+pub(crate) fn estimator_with(kind: i32, settings: impl FnOnce(&mut Slave)) -> Slave {
     let mut s = Slave::instantiate(api(), "robust", GUID).expect("instantiate");
     car::set_car(&mut s, &escort());
     assert_eq!(s.set_real(vr::SAMPLE_TIME, STEP), Fmi2Status::Ok);
