@@ -11,6 +11,7 @@ mod model_b;
 mod model_grip;
 mod parameter_bounds;
 mod rear_drive;
+mod registry;
 mod robustness;
 mod stiffness_consider;
 mod tunable;
