@@ -155,6 +155,18 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// and must stay out.
     fn model_error_rows(&self) -> [bool; M];
 
+    /// Whether the model can take a model-error row's persistent disagreement as its own error
+    /// at the predicted estimate `state` (`jacobian` = `∂h/∂x` there): where it cannot, the row
+    /// gets the plain test, as every other row. The default: always.
+    fn model_error_resolvable(
+        &self,
+        _state: &SVector<f64, N>,
+        _input: &SVector<f64, U>,
+        _jacobian: &SMatrix<f64, M, N>,
+    ) -> bool {
+        true
+    }
+
     /// The start from the sensors of one sample (`start_from_measurements`, and the re-seed
     /// after a lock-out), or `None` while they show no speed of at least `min_speed`.
     fn measured_start(
@@ -837,6 +849,9 @@ where
         if let Some(extra) = self.extra_measurement_noise(&sample.input) {
             noise += extra;
         }
+        let resolvable = self
+            .model
+            .model_error_resolvable(&state, &sample.input, &jacobian);
         let mut passed = [true; M];
         let mut clipped = [None; M];
         let mut bits = 0;
@@ -855,7 +870,7 @@ where
                 value: value - predicted[row],
                 variance: innovation_variance,
             };
-            match self.judge(&gate, row, innovation, plausible[row]) {
+            match self.judge(&gate, row, innovation, plausible[row], resolvable) {
                 Verdict::Passed => {
                     self.gated_samples[row] = 0;
                     continue;
@@ -891,21 +906,29 @@ where
     /// chi-square test about 0 or is rejected. A model-error row is tested about the median of
     /// its recent innovations, and its window then takes this innovation if the value is
     /// plausible (an implausible value is a broken sample, not the model's error); a plausible
-    /// value outside the gate enters clipped to the gate's edge ([`InnovationWindow`]).
+    /// value outside the gate enters clipped to the gate's edge ([`InnovationWindow`]). Where
+    /// the model cannot resolve its error (`resolvable` false, see
+    /// [`EstimationModel::model_error_resolvable`]) the window still takes the innovation but
+    /// the row gets the plain test.
     fn judge(
         &mut self,
         gate: &Gate,
         row: usize,
         innovation: Innovation,
         plausible: bool,
+        resolvable: bool,
     ) -> Verdict {
         let Innovation { value, variance } = innovation;
+        let plain = || Verdict::of(plausible && gate.admits(value, 0.0, variance));
         let Some(window) = self.innovations[row].as_mut() else {
-            return Verdict::of(plausible && gate.admits(value, 0.0, variance));
+            return plain();
         };
         let centre = window.median();
         if plausible && value.is_finite() {
             window.push(value);
+        }
+        if !resolvable {
+            return plain();
         }
         let passed = plausible && gate.admits(value, centre, variance);
         let reach = (gate.threshold * variance).sqrt();
