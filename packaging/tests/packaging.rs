@@ -9,6 +9,13 @@ use packaging::{
     documentation, ssp, CheckedDescription, REFERENCE_VEHICLE, VEHICLE_STATE_ESTIMATOR,
 };
 
+// The scratch folder of the harness's tests (removed at the end of a test, KEEP_TEST_DIRS=1
+// keeps a failing test's): one definition for the workspace's test binaries.
+#[path = "../../harness/master/tests/common/scratch.rs"]
+mod scratch;
+
+use scratch::Scratch;
+
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
 }
@@ -44,14 +51,6 @@ fn vehicle_problems_after(from: &str, to: &str) -> Vec<String> {
             .map(ToString::to_string)
             .collect(),
     }
-}
-
-fn temporary_directory(name: &str) -> PathBuf {
-    let directory =
-        std::env::temp_dir().join(format!("packaging-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&directory);
-    std::fs::create_dir_all(&directory).unwrap();
-    directory
 }
 
 #[test]
@@ -111,8 +110,9 @@ fn check_descriptions_accepts_the_fixture_workspace() {
 
 #[test]
 fn missing_file_is_named() {
-    let directory = temporary_directory("missing");
-    let error = packaging::check_descriptions(&directory)
+    let scratch = Scratch::new("missing");
+    let directory = &scratch.0;
+    let error = packaging::check_descriptions(directory)
         .unwrap_err()
         .to_string();
     assert!(error.contains("ReferenceVehicle.xml"), "{error}");
@@ -394,7 +394,8 @@ fn zip_rejects_bad_paths_and_duplicates() {
 
 #[test]
 fn atomic_write_replaces_skips_unchanged_and_leaves_no_temporary_file() {
-    let directory = temporary_directory("atomic");
+    let scratch = Scratch::new("atomic");
+    let directory = &scratch.0;
     let destination = directory.join("sub/out.fmu");
     assert_eq!(
         archive::write_if_changed(&destination, b"one").unwrap(),
@@ -419,7 +420,8 @@ fn atomic_write_replaces_skips_unchanged_and_leaves_no_temporary_file() {
 
 #[test]
 fn failed_atomic_write_keeps_the_old_destination_and_cleans_up() {
-    let directory = temporary_directory("atomic-fail");
+    let scratch = Scratch::new("atomic-fail");
+    let directory = &scratch.0;
     // A non-empty directory where the archive should go: the final rename must fail.
     let destination = directory.join("blocked.fmu");
     std::fs::create_dir_all(destination.join("keep")).unwrap();
@@ -429,7 +431,7 @@ fn failed_atomic_write_keeps_the_old_destination_and_cleans_up() {
         destination.join("keep").is_dir(),
         "the old destination must survive"
     );
-    let names: Vec<_> = std::fs::read_dir(&directory)
+    let names: Vec<_> = std::fs::read_dir(directory)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
@@ -588,7 +590,8 @@ fn documentation_is_generated_from_every_variable() {
 
 #[test]
 fn writing_a_set_stages_everything_before_replacing_anything() {
-    let directory = temporary_directory("set");
+    let scratch = Scratch::new("set");
+    let directory = &scratch.0;
     let first = directory.join("a.fmu");
     let second = directory.join("b.fmu");
     std::fs::write(&first, b"old a").unwrap();
@@ -614,7 +617,7 @@ fn writing_a_set_stages_everything_before_replacing_anything() {
     .unwrap_err();
     assert!(format!("{error:#}").contains("blocker"), "{error:#}");
     assert_eq!(std::fs::read(&first).unwrap(), b"new a");
-    let mut names: Vec<_> = std::fs::read_dir(&directory)
+    let mut names: Vec<_> = std::fs::read_dir(directory)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();

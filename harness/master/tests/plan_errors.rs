@@ -10,14 +10,14 @@ use std::path::Path;
 use fmi_master::cosim::Plan;
 use fmi_master::scenario::Scenario;
 
-use crate::common::GOOD;
+use crate::common::{Scratch, GOOD};
 
 fn plan_error(text: &str) -> String {
     let fmu_dir = crate::common::packaged_fmus();
-    let work = std::env::temp_dir().join(format!("harness-plan-errors-{}", std::process::id()));
+    let work = Scratch::new("plan-errors");
     let scenario = Scenario::from_str_at(text, Path::new("bad.toml"), Path::new("."))
         .unwrap_or_else(|e| panic!("the scenario itself must parse: {e}"));
-    match Plan::new(scenario, &fmu_dir, &work) {
+    match Plan::new(scenario, &fmu_dir, &work.0) {
         Ok(_) => panic!("plan was accepted:\n{text}"),
         Err(e) => format!("{e:#}"),
     }
@@ -31,9 +31,9 @@ fn assert_names(message: &str, parts: &[&str]) {
 
 #[test]
 fn the_good_scenario_plans() {
-    let work = std::env::temp_dir().join(format!("harness-plan-good-{}", std::process::id()));
+    let work = Scratch::new("plan-good");
     let scenario = Scenario::from_str_at(GOOD, Path::new("good.toml"), Path::new(".")).unwrap();
-    let plan = Plan::new(scenario, &crate::common::packaged_fmus(), &work).unwrap();
+    let plan = Plan::new(scenario, &crate::common::packaged_fmus(), &work.0).unwrap();
     assert_eq!(plan.step_order(), ["vehicle", "ekf"]);
     assert!(plan.columns().contains(&"ekf.vy_est".to_string()));
 }

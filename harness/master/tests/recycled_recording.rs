@@ -5,16 +5,21 @@
 //! Needs the packaged FMUs (`cargo run --release -p packaging`) in
 //! `fmi_master::runner::default_fmu_dir()`.
 
+use std::path::Path;
+
 use fmi_master::cosim::{ParameterValue, Plan, RunOptions, RunResult};
 use fmi_master::runner::scenario_dir;
 use fmi_master::runner::Environment;
 use fmi_master::scenario::{Scenario, VarRef};
 
-fn plan(stop_time: f64, tag: &str) -> Plan {
+use crate::common::Scratch;
+
+/// The plan of `stop_time` seconds, its FMUs extracted below `out_dir`.
+fn plan(stop_time: f64, out_dir: &Path) -> Plan {
     let fmu_dir = crate::common::packaged_fmus();
     let env = Environment {
         fmu_dir,
-        out_dir: std::env::temp_dir().join(format!("harness-recycle-{}-{tag}", std::process::id())),
+        out_dir: out_dir.to_path_buf(),
     };
     let mut scenario =
         Scenario::from_file(&scenario_dir().join("seed000_ramp_high_ay.toml")).expect("scenario");
@@ -49,7 +54,8 @@ fn assert_same(a: &RunResult, b: &RunResult, what: &str) {
 
 #[test]
 fn recycled_recordings_give_the_values_of_fresh_ones() {
-    let long = plan(2.0, "long");
+    let scratch = Scratch::new("recycle");
+    let long = plan(2.0, &scratch.0.join("long"));
     let fresh = |plan: &Plan, seed| plan.run(&seeded(seed), |_| {}).expect("run");
 
     let first = fresh(&long, 1);
@@ -59,7 +65,7 @@ fn recycled_recordings_give_the_values_of_fresh_ones() {
     let second = fresh(&long, 2);
     assert_same(
         &second,
-        &fresh(&plan(2.0, "check"), 2),
+        &fresh(&plan(2.0, &scratch.0.join("check")), 2),
         "seed 2 after seed 1",
     );
     long.recycle(second);

@@ -10,6 +10,8 @@ use std::process::{Command, Output};
 use fmi_master::runner::scenario_dir;
 use harness::identify::{self, JobData, JobOverrides};
 
+use crate::scratch::Scratch;
+
 const HARNESS: &str = env!("CARGO_BIN_EXE_harness");
 
 /// Seed 003's truth and start (003: 3.18, §3.2).
@@ -85,9 +87,9 @@ particles = 25
 
 #[test]
 fn identifies_a_simulated_data_set_and_the_same_data_as_csv() {
-    let dir = tempfile::tempdir().unwrap();
-    let file = small_identification_file(dir.path(), "small", "[4]");
-    let out = dir.path().join("out");
+    let dir = Scratch::new("identify");
+    let file = small_identification_file(&dir.0, "small", "[4]");
+    let out = dir.0.join("out");
     let output = harness(&[
         "identify",
         file.to_str().unwrap(),
@@ -139,11 +141,11 @@ fn identifies_a_simulated_data_set_and_the_same_data_as_csv() {
         shuffled += &order.map(|c| row[c].as_str()).join(",");
         shuffled.push('\n');
     }
-    write(dir.path(), "recorded.csv", &shuffled);
+    write(&dir.0, "recorded.csv", &shuffled);
     // Same identification settings as the simulated run (25 particles), through a file that
     // points at the CSV.
     let recorded = write(
-        dir.path(),
+        &dir.0,
         "recorded.toml",
         "name = \"recorded\"\ndata = \"recorded.csv\"\n\
          true_parameters = [8.36, 7.78, 0.62, 1.014]\n[identification]\nparticles = 25\n",
@@ -169,9 +171,9 @@ fn identifies_a_simulated_data_set_and_the_same_data_as_csv() {
 
 #[test]
 fn parallel_noise_seeds_give_the_single_runs_results() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = Scratch::new("identify");
     let file = write(
-        dir.path(),
+        &dir.0,
         "tiny.toml",
         r#"
 name = "tiny"
@@ -232,8 +234,8 @@ const GOOD_CSV: &str = "time,dvx_ref_dt,steering_angle,vx_ref,vy_ref,yaw_rate,ya
 ";
 
 fn csv_error(text: &str) -> String {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(dir.path(), "drive.csv", text);
+    let dir = Scratch::new("identify");
+    let path = write(&dir.0, "drive.csv", text);
     match identify::read_csv(&path) {
         Ok(data) => panic!("accepted {data:?} from:\n{text}"),
         Err(e) => format!("{e:#}"),
@@ -253,9 +255,9 @@ fn assert_names(message: &str, parts: &[&str]) {
 
 #[test]
 fn a_good_csv_is_read_with_its_sample_time_and_missing_measurements() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = Scratch::new("identify");
     let text = GOOD_CSV.replace("0.21,-0.43", ",NaN");
-    let data = identify::read_csv(&write(dir.path(), "drive.csv", &text)).unwrap();
+    let data = identify::read_csv(&write(&dir.0, "drive.csv", &text)).unwrap();
     assert_eq!(data.len(), 3);
     assert!((data.sample_time - 0.01).abs() < 1e-15);
     assert_eq!(data.inputs[1], [0.1, -0.05, 14.001]);
@@ -392,19 +394,19 @@ fn the_command_names_a_missing_or_wrong_file() {
     ]);
     assert_names(&e, &["/nonexistent/drive.csv"]);
 
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
+    let dir = Scratch::new("identify");
+    let out = dir.0.to_str().unwrap();
     let bad = GOOD_CSV.replace("0.22", "oops");
     let parts = ["drive.csv", "line 4", "column 5", "vy_ref"];
-    assert_data_refused(dir.path(), "drive.csv", &bad, &parts);
+    assert_data_refused(&dir.0, "drive.csv", &bad, &parts);
     assert_data_refused(
-        dir.path(),
+        &dir.0,
         "drive.txt",
         GOOD_CSV,
         &["drive.txt", ".csv", ".toml"],
     );
 
-    let good = write(dir.path(), "good.csv", GOOD_CSV);
+    let good = write(&dir.0, "good.csv", GOOD_CSV);
     let good = good.to_str().unwrap();
     let e = refused(&["identify", good, "--truth", "8.36,7.78", "--out", out]);
     assert_names(&e, &["--truth", "2 values", "expected 4"]);
@@ -426,15 +428,15 @@ fn constant_drive_csv(rows: usize, speed: f64, steering: f64) -> String {
 /// parameters are refused, naming the file and the reason, with a non-zero exit.
 #[test]
 fn data_that_cannot_determine_the_parameters_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = Scratch::new("identify");
     assert_data_refused(
-        dir.path(),
+        &dir.0,
         "standing.csv",
         &constant_drive_csv(50, 0.0, 0.05),
         &["standing.csv", "row 0", "Vx_ref = 0", "low-speed guard"],
     );
     assert_data_refused(
-        dir.path(),
+        &dir.0,
         "straight.csv",
         &constant_drive_csv(50, 14.0, 0.0),
         &["straight.csv", "do not determine", "Csf", "Cramér-Rao"],
@@ -445,8 +447,8 @@ fn data_that_cannot_determine_the_parameters_are_refused() {
 // Bad identification files
 
 fn file_error(text: &str) -> String {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(dir.path(), "ident.toml", text);
+    let dir = Scratch::new("identify");
+    let path = write(&dir.0, "ident.toml", text);
     match identify::load(&path, &JobOverrides::default()) {
         Ok(job) => panic!("accepted {job:?} from:\n{text}"),
         Err(e) => format!("{e:#}"),
@@ -463,9 +465,9 @@ particles = 20
 
 #[test]
 fn a_good_file_overrides_only_what_it_names() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = Scratch::new("identify");
     let job = identify::load(
-        &write(dir.path(), "t.toml", GOOD_FILE),
+        &write(&dir.0, "t.toml", GOOD_FILE),
         &JobOverrides::default(),
     )
     .unwrap();
@@ -541,10 +543,10 @@ fn exactly_one_data_source() {
 
 #[test]
 fn a_file_can_point_at_a_csv_with_its_truth() {
-    let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "drive.csv", GOOD_CSV);
+    let dir = Scratch::new("identify");
+    write(&dir.0, "drive.csv", GOOD_CSV);
     let path = write(
-        dir.path(),
+        &dir.0,
         "ident.toml",
         "name = \"t\"\ndata = \"drive.csv\"\ntrue_parameters = [8.36, 7.78, 0.62, 1.014]\n",
     );
@@ -552,7 +554,7 @@ fn a_file_can_point_at_a_csv_with_its_truth() {
     assert_eq!(job.truth, Some(TRUTH));
     assert!(matches!(&job.data, JobData::Recorded { data, .. } if data.len() == 3));
     // A CSV error inside it names both files.
-    write(dir.path(), "drive.csv", &GOOD_CSV.replace("14.002", "?"));
+    write(&dir.0, "drive.csv", &GOOD_CSV.replace("14.002", "?"));
     let e = format!(
         "{:#}",
         identify::load(&path, &JobOverrides::default()).unwrap_err()
@@ -588,8 +590,8 @@ fn a_co_simulation_scenario_is_recognised() {
 
 #[test]
 fn overrides_that_do_not_fit_the_data_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write(dir.path(), "t.toml", GOOD_FILE);
+    let dir = Scratch::new("identify");
+    let path = write(&dir.0, "t.toml", GOOD_FILE);
     let e = identify::load(
         &path,
         &JobOverrides {
@@ -614,12 +616,12 @@ fn overrides_that_do_not_fit_the_data_are_refused() {
 
 #[test]
 fn truth_on_the_command_line_gives_relative_errors_for_a_recorded_set() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
+    let dir = Scratch::new("identify");
+    let out = dir.0.join("out");
     // A recorded data set that determines the parameters: a small simulated one, as CSV (a
     // few rows are refused as not identifying anything, see
     // data_that_cannot_determine_the_parameters_are_refused).
-    let file = small_identification_file(dir.path(), "small", "[4]");
+    let file = small_identification_file(&dir.0, "small", "[4]");
     let output = harness(&[
         "identify",
         file.to_str().unwrap(),
@@ -627,7 +629,7 @@ fn truth_on_the_command_line_gives_relative_errors_for_a_recorded_set() {
         out.to_str().unwrap(),
     ]);
     assert!(output.status.success(), "{}", stderr(&output));
-    let good = dir.path().join("good.csv");
+    let good = dir.0.join("good.csv");
     std::fs::copy(out.join("small").join("data_seed4.csv"), &good).unwrap();
     let output = harness(&[
         "identify",
@@ -667,9 +669,9 @@ fn a_closed_pipe_ends_the_command_quietly() {
     // Two commands with their own output code: the library listing and the identification
     // (its header line); every command writes through the one handle main.rs checks for
     // BrokenPipe. Before issue 11 both panicked in `println!` with exit status 101.
-    let dir = tempfile::tempdir().unwrap();
-    let file = small_identification_file(dir.path(), "pipe", "[4]");
-    let out = dir.path().join("out");
+    let dir = Scratch::new("identify");
+    let file = small_identification_file(&dir.0, "pipe", "[4]");
+    let out = dir.0.join("out");
     let identify = [
         "identify",
         file.to_str().unwrap(),
@@ -707,8 +709,8 @@ fn montecarlo_drives_the_sine_with_dwell_that_run_drives() {
     let fmu_dir = fmu_dir.to_str().expect("UTF-8 path");
     let scenario = scenario_dir().join("fmvss126_sine_with_dwell.toml");
     let scenario = scenario.to_str().expect("UTF-8 path");
-    let dir = tempfile::tempdir().unwrap();
-    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let dir = Scratch::new("identify");
+    let out = |name: &str| dir.0.join(name).to_str().unwrap().to_string();
 
     let run = harness(&[
         "run",

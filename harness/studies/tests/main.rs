@@ -7,5 +7,9 @@ mod mismatch;
 mod mismatch_identification;
 mod replay;
 mod robustness;
+// The scratch folder of fmi-master's tests (removed at the end of a test, KEEP_TEST_DIRS=1 keeps
+// a failing test's): one definition for the workspace's test binaries.
+#[path = "../../master/tests/common/scratch.rs"]
+mod scratch;
 mod seed003_identification;
 mod seed003_smoother;

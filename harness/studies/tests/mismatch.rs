@@ -17,6 +17,8 @@
 use fmi_master::runner::{packaged_fmu_dir, Environment};
 use harness::mismatch::{run_mismatch, MismatchStudy};
 
+use crate::scratch::Scratch;
+
 /// SQUAREM cycles of the shortened EM (3 E-steps each; the shipped study allows 20). Measured
 /// path of the shipped study (cycle: k_F, k_R): 1: 0.936, 1.033; 2: 0.904, 1.005; 3: 0.893,
 /// 0.991; 4: 0.885, 0.980; ... 20: 0.792, 0.845. After 4 cycles every bound below holds with a
@@ -26,18 +28,17 @@ const EM_CYCLES: usize = 4;
 #[test]
 fn identified_scales_are_scored_on_held_out_manoeuvres() {
     let fmu_dir = packaged_fmu_dir().expect("packaged FMUs");
-    let out = std::env::temp_dir().join(format!("harness-mismatch-{}", std::process::id()));
+    let out = Scratch::new("mismatch");
     let mut study = MismatchStudy::shipped();
     study.identification.max_cycles = EM_CYCLES;
     let report = run_mismatch(
         &study,
         &Environment {
             fmu_dir,
-            out_dir: out.clone(),
+            out_dir: out.0.clone(),
         },
     )
     .expect("mismatch study");
-    let _ = std::fs::remove_dir_all(&out);
     eprintln!("{}", report.summary());
 
     // Since the reference vehicle's feed-through fix (issue 17 point 1, 20cc07b) the data no

@@ -9,51 +9,53 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use fmi_master::cosim::RunResult;
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::fit::{fit, start_value, FitModel, FitOptions};
 use harness::replay::friction::FrictionFit;
 use harness::replay::{estimator_path, prepare, record, replay, ReplayOptions};
 
-/// The recorded drive as CSV and MF4 in a temporary folder, made once per test binary.
-fn logs() -> &'static (PathBuf, PathBuf, fmi_master::cosim::RunResult) {
-    static LOGS: OnceLock<(PathBuf, PathBuf, fmi_master::cosim::RunResult)> = OnceLock::new();
-    LOGS.get_or_init(|| {
-        let fmu_dir = default_fmu_dir();
-        let dir = scratch("logs");
-        let run = record::record_drive(&fmu_dir, &dir).unwrap_or_else(|e| panic!("{e:#}"));
-        let csv = record::write_csv(&run, &dir, "drive").expect("CSV log");
-        let mf4 = record::write_mf4(&run, &dir, "drive").expect("MF4 log");
-        (csv, mf4, run)
+use crate::scratch::Scratch;
+
+/// The recorded drive, run once per test binary and kept in memory: a static is never dropped,
+/// so no folder of it may outlive the recording (each test writes the logs into its own).
+fn drive() -> &'static RunResult {
+    static DRIVE: OnceLock<RunResult> = OnceLock::new();
+    DRIVE.get_or_init(|| {
+        let scratch = Scratch::new("replay-drive");
+        record::record_drive(&default_fmu_dir(), &scratch.0).unwrap_or_else(|e| panic!("{e:#}"))
     })
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("harness-replay-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    dir
+/// The recorded drive as a CSV log `drive.csv` in `dir`.
+fn csv_log(dir: &Path) -> PathBuf {
+    record::write_csv(drive(), dir, "drive").expect("CSV log")
 }
 
 fn map() -> PathBuf {
     workspace_root().join("harness/logs/ford_escort_sis.toml")
 }
 
-fn replay_options(log: &Path, out: &str) -> ReplayOptions {
+/// `harness replay` of `log` with the example map, writing into `out`.
+fn replay_options(log: &Path, out: PathBuf) -> ReplayOptions {
     ReplayOptions {
         log: log.to_path_buf(),
         map: map(),
         parameters: None,
         fmu: estimator_path(None, &default_fmu_dir()),
-        out: scratch(out),
+        out,
         plots: false,
     }
 }
 
 #[test]
 fn the_csv_and_mf4_logs_replay_alike_with_units_signs_and_rates_converted() {
-    let (csv, mf4, run) = logs();
-    let from_csv = replay(&replay_options(csv, "csv")).expect("CSV replay");
-    let from_mf4 = replay(&replay_options(mf4, "mf4")).expect("MF4 replay");
+    let scratch = Scratch::new("replay-logs");
+    let (run, csv) = (drive(), csv_log(&scratch.0));
+    let mf4 = record::write_mf4(run, &scratch.0, "drive").expect("MF4 log");
+    let from_csv = replay(&replay_options(&csv, scratch.0.join("csv"))).expect("CSV replay");
+    let from_mf4 = replay(&replay_options(&mf4, scratch.0.join("mf4"))).expect("MF4 replay");
     // The steering-wheel angle (deg, positive right, ratio 16) arrives as the road-wheel angle
     // (rad, positive left), the yaw rate in rad/s, the 20-ms wheel speeds (rpm) held: at each
     // step the fed value is the recorded one of that row or of the row before (jittered stamps).
@@ -117,9 +119,8 @@ fn zero_sideslip_rmse(scores: &[fmi_master::scoring::StateScore]) -> f64 {
         .rmse
 }
 
-/// The first error message of preparing `log` (CSV text) with `map_text`.
-fn error_of(log_text: &str, map_text: Option<&str>) -> (String, PathBuf, PathBuf) {
-    let dir = scratch("bad");
+/// The first error message of preparing `log` (CSV text) with `map_text`, both written to `dir`.
+fn error_of(dir: &Path, log_text: &str, map_text: Option<&str>) -> (String, PathBuf, PathBuf) {
     let id = format!("{:x}", log_text.len() * 31 + map_text.map_or(0, str::len));
     let log = dir.join(format!("bad_{id}.csv"));
     std::fs::write(&log, log_text).unwrap();
@@ -141,8 +142,9 @@ fn error_of(log_text: &str, map_text: Option<&str>) -> (String, PathBuf, PathBuf
 
 #[test]
 fn bad_logs_and_maps_are_refused_naming_file_line_and_column() {
-    let (csv, _, _) = logs();
-    let good = std::fs::read_to_string(csv).unwrap();
+    let scratch = Scratch::new("replay-bad");
+    let dir = &scratch.0;
+    let good = std::fs::read_to_string(csv_log(dir)).unwrap();
     let mut lines: Vec<String> = good.lines().take(50).map(String::from).collect();
     let header = lines[0].clone();
 
@@ -151,7 +153,7 @@ fn bad_logs_and_maps_are_refused_naming_file_line_and_column() {
     let renamed: Vec<String> = std::iter::once(without)
         .chain(lines[1..].iter().cloned())
         .collect();
-    let (message, _, map_path) = error_of(&renamed.join("\n"), None);
+    let (message, _, map_path) = error_of(dir, &renamed.join("\n"), None);
     assert!(
         message.contains(&format!("map {}, line 45, column 10", map_path.display()))
             && message.contains("\"yaw_rate\""),
@@ -163,7 +165,7 @@ fn bad_logs_and_maps_are_refused_naming_file_line_and_column() {
         "unit = \"deg/s\"\n\n[inputs.ay_meas]",
         "unit = \"km/h\"\n\n[inputs.ay_meas]",
     );
-    let (message, _, map_path) = error_of(&good, Some(&wrong_unit));
+    let (message, _, map_path) = error_of(dir, &good, Some(&wrong_unit));
     assert!(
         message.contains(&format!("map {}, line 46, column 8", map_path.display()))
             && message.contains("rad/s, deg/s, rpm"),
@@ -173,7 +175,7 @@ fn bad_logs_and_maps_are_refused_naming_file_line_and_column() {
     // Time running backwards on line 6 (row 5).
     let mut backwards = lines.clone();
     backwards[5] = backwards[5].replacen(&backwards[5][..6], "0.0100", 1);
-    let (message, log, _) = error_of(&backwards.join("\n"), None);
+    let (message, log, _) = error_of(dir, &backwards.join("\n"), None);
     assert!(
         message.contains(&format!(
             "log {}, line 6, column 1 (\"time\")",
@@ -183,7 +185,7 @@ fn bad_logs_and_maps_are_refused_naming_file_line_and_column() {
     );
 
     // An empty file.
-    let (message, log, _) = error_of("", None);
+    let (message, log, _) = error_of(dir, "", None);
     assert!(
         message.contains(&format!("log {}, line 1", log.display())) && message.contains("empty"),
         "{message}"
@@ -203,7 +205,7 @@ fn bad_logs_and_maps_are_refused_naming_file_line_and_column() {
         })
         .collect::<Vec<_>>()
         .join(",");
-    let (message, log, _) = error_of(&lines.join("\n"), None);
+    let (message, log, _) = error_of(dir, &lines.join("\n"), None);
     assert!(
         message.contains(&format!(
             "log {}, line 4, column 4 (\"lateral_acceleration\")",
@@ -234,8 +236,9 @@ fn fit_options(
 
 #[test]
 fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
-    let (csv, _, _) = logs();
-    let out = scratch("fit").join("escort.ssv");
+    let scratch = Scratch::new("replay-fit");
+    let csv = &csv_log(&scratch.0);
+    let out = scratch.0.join("escort.ssv");
     // Training where the tyres are linear (|ay| up to 4.7 m/s², below 0.5 f0 g = 5.9): model
     // A's single track without load transfer is the right structure there. On a segment up
     // to the limit the EM takes the segment's linear part only (the next test); on 12-16 s,
@@ -270,7 +273,7 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
     // The file is an SSP parameter-value file the replay accepts.
     let again = replay(&ReplayOptions {
         parameters: Some(out.clone()),
-        ..replay_options(csv, "refit")
+        ..replay_options(csv, scratch.0.join("refit"))
     })
     .expect("replay with the fitted .ssv");
     assert!(again.scores.iter().any(|s| s.label == "sideslip"));
@@ -330,8 +333,9 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
 /// from the segment's linear part.
 #[test]
 fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimate() {
-    let (csv, _, _) = logs();
-    let out = scratch("fit_limit").join("escort_limit.ssv");
+    let scratch = Scratch::new("replay-fit-limit");
+    let csv = &csv_log(&scratch.0);
+    let out = scratch.0.join("escort_limit.ssv");
     let fitted = fit(&fit_options(csv, &out, None, None)).expect("fit");
     eprintln!("{}", fitted.summary());
     match fitted.friction {
@@ -376,8 +380,9 @@ fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimat
 /// (2.22° against 2.06°; 1.36° since `tyres_hold_the_sideslip` in the estimator's model A).
 #[test]
 fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
-    let dir = scratch("limit_drive");
-    let run = record::record_scenario(&default_fmu_dir(), "record_ford_escort_limit.toml", &dir)
+    let scratch = Scratch::new("replay-limit-drive");
+    let dir = &scratch.0;
+    let run = record::record_scenario(&default_fmu_dir(), "record_ford_escort_limit.toml", dir)
         .unwrap_or_else(|e| panic!("{e:#}"));
     let column = |name: &str| {
         run.column(name)
@@ -417,8 +422,9 @@ fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
         ay[last],
         steering[last]
     );
-    let csv = record::write_csv(&run, &dir, "limit").expect("CSV log");
-    let outcome = replay(&replay_options(&csv, "limit_replay")).unwrap_or_else(|e| panic!("{e:#}"));
+    let csv = record::write_csv(&run, dir, "limit").expect("CSV log");
+    let outcome =
+        replay(&replay_options(&csv, dir.join("limit_replay"))).unwrap_or_else(|e| panic!("{e:#}"));
     let estimate = outcome
         .scores
         .iter()
@@ -434,10 +440,8 @@ fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
 
 /// The start value of the estimator FMU's Real parameter `name`.
 fn default_real(name: &str) -> f64 {
-    let fmu = LoadedFmu::load(
-        &estimator_path(None, &default_fmu_dir()),
-        &scratch(&format!("start-{name}")),
-    )
-    .unwrap_or_else(|e| panic!("{e:#}"));
+    let scratch = Scratch::new(&format!("replay-start-{name}"));
+    let fmu = LoadedFmu::load(&estimator_path(None, &default_fmu_dir()), &scratch.0)
+        .unwrap_or_else(|e| panic!("{e:#}"));
     start_value(&fmu, name).unwrap_or_else(|| panic!("{name}: no Real start value"))
 }

@@ -6,27 +6,27 @@
 //! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command
 //! (`fmi_master::runner::packaged_fmu_dir`).
 
-use std::path::PathBuf;
-
 use fmi_master::runner::{packaged_fmu_dir, scenario_dir, Environment};
 use harness::campaigns::{Campaign, SHIPPED_CAMPAIGNS};
 use harness::robustness::{run_case, CaseFile, SHIPPED_CASES};
 
+use crate::scratch::Scratch;
+
 /// Status bit 128 of the estimator: a measurement row was gated.
 const ROW_GATED: u32 = 128;
 
-fn environment(name: &str) -> Environment {
-    let fmu_dir = packaged_fmu_dir().expect("packaged FMUs");
-    let out: PathBuf = std::env::temp_dir().join(format!("harness-{name}-{}", std::process::id()));
+/// The packaged FMUs, the output in `scratch`.
+fn environment(scratch: &Scratch) -> Environment {
     Environment {
-        fmu_dir,
-        out_dir: out,
+        fmu_dir: packaged_fmu_dir().expect("packaged FMUs"),
+        out_dir: scratch.0.clone(),
     }
 }
 
 #[test]
 fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
-    let env = environment("robustness");
+    let scratch = Scratch::new("robustness");
+    let env = environment(&scratch);
     let file = CaseFile::from_file(&scenario_dir().join(SHIPPED_CASES)).expect("case file");
     let case = file
         .cases
@@ -34,7 +34,6 @@ fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
         .find(|c| c.name == "glitch_ay")
         .expect("the shipped cases have glitch_ay");
     let result = run_case(&file, case, &env, false).expect("glitch_ay runs");
-    let _ = std::fs::remove_dir_all(&env.out_dir);
     let [defaults, old] = [&result.figures[0], &result.figures[1]];
     assert_eq!(defaults.estimator, "EKF");
     assert_eq!(old.estimator, "EKF_old");
@@ -50,7 +49,8 @@ fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
 
 #[test]
 fn a_step_steer_on_the_escort_is_estimated_better_than_reporting_zero() {
-    let env = environment("campaign");
+    let scratch = Scratch::new("campaign");
+    let env = environment(&scratch);
     let campaign = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).expect("campaigns");
     let manoeuvre = campaign
         .file
@@ -69,8 +69,6 @@ fn a_step_steer_on_the_escort_is_estimated_better_than_reporting_zero() {
     let (_, rows) = campaign
         .run_one(&car, manoeuvre, manoeuvre.section.clone(), &env, &fmu)
         .expect("step steer on the Escort runs");
-    drop(fmu);
-    let _ = std::fs::remove_dir_all(&env.out_dir);
     assert_eq!(rows.len(), campaign.estimators.len());
     assert!(rows.iter().all(|r| !r.diverged), "{rows:#?}");
     // Model B's filters beat reporting zero (measured 0.065 deg against 0.129 deg) and meet

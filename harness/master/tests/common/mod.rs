@@ -5,32 +5,47 @@ use std::path::{Path, PathBuf};
 
 use zip::write::SimpleFileOptions;
 
-/// A fresh folder under the system's temporary folder, removed on drop.
-pub struct Scratch(pub PathBuf);
+mod scratch;
 
-impl Scratch {
-    pub fn new(name: &str) -> Scratch {
-        let dir =
-            std::env::temp_dir().join(format!("harness-fmu-test-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Scratch(dir)
+pub use scratch::Scratch;
+
+#[test]
+fn a_scratch_folder_goes_when_its_test_fails_unless_kept() {
+    let passing = Scratch::new("scratch-passing");
+    let passing_path = passing.0.clone();
+    assert_ne!(
+        passing_path,
+        Scratch::new("scratch-passing").0,
+        "unique names"
+    );
+    drop(passing);
+    assert!(!passing_path.exists(), "removed after a passing test");
+    let mut failing_path = PathBuf::new();
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let failing = Scratch::new("scratch-failing");
+        failing_path = failing.0.clone();
+        std::fs::write(failing.0.join("evidence.txt"), "inspect me").unwrap();
+        panic!("a failing test");
+    }));
+    assert!(outcome.is_err());
+    let kept = scratch::keep_failed_test_dirs();
+    assert_eq!(
+        failing_path.join("evidence.txt").exists(),
+        kept,
+        "KEEP_TEST_DIRS={kept}"
+    );
+    if kept {
+        std::fs::remove_dir_all(&failing_path).unwrap();
     }
 }
 
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-/// A zip archive of `entries` (name, bytes), deflated.
 /// The folder of the packaged FMUs (`fmi_master::runner::packaged_fmu_dir`); the test fails with
 /// its message, which says how to build them, when they are missing.
 pub fn packaged_fmus() -> PathBuf {
     fmi_master::runner::packaged_fmu_dir().unwrap_or_else(|error| panic!("{error:#}"))
 }
 
+/// A zip archive of `entries` (name, bytes), deflated.
 pub fn write_zip(path: &Path, entries: &[(&str, &[u8])]) {
     let file = std::fs::File::create(path).unwrap();
     let mut zip = zip::ZipWriter::new(file);
