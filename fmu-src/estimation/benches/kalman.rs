@@ -285,7 +285,7 @@ fn bench_two_track_step(bencher: divan::Bencher, name: &str) {
     let choice = EstimatorChoice::from_name(name).unwrap();
     let x = SVector::<f64, 3>::from([-0.004, 0.27, 4.9]);
     let steering_ratio = model.vehicle().vehicle.chassis.steering_ratio;
-    let u = SVector::<f64, 2>::from([40f64.to_radians() / steering_ratio, SEED_001_SPEED]);
+    let u = SVector::<f64, 3>::from([40f64.to_radians() / steering_ratio, SEED_001_SPEED, 0.0]);
     let y = SVector::<f64, 2>::from([4.95, 0.272]);
     let initial = InitialEstimate::diagonal(x, SVector::<f64, 3>::from([1e-4, 1e-4, 1e-2]));
     let mut filter = registry::build(model, choice, &settings, &initial).unwrap();

@@ -27,7 +27,7 @@ const SPEED_NOISE_STD: f64 = 0.05;
 
 struct Run {
     times: Vec<f64>,
-    inputs: Vec<SVector<f64, 2>>,
+    inputs: Vec<SVector<f64, 3>>,
     measurements: Vec<SVector<f64, 2>>,
     sideslip: Vec<f64>,
     lateral_acceleration: Vec<f64>,
@@ -66,9 +66,11 @@ fn reference_run(seed: u64) -> Run {
         if k % ratio == 0 {
             let truth = vehicle.truth(&x, &u);
             run.times.push(t);
-            run.inputs.push(SVector::<f64, 2>::new(
+            // at the seed's constant speed, free rolling: ax = 0
+            run.inputs.push(SVector::<f64, 3>::new(
                 input.steering_angle,
                 truth.longitudinal_velocity + speed_noise.sample(&mut rng),
+                0.0,
             ));
             run.measurements.push(SVector::<f64, 2>::new(
                 truth.lateral_acceleration + ay_noise.sample(&mut rng),
@@ -84,7 +86,7 @@ fn reference_run(seed: u64) -> Run {
 
 /// Runs `filter` over `run` (predict with `u(k-1)`, update with `y(k)`, `u(k)`); the sideslip
 /// estimates at every sample.
-fn sideslip_estimates(filter: &mut impl Estimator<3, 2, 2>, run: &Run) -> Vec<f64> {
+fn sideslip_estimates(filter: &mut impl Estimator<3, 2, 3>, run: &Run) -> Vec<f64> {
     let mut estimates = vec![filter.state()[0]];
     for k in 1..run.times.len() {
         let _ = filter.predict(&run.inputs[k - 1]);

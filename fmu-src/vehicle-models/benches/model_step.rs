@@ -84,7 +84,7 @@ fn model_b_three_state_step(bencher: divan::Bencher) {
     use vehicle_models::two_track_lateral::{TwoTrackLateralInput, TwoTrackLateralState};
     let model = vehicle_models::TwoTrackLateralMagicFormula::default();
     let x = TwoTrackLateralState::new(-0.0024, 0.2058, 3.6);
-    let u = TwoTrackLateralInput::new(0.035, 17.48);
+    let u = TwoTrackLateralInput::new(0.035, 17.48, 0.0);
     bencher.bench_local(|| {
         model.step(
             black_box(&x),
@@ -100,7 +100,7 @@ fn model_b_three_state_step_jacobians(bencher: divan::Bencher) {
     use vehicle_models::two_track_lateral::{TwoTrackLateralInput, TwoTrackLateralState};
     let model = vehicle_models::TwoTrackLateralMagicFormula::default();
     let x = TwoTrackLateralState::new(-0.0024, 0.2058, 3.6);
-    let u = TwoTrackLateralInput::new(0.035, 17.48);
+    let u = TwoTrackLateralInput::new(0.035, 17.48, 0.0);
     bencher.bench_local(|| {
         model.step_jacobians(
             black_box(&x),

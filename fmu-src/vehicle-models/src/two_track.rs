@@ -151,23 +151,50 @@ impl TwoTrackParams {
     /// outer carries the axle; [`Self::wheel_lifted`]). Below that the loads are seed 001's.
     #[inline(always)]
     pub fn wheel_loads<S: Scalar>(&self, lateral_acceleration: S) -> [S; WHEELS] {
+        self.wheel_loads_accelerating(lateral_acceleration, S::constant(0.0))
+    }
+
+    /// Wheel loads as [`Self::wheel_loads`], on axle loads shifted by the longitudinal load
+    /// transfer of `longitudinal_acceleration` (m/s², positive forward): the pitch moment
+    /// `m ax h` over the wheelbase moves `m ax h / l` from the front axle to the rear one when
+    /// accelerating, the other way when braking (Mitschke and Wallentowitz, "Dynamik der
+    /// Kraftfahrzeuge", 5th ed., eq. 4.7; not in seed 001, whose manoeuvres run at constant
+    /// speed). A transfer larger than an axle's load is clamped (the axle lifts at most to 0).
+    /// At `longitudinal_acceleration = 0` this is [`Self::wheel_loads`] bit for bit.
+    #[inline(always)]
+    pub fn wheel_loads_accelerating<S: Scalar>(
+        &self,
+        lateral_acceleration: S,
+        longitudinal_acceleration: S,
+    ) -> [S; WHEELS] {
+        let chassis = &self.chassis;
+        let wheelbase = chassis.cog_to_front_axle + chassis.cog_to_rear_axle;
+        // per wheel: half of the axle's m ax h / l
+        let pitch_transfer = clamp_transfer_between(
+            longitudinal_acceleration
+                * (PER_WHEEL_OF_AXLE * chassis.mass * self.cog_height / wheelbase),
+            chassis.rear_wheel_load,
+            chassis.front_wheel_load,
+        );
+        let front_load = -pitch_transfer + chassis.front_wheel_load;
+        let rear_load = pitch_transfer + chassis.rear_wheel_load;
         // roll moment m ay h, carried by the axles as ξ and 1 − ξ over the track width
         let transfer_per_share =
-            lateral_acceleration * (self.chassis.mass * self.cog_height / self.track_width);
+            lateral_acceleration * (chassis.mass * self.cog_height / self.track_width);
         let front = clamp_transfer(
             transfer_per_share * self.front_roll_moment_share,
-            self.chassis.front_wheel_load,
+            front_load,
         );
         let rear = clamp_transfer(
             transfer_per_share * (1.0 - self.front_roll_moment_share),
-            self.chassis.rear_wheel_load,
+            rear_load,
         );
         // in a left turn (ay > 0) the right (outer) wheels gain load
         [
-            -front + self.chassis.front_wheel_load,
-            front + self.chassis.front_wheel_load,
-            -rear + self.chassis.rear_wheel_load,
-            rear + self.chassis.rear_wheel_load,
+            -front + front_load,
+            front + front_load,
+            -rear + rear_load,
+            rear + rear_load,
         ]
     }
 
@@ -223,11 +250,19 @@ pub(crate) fn axle_tyre<'a, T>(front: &'a T, rear: &'a Option<T>, wheel: usize) 
 /// An axle's load transfer limited to its static wheel load (the inner wheel lifts at most to
 /// zero load). Unchanged, with its derivatives, inside the limit.
 #[inline(always)]
-fn clamp_transfer<S: Scalar>(transfer: S, static_load: f64) -> S {
-    if transfer.value() > static_load {
-        S::constant(static_load)
-    } else if transfer.value() < -static_load {
-        S::constant(-static_load)
+fn clamp_transfer<S: Scalar>(transfer: S, axle_wheel_load: S) -> S {
+    let limit = axle_wheel_load.value();
+    clamp_transfer_between(transfer, limit, limit)
+}
+
+/// A load transfer limited to `[-below, above]`, the loads of the wheels it is taken from.
+/// Unchanged, with its derivatives, inside the limits.
+#[inline(always)]
+fn clamp_transfer_between<S: Scalar>(transfer: S, below: f64, above: f64) -> S {
+    if transfer.value() > above {
+        S::constant(above)
+    } else if transfer.value() < -below {
+        S::constant(-below)
     } else {
         transfer
     }

@@ -203,12 +203,12 @@ fn three_state_form_follows_the_full_model_b() {
             speed = vx;
             x = lateral.step(
                 &x,
-                &TwoTrackLateralInput::new(steer, vx),
+                &TwoTrackLateralInput::new(steer, vx, 0.0),
                 SAMPLE_TIME,
                 Integrator::SemiImplicitEuler,
             );
         }
-        let u = TwoTrackLateralInput::new(u_full[input_index::STEERING_ANGLE], speed);
+        let u = TwoTrackLateralInput::new(u_full[input_index::STEERING_ANGLE], speed, 0.0);
         let y = lateral.measurement(&x, &u);
         assert!(
             (x[lateral_index::SIDESLIP] - truth.sideslip).abs() < 0.1_f64.to_radians(),
@@ -227,7 +227,7 @@ fn three_state_form_follows_the_full_model_b() {
 fn three_state_form_shows_load_transfer_degression() {
     let model = TwoTrackLateralMagicFormula::default();
     let x = TwoTrackLateralState::new(0.0, 0.45, 7.0);
-    let u = TwoTrackLateralInput::new(0.12, 15.0);
+    let u = TwoTrackLateralInput::new(0.12, 15.0, 0.0);
     let without = model.lateral_acceleration_with_loads(&x, &u, 0.0);
     let with = model.lateral_acceleration_with_loads(&x, &u, 7.0);
     assert!(with < without - 0.05, "{with} vs {without}");
@@ -239,19 +239,28 @@ fn three_state_jacobians_match_central_differences() {
     let points = [
         (
             TwoTrackLateralState::new(0.0, 0.0, 0.0),
-            TwoTrackLateralInput::new(0.0, 18.0),
+            TwoTrackLateralInput::new(0.0, 18.0, 0.0),
         ),
         (
             TwoTrackLateralState::new(-0.002, 0.21, 3.6),
-            TwoTrackLateralInput::new(0.035, 17.5),
+            TwoTrackLateralInput::new(0.035, 17.5, 0.0),
         ),
         (
             TwoTrackLateralState::new(0.03, 0.5, 7.5),
-            TwoTrackLateralInput::new(0.15, 15.0),
+            TwoTrackLateralInput::new(0.15, 15.0, 0.0),
         ),
         (
             TwoTrackLateralState::new(-0.08, -0.6, -8.0),
-            TwoTrackLateralInput::new(-0.3, 12.0),
+            TwoTrackLateralInput::new(-0.3, 12.0, 0.0),
+        ),
+        // braking and accelerating in a turn: the longitudinal load transfer and slip
+        (
+            TwoTrackLateralState::new(0.03, 0.5, 7.5),
+            TwoTrackLateralInput::new(0.15, 15.0, -5.0),
+        ),
+        (
+            TwoTrackLateralState::new(-0.02, -0.3, -5.0),
+            TwoTrackLateralInput::new(-0.08, 20.0, 2.0),
         ),
     ];
     for (x, u) in points {
@@ -260,7 +269,7 @@ fn three_state_jacobians_match_central_differences() {
                 let (a, b) = model.step_jacobians(&x, &u, dt, integrator);
                 let a_fd: SMatrix<f64, 3, 3> =
                     central_difference(&x, |x| model.step(x, &u, dt, integrator));
-                let b_fd: SMatrix<f64, 3, 2> =
+                let b_fd: SMatrix<f64, 3, 3> =
                     central_difference(&u, |u| model.step(&x, u, dt, integrator));
                 assert_jacobian_close("model B3 A", &a, &a_fd);
                 assert_jacobian_close("model B3 B", &b, &b_fd);
@@ -268,7 +277,7 @@ fn three_state_jacobians_match_central_differences() {
         }
         let (c, d) = model.measurement_jacobians();
         let c_fd: SMatrix<f64, 2, 3> = central_difference(&x, |x| model.measurement(x, &u));
-        let d_fd: SMatrix<f64, 2, 2> = central_difference(&u, |u| model.measurement(&x, u));
+        let d_fd: SMatrix<f64, 2, 3> = central_difference(&u, |u| model.measurement(&x, u));
         assert_jacobian_close("model B3 C", &c, &c_fd);
         assert_jacobian_close("model B3 D", &d, &d_fd);
     }
@@ -284,7 +293,7 @@ fn a_rear_tyre_parameter_changes_the_rear_axle_force_and_not_the_front() {
     use vehicle_models::tyre::MagicFormulaParams;
     let seed = TwoTrackLateralMagicFormula::default();
     let x = TwoTrackLateralState::new(-0.03, 0.4, 8.0);
-    let u = TwoTrackLateralInput::new(0.06, 20.0);
+    let u = TwoTrackLateralInput::new(0.06, 20.0, 0.0);
     let base = seed.axle_lateral_forces(&x, &u, 8.0);
     let per_axle = TwoTrackLateralMagicFormula::with_axle_tyres(
         TwoTrackParams::default(),

@@ -103,7 +103,8 @@ fn model_b_is_finite_everywhere() {
                 for steer in STEER {
                     for ay in [-9.0, 0.0, 9.0] {
                         let x = TwoTrackLateralState::new(vy.atan2(vx.abs().max(1.0)), r, ay);
-                        let u = TwoTrackLateralInput::new(steer, vx);
+                        // braking, free rolling and accelerating hard, one per ay
+                        let u = TwoTrackLateralInput::new(steer, vx, -1.5 * ay);
                         for dt in STEPS {
                             for integrator in INTEGRATORS {
                                 assert!(finite(

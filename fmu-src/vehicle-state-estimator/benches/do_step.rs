@@ -205,8 +205,8 @@ fn bare_step_b(name: &str) -> impl FnMut() -> (bool, bool) {
         estimator: estimator(name),
         ..Variables::default()
     };
-    let mut filter = bare_filter::<ModelB, 3, 2, 2>(&variables);
-    let input = SVector::<f64, 2>::new(0.05, SENSORS_B[4]);
+    let mut filter = bare_filter::<ModelB, 3, 2, 3>(&variables);
+    let input = SVector::<f64, 3>::new(0.05, SENSORS_B[4], 0.0);
     let measurement = SVector::<f64, 2>::new(SENSORS_B[1], SENSORS_B[0]);
     move || {
         let report = filter.update(divan::black_box(&measurement), &input, &[true; 2]);

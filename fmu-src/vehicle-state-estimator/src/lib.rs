@@ -41,7 +41,8 @@
 //!   the previous doStep.
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
-//! `u = [steering_angle, vx]` and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,
+//! `u = [steering_angle, vx, ax_meas]` (`ax_meas` with `use_speed_measurements`, for the
+//! longitudinal load transfer; else 0) and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,
 //! `TwoTrackEstimationModel`), the same car with Magic Formula tyres matched to the HSRI
 //! parameters. LKF (seed 001's linear single-track comparison filter about straight driving at
 //! `lkf_vx`), EKF, both UKFs and the particle filter run on it; the Luenberger observer has no

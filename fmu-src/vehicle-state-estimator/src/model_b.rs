@@ -15,7 +15,7 @@ use vehicle_models::two_track_lateral::{
 };
 use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 
-use crate::model_a::MAX_PLAUSIBLE_AY;
+use crate::model_a::{speed_measurements, MAX_PLAUSIBLE_AY};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
@@ -125,7 +125,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         }
     }
 
-    /// `y = [ay, r]` (001: eq 9), `u = [δ, vx]`.
+    /// `y = [ay, r]` (001: eq 9), `u = [δ, vx, ax]`.
     fn sample(
         runner: &mut Runner<Self, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>,
         sensors: &Sensors,
@@ -152,9 +152,13 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             bits |= status::ROW_SKIPPED;
         }
         passed.speed = speed;
+        // The measured ax shifts the axle loads (vehicle_models' two_track_lateral docs), taken
+        // as model A takes it, with use_speed_measurements; missing, the loads of free rolling
+        // (seed 001's model).
+        let (_, ax) = speed_measurements(&runner.parameters, sensors);
         Ok(Sample {
             measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
-            input: SVector::from([runner.input[0], speed]),
+            input: SVector::from([runner.input[0], speed, ax.unwrap_or(0.0)]),
             offered: [true; MEASUREMENT_DIM],
             bits,
         })
@@ -210,7 +214,8 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let variances = sample.covariance.diagonal();
         let passed = sample.extra;
         let steering = sample.input[0];
-        let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed]);
+        // the slip angles do not depend on ax
+        let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed, 0.0]);
         // vy = vx tan β and the axle slip angles (001: eqs 4-5).
         let derived = self.vehicle().outputs(&x, &u);
         let vx = passed.speed;
