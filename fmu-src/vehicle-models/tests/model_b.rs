@@ -233,6 +233,40 @@ fn three_state_form_shows_load_transfer_degression() {
     assert!(with < without - 0.05, "{with} vs {without}");
 }
 
+/// The measured ax shifts the axle loads by the pitch moment (Mitschke and Wallentowitz eq.
+/// 4.7): braking at 5 m/s² moves `m ax h / l` to the front axle, the total stays the weight,
+/// and in a braked turn the loaded front axle turns the car harder (more yaw acceleration) than
+/// the same turn free rolling. (At ax = 0 the seeds' tests check the seed's numbers.)
+#[test]
+fn braking_moves_load_to_the_front_axle_and_turns_the_car_in() {
+    let params = TwoTrackParams::default();
+    let chassis = &params.chassis;
+    let wheelbase = chassis.cog_to_front_axle + chassis.cog_to_rear_axle;
+    let ay = 6.0_f64;
+    assert_eq!(
+        params.wheel_loads_accelerating(ay, 0.0),
+        params.wheel_loads(ay)
+    );
+    let free = params.wheel_loads(ay);
+    let braked = params.wheel_loads_accelerating(ay, -5.0);
+    let front = |loads: [f64; 4]| loads[wheel_index::FRONT_LEFT] + loads[wheel_index::FRONT_RIGHT];
+    let transfer = chassis.mass * 5.0 * params.cog_height / wheelbase;
+    assert!((front(braked) - front(free) - transfer).abs() < 1e-9 * transfer);
+    assert!((braked.iter().sum::<f64>() - free.iter().sum::<f64>()).abs() < 1e-6);
+    let model = TwoTrackLateralMagicFormula::default();
+    let x = TwoTrackLateralState::new(-0.02, 0.3, ay);
+    let step = |ax: f64| {
+        let u = TwoTrackLateralInput::new(0.06, 20.0, ax);
+        model.step(&x, &u, SAMPLE_TIME, Integrator::RungeKutta4)
+    };
+    assert!(
+        step(-5.0)[lateral_index::YAW_RATE] > step(0.0)[lateral_index::YAW_RATE],
+        "{} vs {}",
+        step(-5.0),
+        step(0.0)
+    );
+}
+
 #[test]
 fn three_state_jacobians_match_central_differences() {
     let model = TwoTrackLateralMagicFormula::default();
