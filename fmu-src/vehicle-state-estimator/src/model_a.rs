@@ -440,8 +440,9 @@ pub(crate) fn estimate_outputs(
 /// is that error's standard deviation; its first-order effect `σ |αR|` is added in quadrature
 /// to the reported standard deviations, the consider covariance of a parameter left
 /// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
-/// sect. 6.3). The estimate itself is unchanged.
-fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
+/// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
+/// angle the same way (001: eq 5), so model B reports it too.
+pub(crate) fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
     let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
     if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {
         return values;

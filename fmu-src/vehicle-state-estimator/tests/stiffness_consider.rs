@@ -1,8 +1,8 @@
-//! `cornering_stiffness_uncertainty` (model A): the rear tyre's stiffness uncertainty enters the
-//! reported sideslip and lateral-velocity standard deviations as a consider term `σ |αR|`, and
-//! nothing else. Truth: the two-track Magic Formula reference vehicle (lateral load transfer,
-//! another tyre law: not the filter's model) on a 2.5° road-wheel step at 65 km/h, noise-free
-//! sensors; the EKF on model A at its defaults.
+//! `cornering_stiffness_uncertainty` (models A and B): the rear tyre's stiffness uncertainty
+//! enters the reported sideslip and lateral-velocity standard deviations as a consider term
+//! `σ |αR|`, and nothing else. Truth: the two-track Magic Formula reference vehicle (lateral load
+//! transfer, another tyre law: not model A) on a 2.5° road-wheel step at 65 km/h, noise-free
+//! sensors; the EKF at its defaults.
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
@@ -28,14 +28,11 @@ const OUTPUTS: [u32; 7] = [
     vr::SLIP_ANGLE_REAR_EST,
 ];
 
-/// The EKF on model A at its defaults, with `uncertainty` as the parameter when given.
-fn estimator(uncertainty: Option<f64>) -> Slave {
+/// The EKF on `model` at its defaults, with `uncertainty` as the parameter when given.
+fn estimator(model: EstimatorModel, uncertainty: Option<f64>) -> Slave {
     let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "consider", GUID)
         .expect("instantiate");
-    assert_eq!(
-        s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
-        Fmi2Status::Ok
-    );
+    assert_eq!(s.set_integer(vr::MODEL, model as i32), Fmi2Status::Ok);
     assert_eq!(
         s.set_integer(vr::ESTIMATOR, EstimatorKind::Ekf as i32),
         Fmi2Status::Ok
@@ -76,26 +73,39 @@ fn run(s: &mut Slave) -> Vec<([f64; 7], f64)> {
 
 #[test]
 fn the_consider_term_widens_the_reported_std_and_leaves_the_estimate_alone() {
+    for model in [
+        EstimatorModel::SingleTrack5State,
+        EstimatorModel::TwoTrack3State,
+    ] {
+        widens_the_reported_std_and_leaves_the_estimate_alone(model);
+    }
+}
+
+fn widens_the_reported_std_and_leaves_the_estimate_alone(model: EstimatorModel) {
     let sigma = 0.25;
-    let with = run(&mut estimator(Some(sigma)));
-    let without = run(&mut estimator(Some(0.0)));
-    let default = run(&mut estimator(None));
+    let with = run(&mut estimator(model, Some(sigma)));
+    let without = run(&mut estimator(model, Some(0.0)));
+    let default = run(&mut estimator(model, None));
     for (k, ((w, _), (o, _))) in with.iter().zip(&without).enumerate() {
         // The estimate (sideslip, vy, vx, yaw rate, rear slip angle) is the same to the bit.
         for i in [0, 1, 2, 3, 6] {
-            assert_eq!(w[i].to_bits(), o[i].to_bits(), "k = {k}, output {i}");
+            assert_eq!(
+                w[i].to_bits(),
+                o[i].to_bits(),
+                "{model:?} k = {k}, output {i}"
+            );
         }
         // std² = P + (σ αR)², and vy's with vx times that (first order through β = vy / vx).
         let consider = sigma * w[6].abs();
         let expected = o[4].hypot(consider);
         assert!(
             (w[4] - expected).abs() <= 1e-12 * expected.max(1e-9),
-            "k = {k}"
+            "{model:?} k = {k}"
         );
         let expected_vy = o[5].hypot(w[2].abs() * consider);
         assert!(
             (w[5] - expected_vy).abs() <= 1e-12 * expected_vy.max(1e-9),
-            "k = {k}"
+            "{model:?} k = {k}"
         );
     }
     // The default is the documented 0.25.
@@ -112,8 +122,9 @@ fn in_the_corner_the_consider_term_covers_the_error_the_filter_covariance_does_n
             .count();
         inside as f64 / corner.len() as f64
     };
-    let with = covered(&run(&mut estimator(None)));
-    let without = covered(&run(&mut estimator(Some(0.0))));
+    let model = EstimatorModel::SingleTrack5State;
+    let with = covered(&run(&mut estimator(model, None)));
+    let without = covered(&run(&mut estimator(model, Some(0.0))));
     println!("inside the 95 % bound in the corner: {with:.2} with, {without:.2} without");
     assert!(
         with >= 0.9,
