@@ -387,7 +387,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
 }
 
 /// The outputs of one sample as the filter's state and covariance give them (the grip model's
-/// too, which estimates the tyres' force error instead of considering it).
+/// too), before the consider term of [`with_stiffness_consider`].
 pub(crate) fn estimate_outputs(
     model: &ModelA,
     sample: &OutputSample<STATE_DIM, ()>,
@@ -441,7 +441,8 @@ pub(crate) fn estimate_outputs(
 /// to the reported standard deviations, the consider covariance of a parameter left
 /// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
 /// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
-/// angle the same way (001: eq 5), so model B reports it too.
+/// angle the same way (001: eq 5), and the grip model's on a rear tyre law whose scale it
+/// estimates but whose shape it does not, so both report it too.
 pub(crate) fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
     let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
     if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {

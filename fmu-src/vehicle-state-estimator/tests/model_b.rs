@@ -354,6 +354,12 @@ fn mismatched_ekf(stiffness_scale: f64, model_error: f64) -> (f64, f64, Vec<u64>
         assert_eq!(s.set_real(reference, stiffness_scale), Fmi2Status::Ok);
     }
     assert_eq!(s.set_real(vr::AY_MODEL_ERROR, model_error), Fmi2Status::Ok);
+    // The filter's own covariance: the reported consider term (tests/stiffness_consider.rs)
+    // would hide what ay_model_error does to it.
+    assert_eq!(
+        s.set_real(vr::CORNERING_STIFFNESS_UNCERTAINTY, 0.0),
+        Fmi2Status::Ok
+    );
     assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
     let steps = 400;
     let (trace, errors) = run_with_errors(&mut s, &mut Truth::new(3), 0, steps);

@@ -1,4 +1,4 @@
-//! `cornering_stiffness_uncertainty` (models A and B): the rear tyre's stiffness uncertainty
+//! `cornering_stiffness_uncertainty` (every model): the rear tyre's stiffness uncertainty
 //! enters the reported sideslip and lateral-velocity standard deviations as a consider term
 //! `σ |αR|`, and nothing else. Truth: the two-track Magic Formula reference vehicle (lateral load
 //! transfer, another tyre law: not model A) on a 2.5° road-wheel step at 65 km/h, noise-free
@@ -76,6 +76,7 @@ fn the_consider_term_widens_the_reported_std_and_leaves_the_estimate_alone() {
     for model in [
         EstimatorModel::SingleTrack5State,
         EstimatorModel::TwoTrack3State,
+        EstimatorModel::SingleTrackGrip,
     ] {
         widens_the_reported_std_and_leaves_the_estimate_alone(model);
     }
