@@ -331,6 +331,53 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
 /// against 0.60° with the map's parameters, before the friction was checked against the
 /// measured ay). It is refused now (`harness::replay::friction`), and the stiffness scales come
 /// from the segment's linear part.
+/// `fit --model b` scales every covariance of model B by one factor (harness/studies/src/replay
+/// /fit.rs, point 2), so its gains and its estimate stay: only the reported covariance is fitted.
+/// Before `ay_model_error` and the initial state's std were scaled with the noise, the factor
+/// changed the estimate (example log, held-out sideslip 0.16 -> 0.21 deg).
+#[test]
+fn fit_of_model_b_scales_its_covariances_and_keeps_the_estimate() {
+    let scratch = Scratch::new("replay-fit-b");
+    let csv = &csv_log(&scratch.0);
+    let out = scratch.0.join("escort_b.ssv");
+    let fitted = fit(&FitOptions {
+        model: FitModel::B,
+        ..fit_options(csv, &out, Some((2.0, 8.0)), Some((8.0, 14.0)))
+    })
+    .expect("fit of model B");
+    eprintln!("{}", fitted.summary());
+    let (factor, same) = fitted.noise_factors;
+    assert_eq!(factor, same);
+    assert!(
+        (factor - 1.0).abs() > 0.05,
+        "factor {factor}: a fit that changes nothing"
+    );
+    let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
+    assert!(
+        (after - before).abs() < 0.01 * before,
+        "held-out sideslip RMSE {before} deg with the map's parameters, {after} deg fitted"
+    );
+    let written = |name: &str| {
+        fitted
+            .fitted
+            .iter()
+            .rev()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+    };
+    for name in [
+        "ay_model_error",
+        "initial_std_sideslip",
+        "process_noise_std_sideslip",
+    ] {
+        let value = written(name).unwrap_or_else(|| panic!("{name} not fitted"));
+        assert!(
+            (value - factor * default_real(name)).abs() < 1e-12 * value.abs().max(1e-12),
+            "{name} = {value}, factor {factor}"
+        );
+    }
+}
+
 #[test]
 fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimate() {
     let scratch = Scratch::new("replay-fit-limit");
