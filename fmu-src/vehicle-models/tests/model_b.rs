@@ -287,7 +287,7 @@ fn three_state_jacobians_match_central_differences() {
             TwoTrackLateralState::new(-0.08, -0.6, -8.0),
             TwoTrackLateralInput::new(-0.3, 12.0, 0.0),
         ),
-        // braking and accelerating in a turn: the longitudinal load transfer and slip
+        // braking and accelerating in a turn: the longitudinal load transfer
         (
             TwoTrackLateralState::new(0.03, 0.5, 7.5),
             TwoTrackLateralInput::new(0.15, 15.0, -5.0),

@@ -268,7 +268,7 @@ mod tests {
             let mut model = TwoTrackEstimationModel::seed_001(0.01).unwrap();
             model.integrator = integrator;
             let x = SVector::<f64, 3>::from([-0.03, 0.35, 6.5]);
-            // braking at 4 m/s² in the turn: the longitudinal load transfer and slip too
+            // braking at 4 m/s² in the turn: the longitudinal load transfer too
             let u = SVector::<f64, 3>::from([0.06, 17.5, -4.0]);
             let numeric = central_difference(|x| model.transition(x, &u), &x);
             let analytic = model.transition_jacobian(&x, &u);
