@@ -523,6 +523,31 @@ fn model_b_gates_glitches_and_starts_from_the_measurements_too() {
             );
             assert!(glitched.iter().any(|r| r.status & status::ROW_GATED != 0));
         }
+        // ax is no row of model B but shifts its axle loads: one sample of a plausible 14 m/s²
+        // (a pitch transfer of 60 % of the front axle's load for 10 ms) or of an implausible
+        // 100 m/s² (not used) moves the estimate by no more than a noisy sample does (measured:
+        // 0.0085 and 0.0002 m/s of vy).
+        for value in [14.0, 100.0] {
+            let glitched = run(
+                &mut estimator_with(kind, model_b),
+                25.0,
+                4.0,
+                |t, sensors| {
+                    if (t - 2.0).abs() < 1e-9 {
+                        sensors[4] = value;
+                    }
+                },
+            );
+            let change = clean
+                .iter()
+                .zip(&glitched)
+                .map(|(a, b)| (a.estimate[1] - b.estimate[1]).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                change < 0.05,
+                "kind {kind} ax glitch {value}: vy changed by {change}"
+            );
+        }
     }
 }
 
