@@ -746,7 +746,13 @@ where
         {
             bits |= status::ROW_SKIPPED;
         }
-        let (mut mask, gate_bits) = self.gate(sensors, &mut sample);
+        // The model's extra noise at the predicted estimate, for the gate's S and the update's R:
+        // evaluated once, again only if the gate re-seeded the filter to another estimate.
+        let mut extra_noise = self.extra_measurement_noise(&sample.input);
+        let (mut mask, gate_bits) = self.gate(sensors, &mut sample, extra_noise.as_ref());
+        if gate_bits & status::SENSOR_READMITTED != 0 {
+            extra_noise = self.extra_measurement_noise(&sample.input);
+        }
         bits |= gate_bits;
         for (used, offered) in mask.iter_mut().zip(sample.offered) {
             *used &= offered;
@@ -757,7 +763,6 @@ where
             .adaptation
             .is_some()
             .then(|| (*self.filter.state(), *self.filter.covariance()));
-        let extra_noise = self.extra_measurement_noise(&sample.input);
         let report = match &extra_noise {
             Some(extra) => self.filter.update_with_extra_noise(
                 &sample.measurement,
@@ -837,7 +842,13 @@ where
 
     /// The rows that pass the gate (all rows without `gate_measurements`) and the status bits;
     /// re-seeds the filter when a plausible row has been gated for `readmit_time`.
-    fn gate(&mut self, sensors: &Sensors, sample: &mut Sample<M, U>) -> ([bool; M], i32) {
+    /// `extra_noise` is the model's extra measurement noise at the predicted estimate.
+    fn gate(
+        &mut self,
+        sensors: &Sensors,
+        sample: &mut Sample<M, U>,
+        extra_noise: Option<&SMatrix<f64, M, M>>,
+    ) -> ([bool; M], i32) {
         let Some(gate) = self.gate else {
             return ([true; M], 0);
         };
@@ -846,7 +857,7 @@ where
         let plausible = self.model.plausible(sensors, &state, self.min_speed);
         let (predicted, jacobian) = self.model.measurement_and_jacobian(&state, &sample.input);
         let mut noise = self.model.measurement_noise();
-        if let Some(extra) = self.extra_measurement_noise(&sample.input) {
+        if let Some(extra) = extra_noise {
             noise += extra;
         }
         let resolvable = self
