@@ -4,8 +4,9 @@
 
 The map is the one `harness replay` reads (harness/logs/README.md): for each FMU input a log
 column, its unit, sign and steering ratio, or a constant; the estimator parameters; reference
-columns. The .ssv (e.g. written by `harness fit`) becomes fmpy's `start_values`, applied before
-the map's [estimator.parameters]. Samples are aligned as `harness replay` does with
+columns. The map's [estimator.parameters] become fmpy's `start_values`, and the .ssv (e.g.
+written by `harness fit`) is applied after them (the last of a name wins), as `harness replay`
+does. Samples are aligned as `harness replay` does with
 align = "hold": each step takes the latest present sample at or before it, NaN once it is older
 than 2.5 of the channel's median sample intervals (the FMU skips a NaN sample). Prints the RMSE
 of every estimate the map has a reference for.
@@ -91,8 +92,9 @@ def main():
     step = mapping.get("log", {}).get("step") or float(np.median(np.diff(times)))
     grid = times[0] + step * np.arange(int((times[-1] - times[0]) / step + 1e-9) + 1)
 
-    start_values = start_values_from_ssv(args.ssv, args.fmu) if args.ssv else {}
-    start_values.update(mapping.get("estimator", {}).get("parameters", {}))
+    start_values = dict(mapping.get("estimator", {}).get("parameters", {}))
+    if args.ssv:
+        start_values.update(start_values_from_ssv(args.ssv, args.fmu))
     start_values.setdefault("sample_time", step)
 
     names = list(mapping["inputs"])

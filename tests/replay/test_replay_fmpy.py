@@ -34,10 +34,8 @@ def test_fmpy_script_and_harness_replay_agree(workspace_executables, tmp_path):
         '    <ssv:Parameter name="estimator"><ssv:Enumeration value="ukf_scaled"/></ssv:Parameter>\n'
         '    <ssv:Parameter name="cornering_stiffness_scale_front"><ssv:Real value="0.95"/></ssv:Parameter>\n'
         "  </ssv:Parameters>\n</ssv:ParameterSet>\n")
-    # The map sets estimator = 2 after the file; a copy without it lets the file's choice stand.
-    map_text = (LOGS / "ford_escort_sis.toml").read_text().replace("estimator = 2      # EKF\n", "")
-    map_path = tmp_path / "map.toml"
-    map_path.write_text(map_text)
+    # The map sets estimator = 2 (EKF); the file is applied after it, so its UKF must win in both.
+    map_path = LOGS / "ford_escort_sis.toml"
     log = LOGS / "ford_escort_sis.csv"
     out = tmp_path / "harness"
     subprocess.run([str(harness), "replay", str(log), "--map", str(map_path), "--parameters", str(ssv),
@@ -53,7 +51,7 @@ def test_fmpy_script_and_harness_replay_agree(workspace_executables, tmp_path):
     assert len(ours) == len(theirs) == 3000
     for name in ("vx_est", "yaw_rate_est", "sideslip_est", "sideslip_std"):
         assert np.array_equal(ours[name], theirs[name], equal_nan=True), name
-    # The UKF of the file ran, not the map's default EKF: its sideslip differs from an EKF replay.
+    # The UKF of the file ran, not the map's EKF: its sideslip differs from a replay without the file.
     ekf = tmp_path / "ekf"
     subprocess.run([str(harness), "replay", str(log), "--map", str(LOGS / "ford_escort_sis.toml"), "--out", str(ekf),
                     "--fmu-dir", str(fmu.parent), "--no-plots"], cwd=ROOT, check=True, capture_output=True, timeout=120)

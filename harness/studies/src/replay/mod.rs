@@ -221,7 +221,10 @@ fn aligned(channel: &Channel, map: &Map, log: &log::Log, grid: &Grid) -> Vec<f64
 }
 
 /// The parameters a replay sets, in order: the map's sample time default (the grid step), the
-/// `--parameters` file, the map's `[estimator.parameters]`, then `extra` (the last of a name wins).
+/// map's `[estimator.parameters]`, the `--parameters` file, then `extra` (the last of a name
+/// wins). The file comes after the map because it is the more specific choice of the two: what
+/// `harness fit` writes holds the map's values and the fitted ones, and replayed under the map
+/// its model and covariances must not fall back to the map's (a model-B fit ran as model A).
 pub fn parameters(
     fmu: &LoadedFmu,
     prepared: &Prepared,
@@ -232,9 +235,6 @@ pub fn parameters(
         drive::parameter(fmu, "sample_time")?.clone(),
         ParameterValue::Real(prepared.grid.step),
     )];
-    if let Some(path) = file {
-        values.extend(drive::parameters_from_file(fmu, path)?);
-    }
     let origin = format!(
         "map {}: [estimator.parameters]",
         prepared.map.path.display()
@@ -244,6 +244,9 @@ pub fn parameters(
         &prepared.map.parameters,
         &origin,
     )?);
+    if let Some(path) = file {
+        values.extend(drive::parameters_from_file(fmu, path)?);
+    }
     values.extend(extra.iter().cloned());
     Ok(values)
 }
