@@ -721,6 +721,21 @@ impl FitOutcome {
         text += &report::score_table(&self.before);
         text += "  held-out scores, fitted parameters:\n";
         text += &report::score_table(&self.after);
+        let worse: Vec<String> = worse_held_out(&self.before, &self.after)
+            .iter()
+            .map(|w| {
+                format!(
+                    "{} RMSE {:.4} -> {:.4} {}",
+                    w.label, w.before, w.after, w.unit
+                )
+            })
+            .collect();
+        if !worse.is_empty() {
+            text += &format!(
+                "  WARNING: the fitted parameters make held-out estimates worse than the starting ones ({}). They describe the training segment but do not carry over to the held-out one (for example a segment past the tyres' limit, where model A's structure decides, harness/logs/README.md); compare --model b, or train on a segment that drives like the one to estimate.\n",
+                worse.join(", ")
+            );
+        }
         text
     }
 
@@ -733,5 +748,83 @@ impl FitOutcome {
                 .map(|s| s.rmse)
         };
         Some((find(&self.before)?, find(&self.after)?))
+    }
+}
+
+/// A held-out estimate is flagged when the fit makes its RMSE this much larger than the starting
+/// parameters' (our choice: 10 % is a loss a user would act on; the example log's default split,
+/// 0.60 -> 0.65 deg, is not flagged, the drive past the limit's 2.08 -> 12.0 deg is).
+const WORSE_HELD_OUT_RATIO: f64 = 1.1;
+
+/// One held-out estimate the fit made worse.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorseHeldOut {
+    pub label: String,
+    pub unit: String,
+    pub before: f64,
+    pub after: f64,
+}
+
+/// The estimator's held-out estimates whose RMSE the fitted parameters make larger than the
+/// starting ones by more than [`WORSE_HELD_OUT_RATIO`] (the β = 0 baseline rows are not the
+/// estimator's and never differ).
+pub fn worse_held_out(before: &[StateScore], after: &[StateScore]) -> Vec<WorseHeldOut> {
+    after
+        .iter()
+        .filter(|fitted| fitted.estimator == "estimator")
+        .filter_map(|fitted| {
+            let start = before
+                .iter()
+                .find(|s| s.estimator == fitted.estimator && s.label == fitted.label)?;
+            (fitted.rmse > WORSE_HELD_OUT_RATIO * start.rmse).then(|| WorseHeldOut {
+                label: fitted.label.clone(),
+                unit: fitted.unit.clone(),
+                before: start.rmse,
+                after: fitted.rmse,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn score(label: &str, estimator: &str, rmse: f64) -> StateScore {
+        StateScore {
+            label: label.to_string(),
+            estimator: estimator.to_string(),
+            unit: "deg".to_string(),
+            rmse,
+            max_abs: rmse,
+            nees: None,
+            samples: 100,
+            non_finite: 0,
+        }
+    }
+
+    #[test]
+    fn a_fit_that_makes_a_held_out_estimate_worse_is_flagged() {
+        // The limit log's model-A fit: sideslip 2.08 -> 12.0 deg (harness/logs/README.md).
+        let before = [
+            score("sideslip", "estimator", 2.08),
+            score("sideslip", "β = 0 baseline", 2.28),
+            score("yaw_rate", "estimator", 0.40),
+        ];
+        let after = [
+            score("sideslip", "estimator", 12.0),
+            score("sideslip", "β = 0 baseline", 2.28),
+            score("yaw_rate", "estimator", 0.43),
+        ];
+        assert_eq!(
+            worse_held_out(&before, &after),
+            vec![WorseHeldOut {
+                label: "sideslip".to_string(),
+                unit: "deg".to_string(),
+                before: 2.08,
+                after: 12.0
+            }]
+        );
+        assert!(worse_held_out(&after, &before).is_empty());
     }
 }
