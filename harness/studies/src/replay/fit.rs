@@ -32,7 +32,9 @@
 //!    friction limit, by the innovation likelihood with the scales and noise fixed, and kept
 //!    only if model A's tyres with it can carry the measured lateral acceleration
 //!    ([`super::friction`], which states both rules and why); otherwise the default stays and is
-//!    not written.
+//!    not written. Model B keeps the starting friction: model A's likelihood optimum is model
+//!    A's structure past the limit, and model B's own NIS is least where its held-out sideslip is
+//!    worse (harness/logs/README.md, "Why `--model b` fits no peak friction").
 //! 4. **Held-out score**: the FMU replays the validation segment with the starting parameters
 //!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
 //!    freedom (1 for a consistent filter) when the log has no reference.
