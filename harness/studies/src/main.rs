@@ -154,10 +154,9 @@ enum Command {
         #[arg(long)]
         no_plots: bool,
     },
-    /// Fit the estimator to a car from a recorded drive: the per-axle cornering-stiffness scales
-    /// by EM (on model A's single track, for both models), the noise levels from the
-    /// innovations; held-out score against the defaults; writes an SSP parameter-value file
-    /// (.ssv)
+    /// Fit the estimator to a car from a recorded drive: model A's per-axle cornering-stiffness
+    /// scales by EM, the noise levels from the innovations; held-out score against the
+    /// defaults; writes an SSP parameter-value file (.ssv)
     Fit {
         log: PathBuf,
         #[arg(long)]

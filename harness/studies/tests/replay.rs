@@ -247,7 +247,18 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
     // (harness/logs/README.md).
     let fitted = fit(&fit_options(csv, &out, Some((2.0, 8.0)), Some((8.0, 14.0)))).expect("fit");
     eprintln!("{}", fitted.summary());
-    assert_recovers_the_escort_stiffness(&fitted);
+    // The Ford Escort's Magic Formula cornering stiffness at the static wheel load
+    // (p_ky1 F_z0 sin(2 atan(F_z / (p_ky2 F_z0))), Pacejka 2012 (4.E25)) over model A's HSRI
+    // stiffness (Cα1 + Cα2 q) F_z (000: 5.70): front 74589 / 69607 N/rad, rear 51762 / 47442.
+    let truth = [1.072, 1.091];
+    let (scales, converged) = fitted.scales.expect("model A fits the scales");
+    assert!(converged);
+    for (k, t) in scales.iter().zip(truth) {
+        assert!(
+            (k - t).abs() < 0.1 * t,
+            "scales {scales:?}, static-load equivalent {truth:?}"
+        );
+    }
     // The fitted parameters lower the held-out sideslip error against the starting ones.
     let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
     assert!(
@@ -314,14 +325,14 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
     assert!(sideslip.iter().all(|v| v.is_finite()));
 }
 
-/// `fit --model b` identifies the cornering-stiffness scales by the same EM on model A's single
-/// track (model B reads the same factors) and scales every covariance of model B by one factor
-/// (harness/studies/src/replay/fit.rs, points 1 and 2). Before the scales were fitted for model B
-/// its held-out sideslip stayed at the defaults' 0.16 deg; with them it is 0.04 deg. Replayed with
-/// the written file under the example map, whose `model = 1` comes first, the run is the fit's
-/// own model-B run: before the file was applied after the map, it replayed as model A.
+/// `fit --model b` scales every covariance of model B by one factor (harness/studies/src/replay
+/// /fit.rs, point 2), so its gains and its estimate stay: only the reported covariance is fitted.
+/// Before `ay_model_error` and the initial state's std were scaled with the noise, the factor
+/// changed the estimate (example log, held-out sideslip 0.16 -> 0.21 deg). Replayed with the
+/// written file under the example map, whose `model = 1` comes before the file, the run is the
+/// fit's own model-B run: before the file was applied after the map, it replayed as model A.
 #[test]
-fn fit_of_model_b_identifies_the_stiffness_and_replays_as_model_b() {
+fn fit_of_model_b_scales_its_covariances_and_keeps_the_estimate() {
     let scratch = Scratch::new("replay-fit-b");
     let csv = &csv_log(&scratch.0);
     let out = scratch.0.join("escort_b.ssv");
@@ -331,18 +342,16 @@ fn fit_of_model_b_identifies_the_stiffness_and_replays_as_model_b() {
     })
     .expect("fit of model B");
     eprintln!("{}", fitted.summary());
-    assert_recovers_the_escort_stiffness(&fitted);
-    let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
-    assert!(
-        after < 0.5 * before,
-        "held-out sideslip RMSE {before} deg with the map's parameters, {after} deg fitted"
-    );
-    // One factor on every covariance term (Q, R, P0, ay_model_error).
     let (factor, same) = fitted.noise_factors;
     assert_eq!(factor, same);
     assert!(
         (factor - 1.0).abs() > 0.05,
         "factor {factor}: a fit that changes nothing"
+    );
+    let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
+    assert!(
+        (after - before).abs() < 0.01 * before,
+        "held-out sideslip RMSE {before} deg with the map's parameters, {after} deg fitted"
     );
     let written = |name: &str| {
         fitted
@@ -356,16 +365,10 @@ fn fit_of_model_b_identifies_the_stiffness_and_replays_as_model_b() {
         "ay_model_error",
         "initial_std_sideslip",
         "process_noise_std_sideslip",
-        "measurement_noise_std_ay",
     ] {
         let value = written(name).unwrap_or_else(|| panic!("{name} not fitted"));
-        let start = match name {
-            // The example map sets the sensor's data-sheet value.
-            "measurement_noise_std_ay" => 0.05,
-            _ => default_real(name),
-        };
         assert!(
-            (value - factor * start).abs() < 1e-12 * value.abs().max(1e-12),
+            (value - factor * default_real(name)).abs() < 1e-12 * value.abs().max(1e-12),
             "{name} = {value}, factor {factor}"
         );
     }
@@ -417,7 +420,7 @@ fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimat
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(!text.contains("tyre_f00"), "{text}");
     // The scales from the linear part: it ends where |ay| first passes 0.5 f0 g (about 10 s).
-    let rows = fitted.scale_rows.clone();
+    let rows = fitted.scale_rows.clone().expect("model A's scale rows");
     assert!(
         rows.start == fitted.train_rows.start && rows.end < fitted.train_rows.end * 3 / 4,
         "scale rows {rows:?} of the training rows {:?}",
@@ -501,22 +504,6 @@ fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
         estimate < 0.8 * baseline,
         "sideslip RMSE {estimate} deg over the drive past the limit, β = 0 {baseline} deg"
     );
-}
-
-/// The fit's EM converged to within 10 % of the Ford Escort's Magic Formula cornering stiffness
-/// at the static wheel load (p_ky1 F_z0 sin(2 atan(F_z / (p_ky2 F_z0))), Pacejka 2012 (4.E25))
-/// over model A's HSRI stiffness (Cα1 + Cα2 q) F_z (000: 5.70): front 74589 / 69607 N/rad, rear
-/// 51762 / 47442.
-fn assert_recovers_the_escort_stiffness(fitted: &harness::replay::fit::FitOutcome) {
-    let truth = [1.072, 1.091];
-    let (scales, converged) = fitted.scales;
-    assert!(converged);
-    for (k, t) in scales.iter().zip(truth) {
-        assert!(
-            (k - t).abs() < 0.1 * t,
-            "scales {scales:?}, static-load equivalent {truth:?}"
-        );
-    }
 }
 
 /// The start value of the estimator FMU's Real parameter `name`.

@@ -1,6 +1,6 @@
 //! `harness fit`: fits the estimator to a car from a recorded drive.
 //!
-//! 1. **Cornering stiffness** (both models): the per-axle scales `k_F`, `k_R` on the HSRI cornering
+//! 1. **Cornering stiffness** (model A): the per-axle scales `k_F`, `k_R` on the HSRI cornering
 //!    stiffness (000: 5.70) by the accelerated EM of seed 003 (003: §3.1) — the identification
 //!    the model-mismatch study uses ([`crate::mismatch::identification_config`]: particle filter
 //!    and smoother E-step, Q sized for the EM) — on the linear part of the training segment,
@@ -12,12 +12,13 @@
 //!    transfer model A lacks. Measured on the example log (harness/logs/README.md): trained on
 //!    the whole of 0-20 s the EM gave k_F = 0.913, k_R = 1.090, on its linear part (0-10 s)
 //!    0.964 and 1.055 (the car's static-load equivalent: 1.072, 1.091); on 12-16 s alone,
-//!    beyond the threshold, k_R = 1.65. The EM runs on model A's single track for `--model b`
-//!    too: model B reads the same two parameters as the same factors on the HSRI stiffness at
-//!    the axle's load (its Magic Formula tyres are matched to it), and on the linear part the
-//!    two models differ only by model B's small lateral load transfer. Its NIS through the FMU
-//!    cannot tell the level (flat along `k_F = k_R`, harness/logs/README.md), the EM on the
-//!    lateral dynamics can: on the example log model B's held-out sideslip 0.160 → 0.043 deg.
+//!    beyond the threshold, k_R = 1.65. For `--model b` only the noise is fitted:
+//!    the FMU takes model B's per-axle tyre factors (`cornering_stiffness_scale_front/_rear`,
+//!    `tyre_front/rear_*`, issue 17 point 4), but the offline identification runs on model A
+//!    only, and its scales hold model A's missing load transfer in their balance: written for
+//!    model B they helped the Escort's drives and made the BMW 320i's and the VW Vanagon's worse
+//!    (harness/logs/README.md, "Why `--model b` fits no tyre factors"), so a user sets them from
+//!    the tyre's data (fmu-src/estimation/README.md, per-axle tyres).
 //! 2. **Noise levels**: model A: a factor on every process-noise standard deviation (the
 //!    measurement noise is the sensors' and stays; [`super::noise`] says why), maximising the
 //!    innovation likelihood of the training segment through an offline EKF on model A with the
@@ -121,10 +122,10 @@ pub struct FitOptions {
 /// What the fit found.
 pub struct FitOutcome {
     pub model: FitModel,
-    /// `[k_F, k_R]` and whether the EM converged.
-    pub scales: ([f64; 2], bool),
-    /// The rows the scales were identified on (the training segment's linear part).
-    pub scale_rows: Range<usize>,
+    /// `[k_F, k_R]` (model A) and whether the EM converged.
+    pub scales: Option<([f64; 2], bool)>,
+    /// Model A: the rows the scales were identified on (the training segment's linear part).
+    pub scale_rows: Option<Range<usize>>,
     /// Factors on the process- and on the measurement-noise standard deviations.
     pub noise_factors: (f64, f64),
     /// Model A: the likelihood search behind them.
@@ -199,14 +200,15 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
     let (train_rows, validate_rows) = segments(&prepared.grid, options)?;
 
     let mut fitted: Vec<(String, f64)> = Vec::new();
-    // Both models read `cornering_stiffness_scale_front/_rear` as the same factors on the HSRI
-    // cornering stiffness at the axle's load (model B's Magic Formula tyres are matched to it),
-    // so the scales identified on model A's single track below half the friction limit, where
-    // the two models differ only by model B's small lateral load transfer, are model B's too.
-    let rows = linear_rows(&fmu, &prepared, &start, train_rows.clone())?;
-    let (scales, converged) = identify_scales(&fmu, &prepared, &start, rows.clone())?;
-    fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
-    let (scales, scale_rows) = ((scales, converged), rows);
+    let (scales, scale_rows) = match options.model {
+        FitModel::A => {
+            let rows = linear_rows(&fmu, &prepared, &start, train_rows.clone())?;
+            let (scales, converged) = identify_scales(&fmu, &prepared, &start, rows.clone())?;
+            fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
+            (Some((scales, converged)), Some(rows))
+        }
+        FitModel::B => (None, None),
+    };
     let with_scales = with_reals(&fmu, &start, &fitted)?;
     let (noise_factors, noise_fit) = match options.model {
         FitModel::A => {
@@ -700,8 +702,12 @@ impl FitOutcome {
             self.validate_rows.end,
             self.step
         );
-        let ([front, rear], converged) = self.scales;
-        text += &format!("  cornering_stiffness_scale_front = {front:.4}, cornering_stiffness_scale_rear = {rear:.4} (EM on model A's single track {} on rows {}..{})\n", if converged { "converged" } else { "NOT converged" }, self.scale_rows.start, self.scale_rows.end);
+        match (self.scales, &self.scale_rows) {
+            (Some(([front, rear], converged)), Some(rows)) => {
+                text += &format!("  cornering_stiffness_scale_front = {front:.4}, cornering_stiffness_scale_rear = {rear:.4} (EM {} on rows {}..{})\n", if converged { "converged" } else { "NOT converged" }, rows.start, rows.end)
+            }
+            _ => text += "  model B: covariances only (its per-axle tyre factors are set from the tyre's data, not fitted)\n",
+        }
         let (process, measurement) = self.noise_factors;
         text += &format!(
             "  noise: process-noise stds x {process:.3}, measurement-noise stds x {measurement:.3}"
