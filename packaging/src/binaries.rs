@@ -108,38 +108,47 @@ pub fn zigbuild_command(workspace_root: &Path) -> (PathBuf, Option<std::ffi::OsS
 mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> PathBuf {
+    /// A folder removed when dropped, also when the test fails.
+    struct Scratch(PathBuf);
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn scratch(name: &str) -> Scratch {
         let dir = std::env::temp_dir().join(format!("packaging-bin-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
-        dir
+        Scratch(dir)
     }
 
     #[test]
     fn prebuilt_libraries_land_in_their_platform_folders() {
-        let dir = scratch("ok");
+        let scratch = scratch("ok");
+        let dir = &scratch.0;
         for (platform, file) in [("win64", "Model.dll"), ("darwin64", "Model.dylib")] {
             std::fs::create_dir_all(dir.join(platform)).unwrap();
             std::fs::write(dir.join(platform).join(file), platform).unwrap();
         }
-        let entries = prebuilt_entries(&dir, "Model").unwrap();
+        let entries = prebuilt_entries(dir, "Model").unwrap();
         let names: Vec<&str> = entries.iter().map(|e| e.path.as_str()).collect();
         assert_eq!(
             names,
             ["binaries/darwin64/Model.dylib", "binaries/win64/Model.dll"]
         );
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
     fn an_unknown_platform_or_a_missing_library_is_an_error() {
-        let dir = scratch("bad");
+        let scratch = scratch("bad");
+        let dir = &scratch.0;
         std::fs::create_dir_all(dir.join("win64")).unwrap();
-        let missing = prebuilt_entries(&dir, "Model").unwrap_err().to_string();
+        let missing = prebuilt_entries(dir, "Model").unwrap_err().to_string();
         assert!(missing.contains("Model.dll"), "{missing}");
         std::fs::create_dir_all(dir.join("amiga")).unwrap();
-        let unknown = prebuilt_entries(&dir, "Model").unwrap_err().to_string();
+        let unknown = prebuilt_entries(dir, "Model").unwrap_err().to_string();
         assert!(unknown.contains("amiga"), "{unknown}");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

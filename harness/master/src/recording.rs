@@ -75,8 +75,12 @@ mod tests {
 
     #[test]
     fn the_csv_appears_under_its_name_only_when_complete() {
-        let dir = std::env::temp_dir().join(format!("recording-test-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        // Removed when the test ends, also when it fails.
+        let scratch = crate::runner::WorkFolder::new(
+            std::env::temp_dir().join(format!("recording-test-{}", std::process::id())),
+        );
+        let dir = scratch.path();
+        std::fs::create_dir_all(dir).unwrap();
         let path = dir.join("t.csv");
         write_csv(&result(), &path).unwrap();
         assert_eq!(
@@ -90,6 +94,5 @@ mod tests {
         assert!(write_csv(&result(), &blocked).is_err());
         assert!(!partial_name(&blocked).exists());
         assert!(blocked.join("inside").is_dir());
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

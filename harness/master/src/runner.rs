@@ -389,7 +389,11 @@ mod tests {
 
     #[test]
     fn a_missing_archive_is_named_with_the_command_that_builds_it() {
-        let dir = std::env::temp_dir().join(format!("runner-packaged-{}", std::process::id()));
+        // Removed when the test ends, also when it fails.
+        let scratch = WorkFolder::new(
+            std::env::temp_dir().join(format!("runner-packaged-{}", std::process::id())),
+        );
+        let dir = scratch.path().to_path_buf();
         std::fs::create_dir_all(&dir).unwrap();
         let missing = format!("{:#}", packaged_fmus_in(&dir).unwrap_err());
         assert!(
@@ -408,6 +412,5 @@ mod tests {
         );
         std::fs::write(dir.join(PACKAGED_FMUS[1]), b"").unwrap();
         assert_eq!(packaged_fmus_in(&dir).unwrap(), dir);
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -658,9 +658,14 @@ mod tests {
     #[test]
     fn torques_unknown_and_pulling_away_meet_issue_12s_limits() {
         let fmu_dir = packaged_fmu_dir().expect("packaged FMUs");
-        let out_dir =
-            std::env::temp_dir().join(format!("harness-robustness-torques-{}", std::process::id()));
-        let env = Environment { fmu_dir, out_dir };
+        // The outputs are removed when the test ends, also when it fails.
+        let out = WorkFolder::new(
+            std::env::temp_dir().join(format!("harness-robustness-torques-{}", std::process::id())),
+        );
+        let env = Environment {
+            fmu_dir,
+            out_dir: out.path().to_path_buf(),
+        };
         let file = CaseFile::from_file(&scenario_dir().join(SHIPPED_CASES)).expect("case file");
         let _work = WorkFolder::new(env.work_dir());
         for name in [
@@ -690,6 +695,5 @@ mod tests {
                 );
             }
         }
-        let _ = std::fs::remove_dir_all(&env.out_dir);
     }
 }
