@@ -373,10 +373,8 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
 
-    /// The estimate's outputs with the rear tyre's stiffness uncertainty added to the reported
-    /// lateral velocity and sideslip standard deviations ([`with_stiffness_consider`]).
-    fn outputs(&self, sample: &OutputSample<STATE_DIM, ()>, v: &Variables) -> RealOutputs {
-        with_stiffness_consider(estimate_outputs(self, sample), v)
+    fn outputs(&self, sample: &OutputSample<STATE_DIM, ()>, _: &Variables) -> RealOutputs {
+        estimate_outputs(self, sample)
     }
 
     fn write_extra(_: &(), _: &mut StateWriter) {}
@@ -387,7 +385,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
 }
 
 /// The outputs of one sample as the filter's state and covariance give them (the grip model's
-/// too), before the consider term of [`with_stiffness_consider`].
+/// too), before the runner adds the consider term of [`crate::runner::with_stiffness_consider`].
 pub(crate) fn estimate_outputs(
     model: &ModelA,
     sample: &OutputSample<STATE_DIM, ()>,
@@ -430,28 +428,6 @@ pub(crate) fn estimate_outputs(
         sideslip_std: sideslip_variance.max(0.0).sqrt(),
         nis: sample.nis,
     }
-}
-
-/// Model A's sideslip rests on its rear tyre law: in a steady corner the yaw rate and `ay` fix
-/// the rear axle's force `Fyr`, and the sideslip follows from the rear slip angle
-/// `αR = Fyr / CαR` (000: 5.16-5.22, 5.70), so a relative error `ε` of the rear cornering
-/// stiffness moves the sideslip by `−ε αR` (and `vy` by `vx` times that), an error no sensor
-/// reveals and the filter's covariance does not contain. `cornering_stiffness_uncertainty` = σ
-/// is that error's standard deviation; its first-order effect `σ |αR|` is added in quadrature
-/// to the reported standard deviations, the consider covariance of a parameter left
-/// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
-/// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
-/// angle the same way (001: eq 5), and the grip model's on a rear tyre law whose scale it
-/// estimates but whose shape it does not, so both report it too.
-pub(crate) fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
-    let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
-    if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {
-        return values;
-    }
-    let lateral_velocity_consider = values.vx_est.abs() * sideslip_consider;
-    values.sideslip_std = values.sideslip_std.hypot(sideslip_consider);
-    values.vy_std = values.vy_std.hypot(lateral_velocity_consider);
-    values
 }
 
 /// Model A's model-error rows (see [`EstimationModel::model_error_rows`]), for every model built

@@ -15,7 +15,7 @@ use vehicle_models::two_track_lateral::{
 };
 use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
 
-use crate::model_a::{speed_measurements, with_stiffness_consider, MAX_PLAUSIBLE_AY};
+use crate::model_a::{speed_measurements, MAX_PLAUSIBLE_AY};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
@@ -228,7 +228,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let slip = |omega: f64, radius: f64, along: f64| (omega * radius - along) / along;
         let std = |i: usize| variances[i].max(0.0).sqrt();
         let cos_sideslip = sideslip.cos();
-        let values = RealOutputs {
+        RealOutputs {
             vx_est: vx,
             vy_est: vy,
             yaw_rate_est: yaw_rate,
@@ -248,9 +248,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             omega_rear_std: v.measurement_noise_std_omega_rear,
             sideslip_std: std(state_index::SIDESLIP),
             nis: sample.nis,
-        };
-        // The rear tyres' stiffness uncertainty, as model A reports it (with_stiffness_consider).
-        with_stiffness_consider(values, v)
+        }
     }
 
     fn write_extra(passed: &PassedThrough, writer: &mut StateWriter) {

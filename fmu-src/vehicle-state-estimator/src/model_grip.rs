@@ -156,10 +156,11 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             })
     }
 
-    /// Model A's outputs from the first five states and their covariance, with the rear
-    /// stiffness consider term; `ay_est` with the estimated grip factors (the slip angles and
-    /// slips do not depend on them).
-    fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, v: &Variables) -> RealOutputs {
+    /// Model A's outputs from the first five states and their covariance; `ay_est` with the
+    /// estimated grip factors (the slip angles and slips do not depend on them). The grip states
+    /// scale the tyre law but its shape is still the seed car's, so the runner's consider term
+    /// for the rear stiffness applies here too.
+    fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, _: &Variables) -> RealOutputs {
         let body_sample = body_estimate(&InitialEstimate {
             state: sample.state,
             covariance: sample.covariance,
@@ -186,9 +187,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 Some(grip),
             )
             .lateral_acceleration;
-        // The grip states scale the tyre law; its shape (where the force peaks, how it bends) is
-        // still the seed car's, so the rear tyre's uncertainty is reported as on model A.
-        model_a::with_stiffness_consider(values, v)
+        values
     }
 
     fn write_extra(_: &(), _: &mut StateWriter) {}

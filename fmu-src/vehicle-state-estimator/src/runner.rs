@@ -224,7 +224,8 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
         None
     }
 
-    /// The outputs of one sample's result.
+    /// The outputs of one sample's result, as the filter's state and covariance give them; the
+    /// runner adds the rear stiffness's consider term ([`with_stiffness_consider`]).
     fn outputs(&self, sample: &OutputSample<N, Self::Extra>, v: &Variables) -> RealOutputs;
 
     fn write_extra(extra: &Self::Extra, writer: &mut StateWriter);
@@ -989,7 +990,7 @@ where
         let Some((newest, older)) = self.pending.split_last() else {
             return;
         };
-        let mut values = self.model.outputs(newest, &self.parameters);
+        let mut values = self.outputs_of(newest);
         let mut finite = values.finite();
         let reset = finite.contains(&false);
         // Eager publishing would have kept the value of the newest older sample where it was
@@ -998,7 +999,7 @@ where
             if !finite.contains(&false) {
                 break;
             }
-            values.fill_from(&self.model.outputs(sample, &self.parameters), &mut finite);
+            values.fill_from(&self.outputs_of(sample), &mut finite);
         }
         if newest.holding {
             self.honest_held_outputs(newest, &mut values);
@@ -1009,6 +1010,14 @@ where
             variables.status |= status::STATE_RESET;
         }
         self.pending.clear();
+    }
+
+    /// The model's outputs of `sample` with the rear stiffness's consider term.
+    fn outputs_of(&self, sample: &OutputSample<N, Model::Extra>) -> RealOutputs {
+        with_stiffness_consider(
+            self.model.outputs(sample, &self.parameters),
+            &self.parameters,
+        )
     }
 
     /// A held sample's estimate is stale and its stds overconfident (issue 12, point 4): the
@@ -1084,4 +1093,27 @@ where
         }
         Ok(runner)
     }
+}
+
+/// Model A's sideslip rests on its rear tyre law: in a steady corner the yaw rate and `ay` fix
+/// the rear axle's force `Fyr`, and the sideslip follows from the rear slip angle
+/// `αR = Fyr / CαR` (000: 5.16-5.22, 5.70), so a relative error `ε` of the rear cornering
+/// stiffness moves the sideslip by `−ε αR` (and `vy` by `vx` times that), an error no sensor
+/// reveals and the filter's covariance does not contain. `cornering_stiffness_uncertainty` = σ
+/// is that error's standard deviation; its first-order effect `σ |αR|` is added in quadrature
+/// to the reported standard deviations, the consider covariance of a parameter left
+/// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
+/// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
+/// angle the same way (001: eq 5), and the grip model's on a rear tyre law whose scale it
+/// estimates but whose shape it does not, so the runner adds the term to every model's
+/// outputs ([`Runner::publish`]).
+pub(crate) fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
+    let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
+    if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {
+        return values;
+    }
+    let lateral_velocity_consider = values.vx_est.abs() * sideslip_consider;
+    values.sideslip_std = values.sideslip_std.hypot(sideslip_consider);
+    values.vy_std = values.vy_std.hypot(lateral_velocity_consider);
+    values
 }
