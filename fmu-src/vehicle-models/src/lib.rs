@@ -47,8 +47,8 @@ pub use reference::{
 };
 pub use scalar::{Dual, Scalar};
 pub use single_track::{
-    Chassis, SingleTrackHsri, SingleTrackLinearisation, SingleTrackModel, SingleTrackParams,
-    SingleTrackState,
+    AxleSlipKinematics, Chassis, LateralTyreStates, SingleTrackHsri, SingleTrackLinearisation,
+    SingleTrackModel, SingleTrackParams, SingleTrackState,
 };
 pub use truth::VehicleTruth;
 pub use two_track::{TwoTrackMagicFormula, TwoTrackModel, TwoTrackParams, TwoTrackState};

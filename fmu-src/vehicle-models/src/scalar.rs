@@ -48,6 +48,8 @@ pub trait Scalar:
     fn atan2(self, x: Self) -> Self;
     /// `|self|`; derivative `sign(self)`, zero at zero.
     fn abs(self) -> Self;
+    /// `e^self`.
+    fn exp(self) -> Self;
 
     /// `self²`.
     #[inline(always)]
@@ -93,6 +95,10 @@ impl Scalar for f64 {
     #[inline(always)]
     fn abs(self) -> Self {
         f64::abs(self)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        f64::exp(self)
     }
 }
 
@@ -323,6 +329,11 @@ impl<S: Scalar, const K: usize> Scalar for Dual<S, K> {
         } else {
             Self::from_value(self.value.abs())
         }
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        let value = self.value.exp();
+        self.chain(value, value)
     }
 }
 

@@ -253,6 +253,39 @@ struct AxleState<S: Scalar> {
     longitudinal_force_spin_derivative: S,
 }
 
+/// What the estimation crate's grip model (issue 17) estimates of each axle's lateral tyre force,
+/// `[front, rear]`, on top of model A's tyre law.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LateralTyreStates<S: Scalar> {
+    /// Factor on the lateral force; 1 is the user's tyre.
+    pub grip: [S; 2],
+    /// The tyres' transient slip angles `tan α'`, used by the tyre law in place of the
+    /// kinematic ones (the relaxation-length lag, see [`SingleTrackModel::kinematic_slip`]);
+    /// `None`: no lag, the kinematic slip angles (000: 5.17, 5.22).
+    pub transient_tan_slip_angle: Option<[S; 2]>,
+}
+
+impl<S: Scalar> LateralTyreStates<S> {
+    /// Grip factors only, no lag.
+    pub fn grip(grip: [S; 2]) -> Self {
+        Self {
+            grip,
+            transient_tan_slip_angle: None,
+        }
+    }
+}
+
+/// An axle's kinematic slip angle and the speed its tyre rolls at: what the relaxation-length
+/// lag of the tyre's slip angle follows (Pacejka, Tyre and Vehicle Dynamics, 3rd ed., §7.2.1:
+/// `σ dα'/dt + |Vcx| α' = |Vcx| α`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxleSlipKinematics<S: Scalar> {
+    /// `tan α` from the wheel centre's velocities (000: 5.17, 5.22).
+    pub tan_slip_angle: S,
+    /// The wheel centre's longitudinal velocity in the wheel frame `Vcx`, m/s.
+    pub wheel_velocity: S,
+}
+
 /// What one axle's force law takes from the parameters.
 #[derive(Clone, Copy, Debug)]
 struct AxleConstants {
@@ -372,6 +405,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         wheel_lateral_velocity: S,
         omega: S,
         axle: AxleConstants,
+        transient_tan_slip_angle: Option<S>,
         with_spin_derivative: bool,
     ) -> AxleState<S> {
         let p = &self.vehicle;
@@ -384,8 +418,9 @@ impl<T: TyreModel> SingleTrackModel<T> {
         // Divisions and square roots share one unit of the core and bound a filter's model
         // evaluations: each quotient by the same number is a product with its reciprocal.
         let inverse_divisor = S::constant(1.0) / divisor;
-        // (000: 5.17), (000: 5.22)
-        let tan_slip_angle = -wheel_lateral_velocity * inverse_divisor;
+        // (000: 5.17), (000: 5.22); the tyre's lagged slip angle where one is given
+        let tan_slip_angle =
+            transient_tan_slip_angle.unwrap_or(-wheel_lateral_velocity * inverse_divisor);
         // (000: 5.65)
         let slip = (omega * wheel_radius - wheel_velocity) * inverse_divisor;
         let kinematics = TyreKinematics {
@@ -416,6 +451,58 @@ impl<T: TyreModel> SingleTrackModel<T> {
         }
     }
 
+    /// The front wheel centre's longitudinal and lateral velocity in the wheel frame
+    /// (000: 5.16).
+    #[inline(always)]
+    fn front_wheel_velocities<S: Scalar>(
+        &self,
+        vx: S,
+        vy: S,
+        yaw_rate: S,
+        cos_steer: S,
+        sin_steer: S,
+    ) -> (S, S) {
+        let lateral_at_axle = vy + yaw_rate * self.vehicle.chassis.cog_to_front_axle;
+        (
+            vx * cos_steer + lateral_at_axle * sin_steer,
+            -(vx * sin_steer) + lateral_at_axle * cos_steer,
+        )
+    }
+
+    /// The rear wheel centre's lateral velocity (000: 5.21); its longitudinal one is `vx`.
+    #[inline(always)]
+    fn rear_wheel_lateral_velocity<S: Scalar>(&self, vy: S, yaw_rate: S) -> S {
+        vy - yaw_rate * self.vehicle.chassis.cog_to_rear_axle
+    }
+
+    /// Each axle's kinematic slip angle and wheel-centre speed at `(x, u)`, `[front, rear]`
+    /// (000: 5.16, 5.17, 5.21, 5.22), with the low-speed guard of the tyre forces.
+    #[inline(always)]
+    pub fn kinematic_slip<S: Scalar>(
+        &self,
+        x: &[S; STATE_DIM],
+        u: &[S; INPUT_DIM],
+    ) -> [AxleSlipKinematics<S>; 2] {
+        use state_index::*;
+        let steer = u[input_index::STEERING_ANGLE];
+        let guard = self.vehicle.low_speed_guard;
+        let (front_velocity, front_lateral) =
+            self.front_wheel_velocities(x[VX], x[VY], x[YAW_RATE], steer.cos(), steer.sin());
+        let rear_lateral = self.rear_wheel_lateral_velocity(x[VY], x[YAW_RATE]);
+        [
+            AxleSlipKinematics {
+                // as the tyre forces form it ([`Self::axle`]), to the bit
+                tan_slip_angle: -front_lateral
+                    * (S::constant(1.0) / guarded_speed(front_velocity, guard)),
+                wheel_velocity: front_velocity,
+            },
+            AxleSlipKinematics {
+                tan_slip_angle: -rear_lateral * (S::constant(1.0) / guarded_speed(x[VX], guard)),
+                wheel_velocity: x[VX],
+            },
+        ]
+    }
+
     /// Front axle (000: 5.16, 5.17).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -427,12 +514,11 @@ impl<T: TyreModel> SingleTrackModel<T> {
         omega: S,
         cos_steer: S,
         sin_steer: S,
+        transient_tan_slip_angle: Option<S>,
         with_spin_derivative: bool,
     ) -> AxleState<S> {
-        let lateral_at_axle = vy + yaw_rate * self.vehicle.chassis.cog_to_front_axle;
-        // (000: 5.16)
-        let wheel_velocity = vx * cos_steer + lateral_at_axle * sin_steer;
-        let wheel_lateral_velocity = -(vx * sin_steer) + lateral_at_axle * cos_steer;
+        let (wheel_velocity, wheel_lateral_velocity) =
+            self.front_wheel_velocities(vx, vy, yaw_rate, cos_steer, sin_steer);
         self.axle(
             wheel_velocity,
             wheel_lateral_velocity,
@@ -445,6 +531,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
                     .chassis
                     .tyre_scaling(true, self.vehicle.cornering_stiffness_scale_front),
             },
+            transient_tan_slip_angle,
             with_spin_derivative,
         )
     }
@@ -457,10 +544,10 @@ impl<T: TyreModel> SingleTrackModel<T> {
         vy: S,
         yaw_rate: S,
         omega: S,
+        transient_tan_slip_angle: Option<S>,
         with_spin_derivative: bool,
     ) -> AxleState<S> {
-        // (000: 5.21)
-        let wheel_lateral_velocity = vy - yaw_rate * self.vehicle.chassis.cog_to_rear_axle;
+        let wheel_lateral_velocity = self.rear_wheel_lateral_velocity(vy, yaw_rate);
         self.axle(
             vx,
             wheel_lateral_velocity,
@@ -473,24 +560,27 @@ impl<T: TyreModel> SingleTrackModel<T> {
                     .chassis
                     .tyre_scaling(false, self.vehicle.cornering_stiffness_scale_rear),
             },
+            transient_tan_slip_angle,
             with_spin_derivative,
         )
     }
 
-    /// The axles at `(x, u)`; with `lateral_factors = Some([gF, gR])` each axle's lateral force
-    /// is multiplied by its factor (a grip factor estimated online, see
-    /// [`Self::step_with_lateral_factors`]); `None` is model A as the seed writes it.
+    /// The axles at `(x, u)`; with `lateral = Some(..)` each axle's tyre works at its transient
+    /// slip angle where one is given, and its lateral force is multiplied by its grip factor
+    /// (states estimated online, see [`Self::step_with_lateral_states`]); `None` is model A as
+    /// the seed writes it.
     #[inline(always)]
     fn evaluate<S: Scalar>(
         &self,
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         with_spin_derivative: bool,
-        lateral_factors: Option<[S; 2]>,
+        lateral: Option<LateralTyreStates<S>>,
     ) -> Evaluation<S> {
         use state_index::*;
         let steer = u[input_index::STEERING_ANGLE];
         let (cos_steer, sin_steer) = (steer.cos(), steer.sin());
+        let transient = lateral.and_then(|states| states.transient_tan_slip_angle);
         let mut e = Evaluation {
             front: self.front_axle(
                 x[VX],
@@ -499,6 +589,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
                 x[OMEGA_FRONT],
                 cos_steer,
                 sin_steer,
+                transient.map(|[front, _]| front),
                 with_spin_derivative,
             ),
             rear: self.rear_axle(
@@ -506,12 +597,17 @@ impl<T: TyreModel> SingleTrackModel<T> {
                 x[VY],
                 x[YAW_RATE],
                 x[OMEGA_REAR],
+                transient.map(|[_, rear]| rear),
                 with_spin_derivative,
             ),
             cos_steer,
             sin_steer,
         };
-        if let Some([front, rear]) = lateral_factors {
+        if let Some(LateralTyreStates {
+            grip: [front, rear],
+            ..
+        }) = lateral
+        {
             e.front.lateral_force = e.front.lateral_force * front;
             e.rear.lateral_force = e.rear.lateral_force * rear;
         }
@@ -604,9 +700,9 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         rear_drive_torque: Option<S>,
-        lateral_factors: Option<[S; 2]>,
+        lateral: Option<LateralTyreStates<S>>,
     ) -> [S; STATE_DIM] {
-        let e = self.evaluate(x, u, false, lateral_factors);
+        let e = self.evaluate(x, u, false, lateral);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         [
             vx_dot,
@@ -627,11 +723,11 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         rear_drive_torque: Option<S>,
-        lateral_factors: Option<[S; 2]>,
+        lateral: Option<LateralTyreStates<S>>,
         dt: f64,
     ) -> [S; STATE_DIM] {
         use state_index::*;
-        let e = self.evaluate(x, u, true, lateral_factors);
+        let e = self.evaluate(x, u, true, lateral);
         let (front, rear) = (e.front, e.rear);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         let p = &self.vehicle;
@@ -685,30 +781,30 @@ impl<T: TyreModel> SingleTrackModel<T> {
         dt: f64,
         integrator: Integrator,
     ) -> [S; STATE_DIM] {
-        self.step_with_lateral_factors(x, u, rear_drive_torque, None, dt, integrator)
+        self.step_with_lateral_states(x, u, rear_drive_torque, None, dt, integrator)
     }
 
-    /// [`Self::step_with_rear_drive`] with each axle's lateral tyre force multiplied by its
-    /// factor `lateral_factors = Some([gF, gR])` (per-axle grip, estimated as states by the
-    /// estimation crate's grip model; issue 17 point 4), the same equations and integrators.
-    /// `None` is [`Self::step_with_rear_drive`]; factors of exactly 1 give the same numbers
-    /// (a product with 1 is exact).
+    /// [`Self::step_with_rear_drive`] with each axle's tyre at its transient slip angle and its
+    /// lateral force multiplied by its grip factor (`lateral`, [`LateralTyreStates`]: states of
+    /// the estimation crate's grip model; issue 17 point 4), the same equations and
+    /// integrators; both are held over the step. `None` is [`Self::step_with_rear_drive`];
+    /// factors of exactly 1 and the kinematic slip angles give the same numbers.
     #[inline(always)]
-    pub fn step_with_lateral_factors<S: Scalar>(
+    pub fn step_with_lateral_states<S: Scalar>(
         &self,
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
         rear_drive_torque: Option<S>,
-        lateral_factors: Option<[S; 2]>,
+        lateral: Option<LateralTyreStates<S>>,
         dt: f64,
         integrator: Integrator,
     ) -> [S; STATE_DIM] {
         match integrator {
             Integrator::SemiImplicitEuler => {
-                self.step_seed_scheme(x, u, rear_drive_torque, lateral_factors, dt)
+                self.step_seed_scheme(x, u, rear_drive_torque, lateral, dt)
             }
             Integrator::RungeKutta4 => runge_kutta4(x, dt, |state| {
-                self.derivatives_with_rear_drive(state, u, rear_drive_torque, lateral_factors)
+                self.derivatives_with_rear_drive(state, u, rear_drive_torque, lateral)
             }),
         }
     }
@@ -720,20 +816,20 @@ impl<T: TyreModel> SingleTrackModel<T> {
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
     ) -> [S; MEASUREMENT_DIM] {
-        self.measurement_with_lateral_factors(x, u, None)
+        self.measurement_with_lateral_states(x, u, None)
     }
 
     /// [`Self::measurement_generic`] with per-axle factors on the lateral tyre forces (see
-    /// [`Self::step_with_lateral_factors`]).
+    /// [`Self::step_with_lateral_states`]).
     #[inline(always)]
-    pub fn measurement_with_lateral_factors<S: Scalar>(
+    pub fn measurement_with_lateral_states<S: Scalar>(
         &self,
         x: &[S; STATE_DIM],
         u: &[S; INPUT_DIM],
-        lateral_factors: Option<[S; 2]>,
+        lateral: Option<LateralTyreStates<S>>,
     ) -> [S; MEASUREMENT_DIM] {
         use state_index::*;
-        let e = self.evaluate(x, u, false, lateral_factors);
+        let e = self.evaluate(x, u, false, lateral);
         // (000: 5.40) with (000: 5.42): ay = v̇y + vx r = (FyR + FyF cos δ + FxF sin δ) / m
         let lateral_acceleration = (e.rear.lateral_force
             + e.front.lateral_force * e.cos_steer
@@ -808,21 +904,21 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// Derived quantities at `(x, u)`: sideslip, accelerations, slip angles, slips, axle forces.
     pub fn outputs(&self, x: &SingleTrackState, u: &DriverInputVector) -> SingleTrackOutputs {
-        self.outputs_with_lateral_factors(x, u, None)
+        self.outputs_with_lateral_states(x, u, None)
     }
 
     /// [`Self::outputs`] with per-axle factors on the lateral tyre forces (see
-    /// [`Self::step_with_lateral_factors`]).
-    pub fn outputs_with_lateral_factors(
+    /// [`Self::step_with_lateral_states`]).
+    pub fn outputs_with_lateral_states(
         &self,
         x: &SingleTrackState,
         u: &DriverInputVector,
-        lateral_factors: Option<[f64; 2]>,
+        lateral: Option<LateralTyreStates<f64>>,
     ) -> SingleTrackOutputs {
         use state_index::*;
         let xs: &[f64; STATE_DIM] = &x.data.0[0];
         let us: &[f64; INPUT_DIM] = &u.data.0[0];
-        let e = self.evaluate(xs, us, false, lateral_factors);
+        let e = self.evaluate(xs, us, false, lateral);
         let [vx_dot, vy_dot, _] = self.body_derivatives(xs, &e.axle_forces());
         let (vx, vy, yaw_rate) = (xs[VX], xs[VY], xs[YAW_RATE]);
         SingleTrackOutputs {
@@ -1021,28 +1117,46 @@ mod cornering_stiffness_scale_tests {
     }
 
     /// Lateral-force factors of exactly 1 are model A to the bit, with both integrators, in
-    /// the step, the measurement and the outputs; a factor acts on its axle's lateral force
-    /// only.
+    /// the step, the measurement and the outputs, also with the kinematic slip angles given as
+    /// transient ones; a factor acts on its axle's lateral force only.
     #[test]
     fn unit_lateral_factors_are_model_a_bit_for_bit() {
         let model = with_scales(0.9, 1.1);
         let (x, u) = cornering_state();
         let (xs, us) = (&x.data.0[0], &u.data.0[0]);
+        let unit_grip = LateralTyreStates::grip([1.0, 1.0]);
+        let kinematic = model.kinematic_slip(xs, us).map(|axle| axle.tan_slip_angle);
+        let unlagged = LateralTyreStates {
+            transient_tan_slip_angle: Some(kinematic),
+            ..unit_grip
+        };
         for integrator in [Integrator::SemiImplicitEuler, Integrator::RungeKutta4] {
             for rear in [None, Some(120.0)] {
                 let plain = model.step_with_rear_drive(xs, us, rear, 0.01, integrator);
-                let unit = model.step_with_lateral_factors(
-                    xs,
-                    us,
-                    rear,
-                    Some([1.0, 1.0]),
-                    0.01,
-                    integrator,
-                );
+                let unit =
+                    model.step_with_lateral_states(xs, us, rear, Some(unit_grip), 0.01, integrator);
                 assert_eq!(plain.map(f64::to_bits), unit.map(f64::to_bits));
+                // Euler evaluates the forces at x only, where the slip angles are the kinematic
+                // ones; Runge-Kutta's inner stages hold them, so only Euler is the same to the bit.
+                if integrator == Integrator::SemiImplicitEuler {
+                    let same = model.step_with_lateral_states(
+                        xs,
+                        us,
+                        rear,
+                        Some(unlagged),
+                        0.01,
+                        integrator,
+                    );
+                    assert_eq!(plain.map(f64::to_bits), same.map(f64::to_bits));
+                }
             }
         }
-        let unit = model.measurement_with_lateral_factors(xs, us, Some([1.0, 1.0]));
+        let same = model.measurement_with_lateral_states(xs, us, Some(unlagged));
+        assert_eq!(
+            model.measurement_generic(xs, us).map(f64::to_bits),
+            same.map(f64::to_bits)
+        );
+        let unit = model.measurement_with_lateral_states(xs, us, Some(unit_grip));
         assert_eq!(
             model.measurement_generic(xs, us).map(f64::to_bits),
             unit.map(f64::to_bits)
@@ -1050,9 +1164,10 @@ mod cornering_stiffness_scale_tests {
         let plain = model.outputs(&x, &u);
         assert_eq!(
             plain,
-            model.outputs_with_lateral_factors(&x, &u, Some([1.0, 1.0]))
+            model.outputs_with_lateral_states(&x, &u, Some(unit_grip))
         );
-        let gripped = model.outputs_with_lateral_factors(&x, &u, Some([0.8, 1.3]));
+        let gripped =
+            model.outputs_with_lateral_states(&x, &u, Some(LateralTyreStates::grip([0.8, 1.3])));
         assert_eq!(gripped.lateral_force_front, 0.8 * plain.lateral_force_front);
         assert_eq!(gripped.lateral_force_rear, 1.3 * plain.lateral_force_rear);
         assert_eq!(

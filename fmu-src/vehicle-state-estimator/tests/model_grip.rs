@@ -114,9 +114,21 @@ fn two_track() -> ReferenceVehicle {
     ReferenceVehicle::new(&params, SPEED)
 }
 
-/// The mean sideslip std over the corner (after 2 s) of 3 s of the step.
-fn mean_sideslip_std(model: EstimatorModel, estimator: EstimatorKind) -> (f64, f64) {
+/// The mean sideslip std over the corner (after 2 s) of 3 s of the step, and the largest
+/// sideslip error; `relaxation_length`: the grip model's `tyre_relaxation_length` (the default
+/// where `None`).
+fn mean_sideslip_std(
+    model: EstimatorModel,
+    estimator: EstimatorKind,
+    relaxation_length: Option<f64>,
+) -> (f64, f64) {
     let mut s = instance(model, estimator);
+    if let Some(length) = relaxation_length {
+        assert_eq!(
+            s.set_real(vr::TYRE_RELAXATION_LENGTH, length),
+            Fmi2Status::Ok
+        );
+    }
     assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
     let mut truth = two_track();
     let (trace, worst) = run(&mut s, &mut truth, 0, 300);
@@ -128,19 +140,31 @@ fn mean_sideslip_std(model: EstimatorModel, estimator: EstimatorKind) -> (f64, f
     (std.iter().sum::<f64>() / std.len() as f64, worst)
 }
 
+/// This truth's tyres have no lag: with the filter's tyres relaxing over the default 0.5 m its
+/// sideslip trails the step for a few tenths of a second (measured largest errors 3.4-3.5e-3
+/// rad for the LKF, EKF and particle filter, 5.4-5.5e-3 for the UKFs), without lag 0.6-2.0e-3.
 #[test]
 fn every_supported_estimator_runs_on_the_grip_model() {
     use EstimatorKind::*;
-    for estimator in [Lkf, Ekf, Ukf, UkfScaled, ParticleFilter] {
-        let (std, worst) = mean_sideslip_std(EstimatorModel::SingleTrackGrip, estimator);
-        println!("{estimator:?}: mean sideslip std {std} rad, largest error {worst} rad");
-        assert!(
-            std > 0.0 && worst < 0.005,
-            "{estimator:?}: std {std}, error {worst}"
-        );
+    for (relaxation_length, bound) in [(Some(0.0), 0.005), (None, 0.008)] {
+        for estimator in [Lkf, Ekf, Ukf, UkfScaled, ParticleFilter] {
+            let (std, worst) = mean_sideslip_std(
+                EstimatorModel::SingleTrackGrip,
+                estimator,
+                relaxation_length,
+            );
+            println!(
+                "{estimator:?}, relaxation length {relaxation_length:?}: mean sideslip std {std} \
+                 rad, largest error {worst} rad"
+            );
+            assert!(
+                std > 0.0 && worst < bound,
+                "{estimator:?}: std {std}, error {worst}"
+            );
+        }
     }
-    let (grip, _) = mean_sideslip_std(EstimatorModel::SingleTrackGrip, Ekf);
-    let (model_a, _) = mean_sideslip_std(EstimatorModel::SingleTrack5State, Ekf);
+    let (grip, _) = mean_sideslip_std(EstimatorModel::SingleTrackGrip, Ekf, None);
+    let (model_a, _) = mean_sideslip_std(EstimatorModel::SingleTrack5State, Ekf, None);
     assert!(grip > 2.0 * model_a, "grip {grip} vs model A {model_a}");
 }
 

@@ -353,6 +353,10 @@ impl Scalar for Remembering {
     fn abs(self) -> Self {
         Self(self.0.abs())
     }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        Self(self.0.exp())
+    }
 }
 
 impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
