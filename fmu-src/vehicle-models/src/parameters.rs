@@ -7,7 +7,9 @@
 
 use crate::full_vehicle::{CarData, FullVehicleParams};
 use crate::single_track::Chassis;
-use crate::tyre::{HsriParams, MagicFormulaParams};
+use crate::two_track::TwoTrackParams;
+use crate::two_track_lateral::TwoTrackLateralModel;
+use crate::tyre::{HsriParams, MagicFormulaParams, MagicFormulaTyre};
 
 pub use crate::checks::positive;
 
@@ -125,6 +127,29 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
         Ok((
             axle(TYRE_LATERAL_SHAPE.0, TYRE_LATERAL_CURVATURE.0)?,
             axle(TYRE_LATERAL_SHAPE.1, TYRE_LATERAL_CURVATURE.1)?,
+        ))
+    }
+
+    /// Model B's 3-state car as the VehicleStateEstimator builds it: the [`Chassis`], the
+    /// cornering-stiffness scales, model B's geometry (`track_width`, `cog_height`,
+    /// `roll_moment_distribution_front`) and each axle's Magic Formula tyre
+    /// ([`Self::magic_formula_axles`]).
+    pub fn two_track_lateral(&self) -> Result<TwoTrackLateralModel<MagicFormulaTyre>, String> {
+        let (cornering_front, cornering_rear) = self.cornering_stiffness_scales()?;
+        let vehicle = TwoTrackParams {
+            chassis: self.chassis()?,
+            track_width: self.positive("track_width")?,
+            cog_height: self.value("cog_height")?,
+            front_roll_moment_share: self.value("roll_moment_distribution_front")?,
+            cornering_stiffness_scale_front: cornering_front,
+            cornering_stiffness_scale_rear: cornering_rear,
+            ..TwoTrackParams::default()
+        };
+        let (front_tyre, rear_tyre) = self.magic_formula_axles()?;
+        Ok(TwoTrackLateralModel::with_axle_tyres(
+            vehicle,
+            MagicFormulaTyre::new(front_tyre),
+            MagicFormulaTyre::new(rear_tyre),
         ))
     }
 

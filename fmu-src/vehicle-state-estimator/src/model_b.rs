@@ -13,7 +13,7 @@ use nalgebra::{SMatrix, SVector};
 use vehicle_models::two_track_lateral::{
     measurement_index, state_index, INPUT_DIM, MEASUREMENT_DIM, STATE_DIM,
 };
-use vehicle_models::{MagicFormulaTyre, TwoTrackLateralModel, TwoTrackParams};
+use vehicle_models::MagicFormulaTyre;
 
 use crate::model_a::{speed_measurements, MAX_PLAUSIBLE_AY};
 use crate::model_description::{RealOutputs, Variables};
@@ -44,24 +44,10 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     type Extra = PassedThrough;
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
-        let source = parameters::source(v);
-        // The same car as model A with model B's geometry (issue 17 point 4; the defaults are
-        // the two-track model's, SPEC §4).
-        let (cornering_front, cornering_rear) = source.cornering_stiffness_scales()?;
-        let vehicle = TwoTrackParams {
-            chassis: source.chassis()?,
-            track_width: positive("track_width", v.track_width)?,
-            cog_height: v.cog_height,
-            front_roll_moment_share: v.roll_moment_distribution_front,
-            // Per-axle tyres (issue 17 point 4): factors on Cα per axle as in model A; the
-            // friction and reference-load factors come with the chassis.
-            cornering_stiffness_scale_front: cornering_front,
-            cornering_stiffness_scale_rear: cornering_rear,
-            ..TwoTrackParams::default()
-        };
-        // Each axle's Magic Formula tyre, matched to the HSRI parameters (SPEC §4) with its own
-        // lateral shape and curvature.
-        let (front_tyre, rear_tyre) = source.magic_formula_axles()?;
+        // The same car as model A with model B's geometry and each axle's Magic Formula tyre,
+        // matched to the HSRI parameters (issue 17 point 4, SPEC §4), built where `harness
+        // fit` builds it too.
+        let vehicle = parameters::source(v).two_track_lateral()?;
         // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).
         let process = variances([
             ("process_noise_std_sideslip", v.process_noise_std_sideslip),
@@ -76,11 +62,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             ),
         ])?;
         TwoTrackEstimationModel::new(
-            TwoTrackLateralModel::with_axle_tyres(
-                vehicle,
-                MagicFormulaTyre::new(front_tyre),
-                MagicFormulaTyre::new(rear_tyre),
-            ),
+            vehicle,
             positive("sample_time", v.sample_time)?,
             parameters::integrator(v)?,
             process,
