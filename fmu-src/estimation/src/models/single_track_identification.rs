@@ -13,7 +13,7 @@
 //! acceleration `ay = (FyR + FyF cos δ + FxF sin δ)/m` (000: 5.40, 5.63), so the measurement
 //! term `I_3` (003: 2.78) enters the M-step.
 
-use nalgebra::SVector;
+use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::{HsriTyre, SingleTrackModel, TyreModel};
@@ -23,55 +23,217 @@ use vehicle_models::{HsriTyre, SingleTrackModel, TyreModel};
 pub use vehicle_models::SingleTrackHsri;
 
 use vehicle_models::single_track::state_index;
+use vehicle_models::Integrator;
 
-use super::stiffness_identification::{checked_run, identify_scales, StiffnessScaled};
-pub use super::stiffness_identification::{
-    CorneringIdentificationError, StiffnessIdentificationConfig, StiffnessScales, MAX_SCALE,
-    MIN_SCALE, PARAMETER_NAMES,
+use crate::identification::accelerated::{identify_accelerated, AccelerationConfig};
+use crate::identification::{
+    EmConfig, EmResult, EmSchedule, IdentificationError, LineSearchConfig, Parameterised,
 };
-use crate::identification::EmResult;
 use crate::kalman::SettingsError;
 use crate::models::single_track::SingleTrackEstimationModel;
+use crate::particle::{ParticleFilterConfig, Proposal, RecordedRun};
 use crate::StateSpaceModel;
+
+/// Names of the entries of `p`, as the VehicleStateEstimator parameters are called.
+pub const PARAMETER_NAMES: [&str; 2] = [
+    "cornering_stiffness_scale_front",
+    "cornering_stiffness_scale_rear",
+];
+
+/// Scale factors outside `[MIN_SCALE, MAX_SCALE]` are refused ([`Parameterised::with_parameters`]
+/// answers `None`, the M-step treats them as impossible): a tyre with a twentieth or twenty
+/// times the seed's stiffness is not a plausible explanation of any passenger-car data, and the
+/// bounds keep the line search away from zero, where the lateral forces vanish.
+pub const MIN_SCALE: f64 = 0.05;
+pub const MAX_SCALE: f64 = 20.0;
 
 /// Model A whose per-axle cornering-stiffness scales are the parameters; everything else (the
 /// filter's sample time, integrator, `Q`, `R`) is that of the wrapped estimation model.
-pub type CorneringStiffnessModel<T = HsriTyre> = StiffnessScales<SingleTrackEstimationModel<T>>;
+#[derive(Debug, Clone, PartialEq)]
+pub struct CorneringStiffnessModel<T: TyreModel = HsriTyre> {
+    model: SingleTrackEstimationModel<T>,
+}
 
-impl<T: TyreModel> StiffnessScaled for SingleTrackEstimationModel<T> {
-    fn stiffness_scales(&self) -> [f64; 2] {
-        let vehicle = &self.vehicle().vehicle;
-        [
-            vehicle.cornering_stiffness_scale_front,
-            vehicle.cornering_stiffness_scale_rear,
-        ]
+impl<T: TyreModel> CorneringStiffnessModel<T> {
+    /// Wraps `model`; its vehicle's scales are the starting parameters.
+    pub fn new(model: SingleTrackEstimationModel<T>) -> Self {
+        Self { model }
     }
 
-    fn with_stiffness_scales(&self, scales: [f64; 2]) -> Result<Self, SettingsError> {
-        let current = self.vehicle();
+    /// The estimation model with the current scales (for building filters with them).
+    pub fn model(&self) -> &SingleTrackEstimationModel<T> {
+        &self.model
+    }
+
+    /// The same model with the scales `[k_F, k_R]`; an error names a scale outside
+    /// `[MIN_SCALE, MAX_SCALE]` or a non-finite one.
+    pub fn with_scales(&self, scales: &SVector<f64, 2>) -> Result<Self, SettingsError> {
+        for (name, &scale) in PARAMETER_NAMES.iter().zip(scales.iter()) {
+            if !(MIN_SCALE..=MAX_SCALE).contains(&scale) {
+                return Err(SettingsError(format!(
+                    "{name} = {scale}; expected a factor between {MIN_SCALE} and {MAX_SCALE}"
+                )));
+            }
+        }
+        let current = self.model.vehicle();
         let mut vehicle = current.vehicle.clone();
         vehicle.cornering_stiffness_scale_front = scales[0];
         vehicle.cornering_stiffness_scale_rear = scales[1];
-        // The model was built from diagonal Q and R (its constructor's only form), so their
-        // diagonals rebuild them exactly.
-        SingleTrackEstimationModel::new(
+        // The wrapped model was built from diagonal Q and R (its constructor's only form), so
+        // their diagonals rebuild them exactly.
+        let process = self.model.process_noise().diagonal();
+        let measurement = self.model.measurement_noise().diagonal();
+        let model = SingleTrackEstimationModel::new(
             SingleTrackModel::new(vehicle, current.tyre.clone()),
-            self.sample_time(),
-            self.integrator(),
-            self.process_noise().diagonal().into(),
-            self.measurement_noise().diagonal().into(),
+            self.model.sample_time(),
+            self.model.integrator(),
+            process.into(),
+            measurement.into(),
+        )?;
+        Ok(Self { model })
+    }
+}
+
+impl<T: TyreModel> StateSpaceModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>
+    for CorneringStiffnessModel<T>
+{
+    fn state_names(&self) -> [&'static str; STATE_DIM] {
+        self.model.state_names()
+    }
+
+    fn measurement_names(&self) -> [&'static str; MEASUREMENT_DIM] {
+        self.model.measurement_names()
+    }
+
+    fn transition(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> SVector<f64, STATE_DIM> {
+        self.model.transition(state, input)
+    }
+
+    fn transition_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
+        self.model.transition_jacobian(state, input)
+    }
+
+    fn transition_input_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> SMatrix<f64, STATE_DIM, INPUT_DIM> {
+        self.model.transition_input_jacobian(state, input)
+    }
+
+    fn measurement(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> SVector<f64, MEASUREMENT_DIM> {
+        self.model.measurement(state, input)
+    }
+
+    fn measurement_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> SMatrix<f64, MEASUREMENT_DIM, STATE_DIM> {
+        self.model.measurement_jacobian(state, input)
+    }
+
+    fn measurement_input_jacobian(
+        &self,
+        state: &SVector<f64, STATE_DIM>,
+        input: &SVector<f64, INPUT_DIM>,
+    ) -> SMatrix<f64, MEASUREMENT_DIM, INPUT_DIM> {
+        self.model.measurement_input_jacobian(state, input)
+    }
+
+    fn process_noise(&self) -> SMatrix<f64, STATE_DIM, STATE_DIM> {
+        self.model.process_noise()
+    }
+
+    fn measurement_noise(&self) -> SMatrix<f64, MEASUREMENT_DIM, MEASUREMENT_DIM> {
+        self.model.measurement_noise()
+    }
+}
+
+impl<T: TyreModel> Parameterised<2> for CorneringStiffnessModel<T> {
+    fn parameter_names(&self) -> [&'static str; 2] {
+        PARAMETER_NAMES
+    }
+
+    fn parameters(&self) -> SVector<f64, 2> {
+        let vehicle = &self.model.vehicle().vehicle;
+        SVector::<f64, 2>::new(
+            vehicle.cornering_stiffness_scale_front,
+            vehicle.cornering_stiffness_scale_rear,
         )
     }
 
+    fn with_parameters(&self, parameters: &SVector<f64, 2>) -> Option<Self> {
+        self.with_scales(parameters).ok()
+    }
+
     /// `ay` is a tyre-force sum (000: 5.40): the measurement depends on the scales.
-    fn measurement_depends_on_scales(&self) -> bool {
+    fn measurement_depends_on_parameters(&self) -> bool {
         true
     }
 }
 
-/// Model A's settings of [`identify_scales_from_arrays`] (see [`StiffnessIdentificationConfig`]):
-/// `Q` and the initial prior over `[vx, vy, r, ωF, ωR]`, `R` over `[r, ay, ωF, ωR]`.
-pub type CorneringIdentificationConfig = StiffnessIdentificationConfig<STATE_DIM, MEASUREMENT_DIM>;
+/// Settings of [`identify_scales_from_arrays`]. The studies crate's model-mismatch study sets
+/// them for its data (`harness::mismatch::identification_config`: a two-track Magic Formula car
+/// seen through model A, sensors with the seed-001 scenarios' noise, 10 ms samples); the field
+/// comments say what each choice trades.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CorneringIdentificationConfig {
+    /// Sample time of the data and of the model's step, s.
+    pub sample_time: f64,
+    pub integrator: Integrator,
+    /// `Q = diag(std²)` per sample, `[vx, vy, r, ωF, ωR]`. It sets how much of the data the
+    /// model must explain: the larger it is, the more a parameter error hides in the process
+    /// noise (with 1e-2 m/s on vy the scales hardly move from 1), the smaller, the more the
+    /// particle filter of the E-step degenerates (with 1e-3 m/s and 100 particles the EM drifts
+    /// away from the likelihood optimum). The defaults (vy 2e-3 m/s, r 1e-3 rad/s per 10 ms)
+    /// lead the EM to the optimum of the EKF's prediction-error likelihood on the same data
+    /// (checked on a grid in the study) and are the `Q` the filters then run with.
+    pub process_noise_std: [f64; STATE_DIM],
+    /// `R = diag(std²)`, `[r, ay, ωF, ωR]`: the sensors' noise.
+    pub measurement_noise_std: [f64; MEASUREMENT_DIM],
+    /// Starting scales `[k_F, k_R]`.
+    pub start: [f64; 2],
+    /// Standard deviations of the prior around the initial state derived from the first
+    /// complete measurement row (see [`initial_state_from_measurement`]).
+    pub initial_std: [f64; STATE_DIM],
+    /// The E-step's particle filter (count, resampling, seed: common random numbers).
+    pub filter: ParticleFilterConfig,
+    pub proposal: Proposal,
+    /// Stop when a SQUAREM cycle changes no scale by more than this fraction. The particle
+    /// E-step makes the EM path jitter by about 0.3 % per cycle with 100 particles (common
+    /// random numbers fix the map, not its roughness), so a tighter tolerance only waits for a
+    /// lucky cycle.
+    pub tolerance: f64,
+    /// Most SQUAREM cycles (three E-steps each).
+    pub max_cycles: usize,
+    /// Powell sweeps of each M-step.
+    pub max_sweeps: usize,
+    pub acceleration: AccelerationConfig,
+}
+
+/// Why the scales cannot be identified from the given data.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CorneringIdentificationError {
+    #[error("data: {0}")]
+    Data(String),
+    #[error("model: {}", .0.0)]
+    Settings(SettingsError),
+    #[error(transparent)]
+    Identification(#[from] IdentificationError),
+}
 
 /// The state model A starts from, read off a measurement row `[r, ay, ωF, ωR]`: the speed of
 /// the freely rolling rear wheels `ωR r_w` (no drive torque at the rear, 000: 5.46), no
@@ -92,7 +254,7 @@ pub fn initial_state_from_measurement<T: TyreModel>(
 
 /// Identifies `[k_F, k_R]` of `vehicle` (model A's vehicle and tyre data; its own scales are
 /// ignored, `config.start` is the start) by the accelerated EM
-/// ([`identify_scales`], 003: §3.1) from rows of driver inputs
+/// ([`identify_accelerated`], 003: §3.1) from rows of driver inputs
 /// `[steering_angle, drive_torque, brake_torque]` and measurements `[r, ay, ωF, ωR]` sampled
 /// every `config.sample_time` (row `k` of both at `t0 + k T`; a NaN measurement entry is a
 /// missing value, the filter skips that row).
@@ -102,11 +264,17 @@ pub fn identify_scales_from_arrays<T: TyreModel>(
     measurements: &[[f64; MEASUREMENT_DIM]],
     config: &CorneringIdentificationConfig,
 ) -> Result<EmResult<2>, CorneringIdentificationError> {
-    let (run, first) = checked_run(
+    let (run, first_complete) = RecordedRun::from_checked_rows(
         inputs,
         measurements,
         "[steering_angle, drive_torque, brake_torque]",
-    )?;
+    )
+    .map_err(CorneringIdentificationError::Data)?;
+    let Some(first) = first_complete.map(|k| &measurements[k]) else {
+        return Err(CorneringIdentificationError::Data(String::from(
+            "no measurement row is complete; the initial state is read off the first complete row",
+        )));
+    };
     let model = SingleTrackEstimationModel::new(
         vehicle.clone(),
         config.sample_time,
@@ -118,18 +286,31 @@ pub fn identify_scales_from_arrays<T: TyreModel>(
     let start = CorneringStiffnessModel::new(model)
         .with_scales(&SVector::from(config.start))
         .map_err(CorneringIdentificationError::Settings)?;
-    identify_scales(
+    let initial_std = SVector::from(config.initial_std);
+    let em = EmConfig {
+        filter: config.filter,
+        proposal: config.proposal,
+        initial_state: initial_state_from_measurement(vehicle, first),
+        initial_covariance: SMatrix::from_diagonal(&initial_std.component_mul(&initial_std)),
+        tolerance: config.tolerance,
+        max_iterations: config.max_cycles,
+        line_search: LineSearchConfig::default(),
+        fresh_random_numbers: false,
+        schedule: EmSchedule::FullMaximisation {
+            max_sweeps: config.max_sweeps,
+        },
+    };
+    Ok(identify_accelerated(
         &start,
         &run,
-        initial_state_from_measurement(vehicle, &first),
-        config,
-    )
+        &em,
+        &config.acceleration,
+    )?)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identification::Parameterised;
 
     fn seed_model() -> SingleTrackEstimationModel {
         SingleTrackEstimationModel::seed_000(0.01).unwrap()

@@ -207,13 +207,7 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
             fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
             (Some((scales, converged)), Some(rows))
         }
-        FitModel::B => {
-            let rows = linear_rows(&fmu, &prepared, &start, train_rows.clone())?;
-            let (scales, converged) =
-                super::two_track_fit::identify_scales(&fmu, &prepared, &start, rows.clone())?;
-            fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
-            (Some((scales, converged)), Some(rows))
-        }
+        FitModel::B => (None, None),
     };
     let with_scales = with_reals(&fmu, &start, &fitted)?;
     let (noise_factors, noise_fit) = match options.model {
@@ -495,7 +489,7 @@ fn nis_per_dof(recording: &Recording, rows: Range<usize>) -> f64 {
 }
 
 /// The Real parameter `name` as `values` set it, else its start value in the FMU.
-pub(super) fn real_value(
+fn real_value(
     fmu: &LoadedFmu,
     values: &[(VariableInfo, ParameterValue)],
     name: &str,
@@ -620,7 +614,7 @@ fn training_rows(prepared: &Prepared, rows: Range<usize>) -> (Vec<[f64; 3]>, Vec
 
 /// A driver input on the rows: a missing sample holds the previous one (0 before the first),
 /// an input the map does not feed is 0, as the FMU's start value.
-pub(super) fn held_input(values: Option<&[f64]>, rows: usize) -> Vec<f64> {
+fn held_input(values: Option<&[f64]>, rows: usize) -> Vec<f64> {
     let Some(values) = values else {
         return vec![0.0; rows];
     };

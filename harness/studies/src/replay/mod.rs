@@ -18,7 +18,6 @@ pub mod map;
 pub mod noise;
 pub mod record;
 pub mod report;
-pub mod two_track_fit;
 pub mod units;
 
 use std::collections::HashMap;
