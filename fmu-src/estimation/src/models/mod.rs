@@ -1,6 +1,7 @@
 //! Adapters from the vehicle models to [`crate::StateSpaceModel`].
 
 // Model C and model A's stiffness scales exist for the EM identification (offline only).
+mod dual_passes;
 #[cfg(feature = "offline")]
 pub mod rear_axle;
 pub mod single_track;

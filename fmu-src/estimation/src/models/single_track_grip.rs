@@ -46,7 +46,9 @@
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{state_index, MEASUREMENT_DIM, STATE_DIM};
-use vehicle_models::{Dual, HsriTyre, LateralTyreStates, Scalar, SingleTrackModel, TyreModel};
+use vehicle_models::{HsriTyre, LateralTyreStates, Scalar, SingleTrackModel, TyreModel};
+
+use super::dual_passes::{input_pass, state_pass};
 
 use super::single_track::{
     SpeedAnchoredModel, ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM, AX_INPUT, AX_VALID_INPUT,
@@ -338,45 +340,6 @@ pub fn extend_state(state: &SVector<f64, STATE_DIM>) -> GripState {
     })
 }
 
-/// `(value, ∂/∂x)` of `f` over the `K` state directions seeded `state_dual`.
-fn state_pass<const R: usize>(
-    state: &GripState,
-    input: &SVector<f64, ANCHORED_INPUT_DIM>,
-    f: impl Fn(
-        &[Dual<f64, GRIP_STATE_DIM>; GRIP_STATE_DIM],
-        &[Dual<f64, GRIP_STATE_DIM>; ANCHORED_INPUT_DIM],
-    ) -> [Dual<f64, GRIP_STATE_DIM>; R],
-) -> (SVector<f64, R>, SMatrix<f64, R, GRIP_STATE_DIM>) {
-    let xs = core::array::from_fn(|i| Dual::variable(state[i], i));
-    let us = core::array::from_fn(|j| Dual::from_value(input[j]));
-    let out = f(&xs, &us);
-    (
-        SVector::from_fn(|i, _| out[i].value),
-        SMatrix::from_fn(|i, j| out[i].gradient[j]),
-    )
-}
-
-/// `∂/∂u` of `f` over the inputs; the `ax_valid` switch is held (no derivative).
-fn input_pass<const R: usize>(
-    state: &GripState,
-    input: &SVector<f64, ANCHORED_INPUT_DIM>,
-    f: impl Fn(
-        &[Dual<f64, ANCHORED_INPUT_DIM>; GRIP_STATE_DIM],
-        &[Dual<f64, ANCHORED_INPUT_DIM>; ANCHORED_INPUT_DIM],
-    ) -> [Dual<f64, ANCHORED_INPUT_DIM>; R],
-) -> SMatrix<f64, R, ANCHORED_INPUT_DIM> {
-    let xs = core::array::from_fn(|i| Dual::from_value(state[i]));
-    let us = core::array::from_fn(|j| {
-        if j == AX_VALID_INPUT {
-            Dual::from_value(input[j])
-        } else {
-            Dual::variable(input[j], j)
-        }
-    });
-    let out = f(&xs, &us);
-    SMatrix::from_fn(|i, j| out[i].gradient[j])
-}
-
 impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>
     for SingleTrackGripModel<T>
 {
@@ -424,7 +387,7 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
         state: &GripState,
         input: &SVector<f64, ANCHORED_INPUT_DIM>,
     ) -> SMatrix<f64, GRIP_STATE_DIM, ANCHORED_INPUT_DIM> {
-        input_pass(state, input, |x, u| self.step(x, u))
+        input_pass(state, input, Some(AX_VALID_INPUT), |x, u| self.step(x, u))
     }
 
     fn measurement(
@@ -459,7 +422,9 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
         state: &GripState,
         input: &SVector<f64, ANCHORED_INPUT_DIM>,
     ) -> SMatrix<f64, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> {
-        input_pass(state, input, |x, u| self.observe(x, u))
+        input_pass(state, input, Some(AX_VALID_INPUT), |x, u| {
+            self.observe(x, u)
+        })
     }
 
     /// Model A's `Q`, per grip factor `σ² (1 − a²)` (Brown and Hwang, §2.9), per transient slip
