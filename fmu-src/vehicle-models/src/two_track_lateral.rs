@@ -110,16 +110,6 @@ struct LateralForces<S: Scalar> {
     wheels: [S; WHEELS],
 }
 
-/// The tyres' transient slip angles `[tan αF', tan αR']` over one step
-/// ([`TwoTrackLateralModel::step_with_transient_slip`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TransientSlip<S: Scalar> {
-    /// At the step's start: the forces that advance `β` and `r`.
-    pub current: [S; 2],
-    /// At its end: the forces of `ay(k+1)`.
-    pub next: [S; 2],
-}
-
 /// Model B, 3-state form of seed 001, with tyre model `T` (Magic Formula by default).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TwoTrackLateralModel<T: TyreModel = MagicFormulaTyre> {
@@ -173,7 +163,6 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
                 steer,
                 speed,
                 [load_acceleration, longitudinal_acceleration],
-                None,
             )
             .wheels;
         (
@@ -195,13 +184,7 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
 
     /// Tangents of the axle slip angles `(tan αF, tan αR)` (001: eqs 4-5, ISO signs).
     #[inline(always)]
-    pub fn tan_slip_angles<S: Scalar>(
-        &self,
-        sideslip: S,
-        yaw_rate: S,
-        steer: S,
-        speed: S,
-    ) -> (S, S) {
+    fn tan_slip_angles<S: Scalar>(&self, sideslip: S, yaw_rate: S, steer: S, speed: S) -> (S, S) {
         let p = &self.vehicle;
         let divisor = guarded_speed(speed, p.low_speed_guard);
         let tan_sideslip = sideslip.sin() / sideslip.cos();
@@ -224,16 +207,11 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         steer: S,
         speed: S,
         loading: [S; 2],
-        transient: Option<[S; 2]>,
     ) -> LateralForces<S> {
         use wheel_index::*;
         let p = &self.vehicle;
         let [load_acceleration, longitudinal_acceleration] = loading;
-        // the tyres' lagged slip angles where given (see `step_with_transient_slip`)
-        let (tan_front, tan_rear) = match transient {
-            Some([front, rear]) => (front, rear),
-            None => self.tan_slip_angles(sideslip, yaw_rate, steer, speed),
-        };
+        let (tan_front, tan_rear) = self.tan_slip_angles(sideslip, yaw_rate, steer, speed);
         let loads = p.wheel_loads_accelerating(load_acceleration, longitudinal_acceleration);
         let mut lateral = [S::constant(0.0); WHEELS];
         for (wheel, force) in lateral.iter_mut().enumerate() {
@@ -279,10 +257,9 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         steer: S,
         speed: S,
         loading: [S; 2],
-        transient: Option<[S; 2]>,
     ) -> [S; 2] {
         let p = &self.vehicle;
-        let forces = self.lateral_forces(sideslip, yaw_rate, steer, speed, loading, transient);
+        let forces = self.lateral_forces(sideslip, yaw_rate, steer, speed, loading);
         let lateral_acceleration = forces.force_y / p.chassis.mass;
         let divisor = guarded_speed(speed, p.low_speed_guard);
         // (001: eq 11) β̇ = ay/v − r with v = vx / cos β
@@ -301,35 +278,14 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         dt: f64,
         integrator: Integrator,
     ) -> [S; STATE_DIM] {
-        self.step_with_transient_slip(x, u, None, dt, integrator)
-    }
-
-    /// [`Self::step_generic`] with the tyres at given slip angles instead of the kinematic ones
-    /// of 001: eqs 4-5 (the tyres' relaxation-length lag, states of the estimation crate's
-    /// lagged model B): `β` and `r` advance with the forces at `transient.current` (held over the
-    /// step), `ay(k+1)` is the force sum at `transient.next`. `None` is the seed's step.
-    #[inline(always)]
-    pub fn step_with_transient_slip<S: Scalar>(
-        &self,
-        x: &[S; STATE_DIM],
-        u: &[S; INPUT_DIM],
-        transient: Option<TransientSlip<S>>,
-        dt: f64,
-        integrator: Integrator,
-    ) -> [S; STATE_DIM] {
         use state_index::*;
-        let (current, next) = match transient {
-            Some(TransientSlip { current, next }) => (Some(current), Some(next)),
-            None => (None, None),
-        };
         let steer = u[input_index::STEERING_ANGLE];
         let speed = u[input_index::LONGITUDINAL_VELOCITY];
         let loading = [
             x[LATERAL_ACCELERATION],
             u[input_index::LONGITUDINAL_ACCELERATION],
         ];
-        let rates =
-            |z: &[S; 2]| self.sideslip_and_yaw_rates(z[0], z[1], steer, speed, loading, current);
+        let rates = |z: &[S; 2]| self.sideslip_and_yaw_rates(z[0], z[1], steer, speed, loading);
         let current = [x[SIDESLIP], x[YAW_RATE]];
         let [sideslip, yaw_rate] = match integrator {
             // (001: eq 14)
@@ -339,7 +295,7 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
         };
         // (001: eq 1) at the new state
         let lateral_acceleration = self
-            .lateral_forces(sideslip, yaw_rate, steer, speed, loading, next)
+            .lateral_forces(sideslip, yaw_rate, steer, speed, loading)
             .force_y
             / self.vehicle.chassis.mass;
         [sideslip, yaw_rate, lateral_acceleration]
@@ -417,7 +373,6 @@ impl<T: TyreModel> TwoTrackLateralModel<T> {
             steer,
             speed,
             [load_acceleration, longitudinal_acceleration],
-            None,
         )
         .force_y
             / self.vehicle.chassis.mass

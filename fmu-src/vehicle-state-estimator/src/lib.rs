@@ -63,7 +63,6 @@ pub mod model_description {
 
 pub mod model_a;
 pub mod model_b;
-pub mod model_b_lag;
 pub mod model_grip;
 pub mod parameters;
 pub mod runner;
@@ -71,7 +70,6 @@ mod state;
 
 use model_a::RunnerA;
 use model_b::RunnerB;
-use model_b_lag::RunnerBLag;
 use model_description::{EstimatorModel, Variables};
 use model_grip::RunnerGrip;
 use runner::Sensors;
@@ -112,8 +110,6 @@ pub enum ModelRunner {
     B(RunnerB),
     /// Model 3: model A with per-axle lateral grip states.
     Grip(RunnerGrip),
-    /// Model 4: model B with lagging tyres.
-    BLag(RunnerBLag),
 }
 
 /// Calls the same method of whichever runner runs.
@@ -123,7 +119,6 @@ macro_rules! on_runner {
             ModelRunner::A($r) => $call,
             ModelRunner::B($r) => $call,
             ModelRunner::Grip($r) => $call,
-            ModelRunner::BLag($r) => $call,
         }
     };
 }
@@ -134,7 +129,6 @@ impl ModelRunner {
             EstimatorModel::SingleTrack5State => Self::A(RunnerA::build(v, start_time)?),
             EstimatorModel::TwoTrack3State => Self::B(RunnerB::build(v, start_time)?),
             EstimatorModel::SingleTrackGrip => Self::Grip(RunnerGrip::build(v, start_time)?),
-            EstimatorModel::TwoTrackLag => Self::BLag(RunnerBLag::build(v, start_time)?),
         })
     }
 
@@ -144,7 +138,6 @@ impl ModelRunner {
                 EstimatorModel::SingleTrack5State => Self::A(RunnerA::read_state(v, reader)?),
                 EstimatorModel::TwoTrack3State => Self::B(RunnerB::read_state(v, reader)?),
                 EstimatorModel::SingleTrackGrip => Self::Grip(RunnerGrip::read_state(v, reader)?),
-                EstimatorModel::TwoTrackLag => Self::BLag(RunnerBLag::read_state(v, reader)?),
             },
         )
     }

@@ -112,7 +112,38 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         runner: &mut Runner<Self, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>,
         sensors: &Sensors,
     ) -> Result<Sample<MEASUREMENT_DIM, INPUT_DIM>, i32> {
-        two_track_sample(runner, sensors)
+        let passed = &mut runner.extra;
+        if sensors.omega_front.is_finite() {
+            passed.omega_front = sensors.omega_front;
+        }
+        if sensors.omega_rear.is_finite() {
+            passed.omega_rear = sensors.omega_rear;
+        }
+        let radii = WheelRadii::of(&runner.parameters);
+        let Some(speed) = sensors.speed(radii, runner.min_speed) else {
+            // Model B divides by the speed: hold the estimate until a speed is measured again.
+            return Err(status::BELOW_MIN_SPEED);
+        };
+        let mut bits = 0;
+        let predicted_ay = runner.filter.state()[state_index::LATERAL_ACCELERATION];
+        if runner.model.vehicle().vehicle.wheel_lifted(predicted_ay) {
+            bits |= status::WHEEL_LIFTED;
+        }
+        if !sensors.vx.is_finite() {
+            // vx_meas is missing and the wheel-speed fallback stands in for it.
+            bits |= status::ROW_SKIPPED;
+        }
+        passed.speed = speed;
+        // The measured ax shifts the axle loads (vehicle_models' two_track_lateral docs), taken
+        // as model A takes it, with use_speed_measurements; missing, the loads of free rolling
+        // (seed 001's model).
+        let (_, ax) = speed_measurements(&runner.parameters, sensors);
+        Ok(Sample {
+            measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
+            input: SVector::from([runner.input[0], speed, ax.unwrap_or(0.0)]),
+            offered: [true; MEASUREMENT_DIM],
+            bits,
+        })
     }
 
     /// `|ay| <= 1.5 g` (as model A); an all-zero sample has no speed, so model B holds anyway.
@@ -131,7 +162,16 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     /// Sideslip 0, yaw rate and ay as measured (0 where missing), with the initial covariance of
     /// the parameters, once a speed is measured.
     fn measured_start(runner: &RunnerB, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {
-        two_track_measured_start(&runner.parameters, runner.min_speed, sensors)
+        let v = &runner.parameters;
+        sensors.speed(WheelRadii::of(v), runner.min_speed)?;
+        let mut initial = Self::initial_estimate(v).ok()?;
+        let ay = Some(sensors.ay).filter(|ay| ay.abs() <= MAX_PLAUSIBLE_AY);
+        initial.state = StateB::from([
+            0.0,
+            finite_or(sensors.yaw_rate, 0.0),
+            ay.map_or(0.0, |ay| finite_or(ay, 0.0)),
+        ]);
+        Some(initial)
     }
 
     /// The `ay` row's model error (`ay_model_error`, [`ay_model_error_noise`]) from the model's
@@ -152,7 +192,45 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         sample: &OutputSample<STATE_DIM, PassedThrough>,
         v: &Variables,
     ) -> RealOutputs {
-        two_track_outputs(self, sample, v)
+        let x = sample.state;
+        let variances = sample.covariance.diagonal();
+        let passed = sample.extra;
+        let steering = sample.input[0];
+        // the slip angles do not depend on ax
+        let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed, 0.0]);
+        // vy = vx tan β and the axle slip angles (001: eqs 4-5).
+        let derived = self.vehicle().outputs(&x, &u);
+        let vx = passed.speed;
+        let (sideslip, yaw_rate) = (x[state_index::SIDESLIP], x[state_index::YAW_RATE]);
+        let vy = derived.lateral_velocity;
+        // Longitudinal slip (ω r − vxW) / vxW with the wheel-centre speed along the wheel and the
+        // axle's radius (000: 5.65; front wheel turned by δ, as in model A).
+        let front_along_wheel =
+            vx * steering.cos() + (vy + v.cog_to_front_axle * yaw_rate) * steering.sin();
+        let slip = |omega: f64, radius: f64, along: f64| (omega * radius - along) / along;
+        let std = |i: usize| variances[i].max(0.0).sqrt();
+        let cos_sideslip = sideslip.cos();
+        RealOutputs {
+            vx_est: vx,
+            vy_est: vy,
+            yaw_rate_est: yaw_rate,
+            omega_front_est: passed.omega_front,
+            omega_rear_est: passed.omega_rear,
+            sideslip_est: sideslip,
+            ay_est: x[state_index::LATERAL_ACCELERATION],
+            slip_angle_front_est: derived.slip_angle_front,
+            slip_angle_rear_est: derived.slip_angle_rear,
+            slip_front_est: slip(passed.omega_front, v.wheel_radius_front, front_along_wheel),
+            slip_rear_est: slip(passed.omega_rear, v.wheel_radius_rear, vx),
+            vx_std: v.measurement_noise_std_vx,
+            // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
+            vy_std: vx * std(state_index::SIDESLIP) / (cos_sideslip * cos_sideslip),
+            yaw_rate_std: std(state_index::YAW_RATE),
+            omega_front_std: v.measurement_noise_std_omega_front,
+            omega_rear_std: v.measurement_noise_std_omega_rear,
+            sideslip_std: std(state_index::SIDESLIP),
+            nis: sample.nis,
+        }
     }
 
     fn write_extra(passed: &PassedThrough, writer: &mut StateWriter) {
@@ -170,129 +248,4 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         passed.omega_rear = reader.f64("rear wheel speed")?;
         Ok(())
     }
-}
-
-/// The models on model B's 3-state form: model B itself and model B with lagging tyres
-/// ([`crate::model_b_lag`]), whose first three states are model B's.
-pub(crate) trait TwoTrackForm {
-    /// Model B (without the lag states).
-    fn two_track(&self) -> &ModelB;
-}
-
-impl TwoTrackForm for ModelB {
-    fn two_track(&self) -> &ModelB {
-        self
-    }
-}
-
-/// Model B's sample (`y = [ay, r]`, 001: eq 9, `u = [δ, vx, ax]`) for any model on its form.
-pub(crate) fn two_track_sample<Model, const N: usize>(
-    runner: &mut Runner<Model, N, MEASUREMENT_DIM, INPUT_DIM>,
-    sensors: &Sensors,
-) -> Result<Sample<MEASUREMENT_DIM, INPUT_DIM>, i32>
-where
-    Model: EstimationModel<N, MEASUREMENT_DIM, INPUT_DIM, Extra = PassedThrough> + TwoTrackForm,
-{
-    let passed = &mut runner.extra;
-    if sensors.omega_front.is_finite() {
-        passed.omega_front = sensors.omega_front;
-    }
-    if sensors.omega_rear.is_finite() {
-        passed.omega_rear = sensors.omega_rear;
-    }
-    let radii = WheelRadii::of(&runner.parameters);
-    let Some(speed) = sensors.speed(radii, runner.min_speed) else {
-        // Model B divides by the speed: hold the estimate until a speed is measured again.
-        return Err(status::BELOW_MIN_SPEED);
-    };
-    let mut bits = 0;
-    let predicted_ay = runner.filter.state()[state_index::LATERAL_ACCELERATION];
-    if runner
-        .model
-        .two_track()
-        .vehicle()
-        .vehicle
-        .wheel_lifted(predicted_ay)
-    {
-        bits |= status::WHEEL_LIFTED;
-    }
-    if !sensors.vx.is_finite() {
-        // vx_meas is missing and the wheel-speed fallback stands in for it.
-        bits |= status::ROW_SKIPPED;
-    }
-    passed.speed = speed;
-    // The measured ax shifts the axle loads (vehicle_models' two_track_lateral docs), taken
-    // as model A takes it, with use_speed_measurements; missing, the loads of free rolling
-    // (seed 001's model).
-    let (_, ax) = speed_measurements(&runner.parameters, sensors);
-    Ok(Sample {
-        measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
-        input: SVector::from([runner.input[0], speed, ax.unwrap_or(0.0)]),
-        offered: [true; MEASUREMENT_DIM],
-        bits,
-    })
-}
-
-/// The outputs as the XML descriptions state them for model B, from its three states.
-pub(crate) fn two_track_outputs(
-    model: &ModelB,
-    sample: &OutputSample<STATE_DIM, PassedThrough>,
-    v: &Variables,
-) -> RealOutputs {
-    let x = sample.state;
-    let variances = sample.covariance.diagonal();
-    let passed = sample.extra;
-    let steering = sample.input[0];
-    // the slip angles do not depend on ax
-    let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed, 0.0]);
-    // vy = vx tan β and the axle slip angles (001: eqs 4-5).
-    let derived = model.vehicle().outputs(&x, &u);
-    let vx = passed.speed;
-    let (sideslip, yaw_rate) = (x[state_index::SIDESLIP], x[state_index::YAW_RATE]);
-    let vy = derived.lateral_velocity;
-    // Longitudinal slip (ω r − vxW) / vxW with the wheel-centre speed along the wheel and the
-    // axle's radius (000: 5.65; front wheel turned by δ, as in model A).
-    let front_along_wheel =
-        vx * steering.cos() + (vy + v.cog_to_front_axle * yaw_rate) * steering.sin();
-    let slip = |omega: f64, radius: f64, along: f64| (omega * radius - along) / along;
-    let std = |i: usize| variances[i].max(0.0).sqrt();
-    let cos_sideslip = sideslip.cos();
-    RealOutputs {
-        vx_est: vx,
-        vy_est: vy,
-        yaw_rate_est: yaw_rate,
-        omega_front_est: passed.omega_front,
-        omega_rear_est: passed.omega_rear,
-        sideslip_est: sideslip,
-        ay_est: x[state_index::LATERAL_ACCELERATION],
-        slip_angle_front_est: derived.slip_angle_front,
-        slip_angle_rear_est: derived.slip_angle_rear,
-        slip_front_est: slip(passed.omega_front, v.wheel_radius_front, front_along_wheel),
-        slip_rear_est: slip(passed.omega_rear, v.wheel_radius_rear, vx),
-        vx_std: v.measurement_noise_std_vx,
-        // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
-        vy_std: vx * std(state_index::SIDESLIP) / (cos_sideslip * cos_sideslip),
-        yaw_rate_std: std(state_index::YAW_RATE),
-        omega_front_std: v.measurement_noise_std_omega_front,
-        omega_rear_std: v.measurement_noise_std_omega_rear,
-        sideslip_std: std(state_index::SIDESLIP),
-        nis: sample.nis,
-    }
-}
-
-/// Model B's start from the measurements (see its `measured_start`).
-pub(crate) fn two_track_measured_start(
-    v: &Variables,
-    min_speed: f64,
-    sensors: &Sensors,
-) -> Option<InitialEstimate<STATE_DIM>> {
-    sensors.speed(WheelRadii::of(v), min_speed)?;
-    let mut initial = ModelB::initial_estimate(v).ok()?;
-    let ay = Some(sensors.ay).filter(|ay| ay.abs() <= MAX_PLAUSIBLE_AY);
-    initial.state = StateB::from([
-        0.0,
-        finite_or(sensors.yaw_rate, 0.0),
-        ay.map_or(0.0, |ay| finite_or(ay, 0.0)),
-    ]);
-    Some(initial)
 }

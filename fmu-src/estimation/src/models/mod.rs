@@ -9,4 +9,3 @@ pub mod single_track_grip;
 #[cfg(feature = "offline")]
 pub mod single_track_identification;
 pub mod two_track;
-pub mod two_track_lag;
