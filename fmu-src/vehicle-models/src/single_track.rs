@@ -369,6 +369,15 @@ pub struct SingleTrackModel<T: TyreModel = HsriTyre> {
 /// Model A as in seed 000: single-track with HSRI tyres.
 pub type SingleTrackHsri = SingleTrackModel<HsriTyre>;
 
+/// An axle's kinematic `tan α` from its wheel centre's lateral velocity and the reciprocal of its
+/// guarded longitudinal one (000: 5.17, 5.22): one expression for the tyre forces
+/// (`SingleTrackModel::axle`) and [`SingleTrackModel::kinematic_slip`], so both give the same
+/// bits.
+#[inline(always)]
+fn kinematic_tan_slip_angle<S: Scalar>(lateral_velocity: S, inverse_divisor: S) -> S {
+    -lateral_velocity * inverse_divisor
+}
+
 /// `v` if `|v|` is at least `guard`, else the constant `guard` (see the module docs).
 #[inline(always)]
 pub(crate) fn guarded_speed<S: Scalar>(speed: S, guard: f64) -> S {
@@ -418,9 +427,9 @@ impl<T: TyreModel> SingleTrackModel<T> {
         // Divisions and square roots share one unit of the core and bound a filter's model
         // evaluations: each quotient by the same number is a product with its reciprocal.
         let inverse_divisor = S::constant(1.0) / divisor;
-        // (000: 5.17), (000: 5.22); the tyre's lagged slip angle where one is given
-        let tan_slip_angle =
-            transient_tan_slip_angle.unwrap_or(-wheel_lateral_velocity * inverse_divisor);
+        // the tyre's lagged slip angle where one is given, else the kinematic one
+        let tan_slip_angle = transient_tan_slip_angle
+            .unwrap_or_else(|| kinematic_tan_slip_angle(wheel_lateral_velocity, inverse_divisor));
         // (000: 5.65)
         let slip = (omega * wheel_radius - wheel_velocity) * inverse_divisor;
         let kinematics = TyreKinematics {
@@ -491,13 +500,17 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let rear_lateral = self.rear_wheel_lateral_velocity(x[VY], x[YAW_RATE]);
         [
             AxleSlipKinematics {
-                // as the tyre forces form it ([`Self::axle`]), to the bit
-                tan_slip_angle: -front_lateral
-                    * (S::constant(1.0) / guarded_speed(front_velocity, guard)),
+                tan_slip_angle: kinematic_tan_slip_angle(
+                    front_lateral,
+                    S::constant(1.0) / guarded_speed(front_velocity, guard),
+                ),
                 wheel_velocity: front_velocity,
             },
             AxleSlipKinematics {
-                tan_slip_angle: -rear_lateral * (S::constant(1.0) / guarded_speed(x[VX], guard)),
+                tan_slip_angle: kinematic_tan_slip_angle(
+                    rear_lateral,
+                    S::constant(1.0) / guarded_speed(x[VX], guard),
+                ),
                 wheel_velocity: x[VX],
             },
         ]

@@ -171,11 +171,6 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         }
     }
 
-    /// The tyres' relaxation length, m.
-    pub fn relaxation_length(&self) -> f64 {
-        self.relaxation_length
-    }
-
     /// The grip factors and (with a relaxation length) the transient slip angles of `state`, as
     /// model A's equations take them ([`SingleTrackModel::outputs_with_lateral_states`]).
     pub fn lateral_states_of(&self, state: &GripState) -> LateralTyreStates<f64> {
@@ -248,7 +243,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     }
 
     /// Each axle's transient slip angle one sample on: the relaxation-length lag towards the
-    /// kinematic slip angle at `(x, u)`, solved exactly over the sample (module docs).
+    /// kinematic slip angle at `(x, u)`, one explicit-Euler step (module docs).
     fn transient_slip_step<S: Scalar>(
         &self,
         x: &[S; GRIP_STATE_DIM],
