@@ -64,6 +64,13 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         SingleTrackGripModel::new(ModelA::from_parameters(v)?, prior(v)?)
             .and_then(|model| model.with_relaxation_length(v.tyre_relaxation_length))
+            // zero torques are unknown ones where the wheels get their extra noise for it
+            // (ModelA's extra_process_noise), and with the same switches
+            .map(|model| {
+                model.with_unknown_torques(
+                    v.use_speed_measurements && v.unknown_torque_slip_std > 0.0,
+                )
+            })
             .map_err(|error| format!("estimator set-up: {}", error.0))
     }
 

@@ -9,3 +9,4 @@ pub mod single_track_grip;
 #[cfg(feature = "offline")]
 pub mod single_track_identification;
 pub mod two_track;
+pub mod unknown_torques;

@@ -45,10 +45,11 @@
 
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
-use vehicle_models::single_track::{state_index, MEASUREMENT_DIM, STATE_DIM};
+use vehicle_models::single_track::{measurement_index, state_index, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::{HsriTyre, LateralTyreStates, Scalar, SingleTrackModel, TyreModel};
 
 use super::dual_passes::{input_pass, state_pass};
+use super::unknown_torques;
 
 use super::single_track::{
     SpeedAnchoredModel, ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM, AX_INPUT, AX_VALID_INPUT,
@@ -140,6 +141,8 @@ pub struct SingleTrackGripModel<T: TyreModel = HsriTyre> {
     decay: f64,
     /// The tyres' relaxation length `σ`, m; 0: no lag.
     relaxation_length: f64,
+    /// Whether zero torques mean unknown ones ([`Self::with_unknown_torques`]).
+    unknown_torques: bool,
 }
 
 impl<T: TyreModel> SingleTrackGripModel<T> {
@@ -153,7 +156,19 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             prior,
             decay,
             relaxation_length: 0.0,
+            unknown_torques: false,
         })
+    }
+
+    /// The same model whose zero torques mean unknown ones (`unknown_torques`): while every
+    /// torque input reads 0 and `ax` is measured, the tyre forces are those of freely rolling
+    /// wheels and each wheel keeps its slip (see [`unknown_torques`]); otherwise model A's
+    /// wheels. Without it (the default) zero torques are zero torques.
+    pub fn with_unknown_torques(self, unknown_torques: bool) -> Self {
+        Self {
+            unknown_torques,
+            ..self
+        }
     }
 
     /// The same model with tyres that relax over `relaxation_length` m (see the module docs);
@@ -279,7 +294,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> [S; GRIP_STATE_DIM] {
-        let body = self.body_step(x, u);
+        let body = self.body_step(&self.force_state(x, u), u);
         let mut next: [S; GRIP_STATE_DIM] =
             core::array::from_fn(|i| if i < STATE_DIM { body[i] } else { x[i] });
         if u[AX_VALID_INPUT].value() == 1.0 {
@@ -291,6 +306,18 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             next[state_index::VX] =
                 vx + (u[AX_INPUT] + r * vy) * self.anchored.inner().sample_time();
         }
+        if self.unknown_torques_apply(u) {
+            let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+            let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
+            let [front, rear] = unknown_torques::keeping_slip(
+                self.vehicle(),
+                &body,
+                next[state_index::VX],
+                &driver,
+            );
+            next[state_index::OMEGA_FRONT] = front;
+            next[state_index::OMEGA_REAR] = rear;
+        }
         for i in [GRIP_FRONT, GRIP_REAR] {
             // g(k+1) = 1 + a (g(k) − 1) (Brown and Hwang, §2.9)
             next[i] = (x[i] - 1.0) * self.decay + 1.0;
@@ -301,6 +328,28 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         next
     }
 
+    /// Whether the wheels of [`Self::with_unknown_torques`] apply at input `u`.
+    fn unknown_torques_apply<S: Scalar>(&self, u: &[S; ANCHORED_INPUT_DIM]) -> bool {
+        self.unknown_torques && unknown_torques::torques_unknown(u)
+    }
+
+    /// The state the tyre forces are evaluated at: `x`, or, while the torques are unknown
+    /// ([`Self::with_unknown_torques`]), `x` with both wheels at free rolling.
+    fn force_state<S: Scalar>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        u: &[S; ANCHORED_INPUT_DIM],
+    ) -> [S; GRIP_STATE_DIM] {
+        let mut forces = *x;
+        if self.unknown_torques_apply(u) {
+            let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+            let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
+            let rolling = unknown_torques::free_rolling(self.vehicle(), &body, &driver);
+            forces[..STATE_DIM].copy_from_slice(&rolling);
+        }
+        forces
+    }
+
     /// The measurement, generic over the scalar: model A's with the grip factors and transient
     /// slip angles, and `vx`.
     fn observe<S: Scalar>(
@@ -308,19 +357,20 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> [S; ANCHORED_MEASUREMENT_DIM] {
-        let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+        let forces = self.force_state(x, u);
+        let body: [S; STATE_DIM] = core::array::from_fn(|i| forces[i]);
         let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
         let y = self.vehicle().measurement_with_lateral_states(
             &body,
             &driver,
             Some(self.lateral_states(x)),
         );
-        core::array::from_fn(|i| {
-            if i < MEASUREMENT_DIM {
-                y[i]
-            } else {
-                x[state_index::VX]
-            }
+        core::array::from_fn(|i| match i {
+            // the wheel rows measure the wheel states themselves
+            measurement_index::OMEGA_FRONT => x[state_index::OMEGA_FRONT],
+            measurement_index::OMEGA_REAR => x[state_index::OMEGA_REAR],
+            _ if i < MEASUREMENT_DIM => y[i],
+            _ => x[state_index::VX],
         })
     }
 }
@@ -456,6 +506,7 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
+    use vehicle_models::driver_input::index as input_index;
     use vehicle_models::single_track::SingleTrackParams;
     use vehicle_models::Integrator;
 
@@ -531,6 +582,92 @@ mod tests {
                 model.transition_and_jacobian(&x, &u).0,
                 model.transition(&x, &u)
             );
+        }
+    }
+
+    /// A braked turn's state with the brake torque not reported: every torque input 0, `ax`
+    /// measured (the case of [`unknown_torques`]).
+    fn torques_unknown_case() -> (GripState, SVector<f64, ANCHORED_INPUT_DIM>) {
+        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02]);
+        let driver = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 0.0]);
+        let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, Some(-4.0));
+        (x, u)
+    }
+
+    /// With the torques unknown the Jacobians still match finite differences (in the steering
+    /// angle and `ax`; a torque of exactly 0 is the switch, so it has no derivative).
+    #[test]
+    fn jacobians_match_finite_differences_with_the_torques_unknown() {
+        let model = grip_model()
+            .with_relaxation_length(0.4)
+            .unwrap()
+            .with_unknown_torques(true);
+        let (x, u) = torques_unknown_case();
+        let numeric = central_difference(|x| model.transition(x, &u), &x);
+        let analytic = model.transition_jacobian(&x, &u);
+        assert!((analytic - numeric).amax() < 1e-5 * numeric.amax());
+        let numeric = central_difference(|x| model.measurement(x, &u), &x);
+        let analytic = model.measurement_jacobian(&x, &u);
+        assert!((analytic - numeric).amax() < 1e-5 * numeric.amax());
+        let columns = [input_index::STEERING_ANGLE, AX_INPUT];
+        let numeric = central_difference(|u| model.transition(&x, u), &u);
+        let analytic = model.transition_input_jacobian(&x, &u);
+        for j in columns {
+            assert!((analytic.column(j) - numeric.column(j)).amax() < 1e-5 * numeric.amax());
+        }
+        let numeric = central_difference(|u| model.measurement(&x, u), &u);
+        let analytic = model.measurement_input_jacobian(&x, &u);
+        for j in columns {
+            assert!((analytic.column(j) - numeric.column(j)).amax() < 1e-5 * numeric.amax());
+        }
+    }
+
+    /// With the torques unknown the tyre forces are those of freely rolling wheels, whatever the
+    /// wheel states, and each wheel keeps its slip velocity; with a torque given, without `ax`,
+    /// or with the switch off, the wheels are model A's, to the bit.
+    #[test]
+    fn unknown_torques_leave_the_forces_to_freely_rolling_wheels() {
+        let known = grip_model().with_relaxation_length(0.4).unwrap();
+        let unknown = known.clone().with_unknown_torques(true);
+        let (x, u) = torques_unknown_case();
+        let mut spun = x;
+        spun[state_index::OMEGA_FRONT] += 3.0;
+        spun[state_index::OMEGA_REAR] -= 2.0;
+        let (next, spun_next) = (unknown.transition(&x, &u), unknown.transition(&spun, &u));
+        for i in (0..GRIP_STATE_DIM)
+            .filter(|&i| i != state_index::OMEGA_FRONT && i != state_index::OMEGA_REAR)
+        {
+            assert_eq!(next[i], spun_next[i], "state {i}");
+        }
+        let ay = measurement_index::LATERAL_ACCELERATION;
+        assert_eq!(
+            unknown.measurement(&x, &u)[ay],
+            unknown.measurement(&spun, &u)[ay]
+        );
+        // slip velocities r ω − Vx,wheel kept (000: 5.16 at the front, with the start's vy, r)
+        let chassis = &unknown.vehicle().vehicle.chassis;
+        let steer = u[input_index::STEERING_ANGLE];
+        let front_slip = |s: &GripState, vx: f64| {
+            s[state_index::OMEGA_FRONT] * chassis.front_wheel_radius
+                - (vx * steer.cos()
+                    + (x[state_index::VY] + chassis.cog_to_front_axle * x[state_index::YAW_RATE])
+                        * steer.sin())
+        };
+        let rear_slip =
+            |s: &GripState, vx: f64| s[state_index::OMEGA_REAR] * chassis.rear_wheel_radius - vx;
+        let (vx, next_vx) = (x[state_index::VX], next[state_index::VX]);
+        assert!((front_slip(&next, next_vx) - front_slip(&x, vx)).abs() < 1e-12);
+        assert!((rear_slip(&next, next_vx) - rear_slip(&x, vx)).abs() < 1e-12);
+        assert_ne!(next, known.transition(&x, &u));
+        // a brake torque reported, or no ax: model A's wheels
+        let braked = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 800.0]);
+        let no_ax = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 0.0]);
+        for u in [
+            SpeedAnchoredModel::<HsriTyre>::extend_input(&braked, 0.0, Some(-4.0)),
+            SpeedAnchoredModel::<HsriTyre>::extend_input(&no_ax, 0.0, None),
+        ] {
+            assert_eq!(unknown.transition(&x, &u), known.transition(&x, &u));
+            assert_eq!(unknown.measurement(&x, &u), known.measurement(&x, &u));
         }
     }
 
