@@ -61,6 +61,10 @@ fn body_estimate(estimate: &InitialEstimate<GRIP_STATE_DIM>) -> InitialEstimate<
 impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelGrip {
     type Extra = ();
 
+    /// The grip states carry the axles' force scale, and with it the stiffness uncertainty, in
+    /// the covariance.
+    const ESTIMATES_TYRE_SCALE: bool = true;
+
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         SingleTrackGripModel::new(ModelA::from_parameters(v)?, prior(v)?)
             .and_then(|model| model.with_relaxation_length(v.tyre_relaxation_length))

@@ -127,6 +127,11 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// it passes through); part of the FMU state.
     type Extra: Clone + Copy + Debug + Send;
 
+    /// Whether the model estimates its tyres' force scale (the grip model's grip states), so
+    /// its covariance already holds the stiffness uncertainty that [`with_stiffness_consider`]
+    /// adds for the others, and the runner leaves that term out.
+    const ESTIMATES_TYRE_SCALE: bool = false;
+
     /// The model from the parameters.
     fn from_parameters(v: &Variables) -> Result<Self, String>;
 
@@ -1012,12 +1017,15 @@ where
         self.pending.clear();
     }
 
-    /// The model's outputs of `sample` with the rear stiffness's consider term.
+    /// The model's outputs of `sample` with the rear stiffness's consider term, unless the model
+    /// estimates its tyres' scale ([`EstimationModel::ESTIMATES_TYRE_SCALE`]).
     fn outputs_of(&self, sample: &OutputSample<N, Model::Extra>) -> RealOutputs {
-        with_stiffness_consider(
-            self.model.outputs(sample, &self.parameters),
-            &self.parameters,
-        )
+        let outputs = self.model.outputs(sample, &self.parameters);
+        if Model::ESTIMATES_TYRE_SCALE {
+            outputs
+        } else {
+            with_stiffness_consider(outputs, &self.parameters)
+        }
     }
 
     /// A held sample's estimate is stale and its stds overconfident (issue 12, point 4): the
@@ -1104,9 +1112,9 @@ where
 /// to the reported standard deviations, the consider covariance of a parameter left
 /// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
 /// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
-/// angle the same way (001: eq 5), and the grip model's on a rear tyre law whose scale it
-/// estimates but whose shape it does not, so the runner adds the term to every model's
-/// outputs ([`Runner::publish`]).
+/// angle the same way (001: eq 5), so the runner adds the term to both models' outputs
+/// ([`Runner::publish`]). The grip model estimates the scale of its tyre law and leaves it
+/// out (measured: fmu-src/estimation/README.md, "Grip states").
 pub(crate) fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
     let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
     if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {

@@ -1,6 +1,7 @@
-//! `cornering_stiffness_uncertainty` (every model): the rear tyre's stiffness uncertainty
+//! `cornering_stiffness_uncertainty` (models A and B): the rear tyre's stiffness uncertainty
 //! enters the reported sideslip and lateral-velocity standard deviations as a consider term
-//! `σ |αR|`, and nothing else. Truth: the two-track Magic Formula reference vehicle (lateral load
+//! `σ |αR|`, and nothing else; the grip model, whose grip states estimate its tyres' scale,
+//! leaves it out. Truth: the two-track Magic Formula reference vehicle (lateral load
 //! transfer, another tyre law: not model A) on a 2.5° road-wheel step at 65 km/h, noise-free
 //! sensors; the EKF at its defaults.
 
@@ -76,10 +77,25 @@ fn the_consider_term_widens_the_reported_std_and_leaves_the_estimate_alone() {
     for model in [
         EstimatorModel::SingleTrack5State,
         EstimatorModel::TwoTrack3State,
-        EstimatorModel::SingleTrackGrip,
     ] {
         widens_the_reported_std_and_leaves_the_estimate_alone(model);
     }
+}
+
+/// The grip model's covariance holds its tyres' scale uncertainty (the grip states): every
+/// output is the same to the bit whatever the parameter.
+#[test]
+fn the_grip_model_reports_its_own_covariance() {
+    let model = EstimatorModel::SingleTrackGrip;
+    let with = run(&mut estimator(model, Some(0.25)));
+    let without = run(&mut estimator(model, Some(0.0)));
+    for (k, ((w, _), (o, _))) in with.iter().zip(&without).enumerate() {
+        for i in 0..w.len() {
+            assert_eq!(w[i].to_bits(), o[i].to_bits(), "k = {k}, output {i}");
+        }
+    }
+    // and a sideslip std is reported (the filter's own, not 0)
+    assert!(with[200..].iter().all(|(w, _)| w[4] > 0.0));
 }
 
 fn widens_the_reported_std_and_leaves_the_estimate_alone(model: EstimatorModel) {

@@ -110,9 +110,9 @@ fn model_b_follows_the_escort_braking_in_a_turn() {
 
 /// The sine with dwell (5.4 deg of true sideslip on the Escort): the grip model's tyres relax
 /// over `tyre_relaxation_length` (default 0.5 m) as the car's do, and its EKF meets issue 17's
-/// 0.3 deg (measured 0.090 deg with `grip_std = 0.05`, 0.042 deg with 0.1; with the lag switched
-/// off, `tyre_relaxation_length = 0`, 0.314 deg, the lag being most of model A's error on sines
-/// and lane changes).
+/// 0.3 deg (measured 0.041 deg; with the lag switched off, `tyre_relaxation_length = 0`, 0.314
+/// deg before the unknown-torque wheels, the lag being most of model A's error on sines and lane
+/// changes).
 #[test]
 fn the_grip_models_lagged_tyres_follow_the_escort_sine_with_dwell() {
     let ekf = escort_grip_ekf_row("sine_with_dwell");
@@ -123,9 +123,8 @@ fn the_grip_models_lagged_tyres_follow_the_escort_sine_with_dwell() {
 /// Braking in a turn with the torques unknown (the Escort, 1800 N·m from 3 s, the inner rear
 /// wheel locking): the grip model's tyre forces are those of freely rolling wheels while the
 /// torques read 0 (estimation's `models::unknown_torques`), and its EKF meets issue 17's 0.3 deg
-/// (measured 0.135 deg; with the wheels' spin balance against a brake torque told 0 it drifted
-/// along the direction its sensors cannot see, to 0.69 deg with `grip_std = 0.05` and 1.20 deg
-/// with 0.1).
+/// (measured 0.096 deg; with the wheels' spin balance against a brake torque told 0 it drifted
+/// along the direction its sensors cannot see, to 1.20 deg).
 #[test]
 fn the_grip_models_ekf_holds_the_escort_braking_in_a_turn() {
     let ekf = escort_grip_ekf_row("braking_in_a_turn");
