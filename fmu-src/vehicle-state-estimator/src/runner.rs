@@ -127,10 +127,13 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// it passes through); part of the FMU state.
     type Extra: Clone + Copy + Debug + Send;
 
-    /// Whether the model estimates its tyres' force scale (the grip model's grip states), so
-    /// its covariance already holds the stiffness uncertainty that [`with_stiffness_consider`]
-    /// adds for the others, and the runner leaves that term out.
-    const ESTIMATES_TYRE_SCALE: bool = false;
+    /// Whether the model's filter estimates its tyres' force scale with a covariance that
+    /// follows it (the grip model's EKF and UKFs), so the reported std already holds the
+    /// stiffness uncertainty that [`with_stiffness_consider`] adds for the others, and the
+    /// runner leaves that term out.
+    fn estimates_tyre_scale(_v: &Variables) -> bool {
+        false
+    }
 
     /// The model from the parameters.
     fn from_parameters(v: &Variables) -> Result<Self, String>;
@@ -1017,11 +1020,11 @@ where
         self.pending.clear();
     }
 
-    /// The model's outputs of `sample` with the rear stiffness's consider term, unless the model
-    /// estimates its tyres' scale ([`EstimationModel::ESTIMATES_TYRE_SCALE`]).
+    /// The model's outputs of `sample` with the rear stiffness's consider term, unless the
+    /// filter estimates its tyres' scale ([`EstimationModel::estimates_tyre_scale`]).
     fn outputs_of(&self, sample: &OutputSample<N, Model::Extra>) -> RealOutputs {
         let outputs = self.model.outputs(sample, &self.parameters);
-        if Model::ESTIMATES_TYRE_SCALE {
+        if Model::estimates_tyre_scale(&self.parameters) {
             outputs
         } else {
             with_stiffness_consider(outputs, &self.parameters)
@@ -1113,8 +1116,8 @@ where
 /// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
 /// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
 /// angle the same way (001: eq 5), so the runner adds the term to both models' outputs
-/// ([`Runner::publish`]). The grip model estimates the scale of its tyre law and leaves it
-/// out (measured: fmu-src/estimation/README.md, "Grip states").
+/// ([`Runner::publish`]). The grip model's EKF and UKFs estimate the scale of its tyre law
+/// and leave it out (measured: fmu-src/estimation/README.md, "Grip states").
 pub(crate) fn with_stiffness_consider(mut values: RealOutputs, v: &Variables) -> RealOutputs {
     let sideslip_consider = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
     if !(sideslip_consider > 0.0 && sideslip_consider.is_finite()) {

@@ -31,13 +31,20 @@ const OUTPUTS: [u32; 7] = [
 
 /// The EKF on `model` at its defaults, with `uncertainty` as the parameter when given.
 fn estimator(model: EstimatorModel, uncertainty: Option<f64>) -> Slave {
+    estimator_of_kind(EstimatorKind::Ekf, model, uncertainty)
+}
+
+/// The estimator `kind` on `model` at its defaults, with `uncertainty` as the parameter when
+/// given.
+fn estimator_of_kind(
+    kind: EstimatorKind,
+    model: EstimatorModel,
+    uncertainty: Option<f64>,
+) -> Slave {
     let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "consider", GUID)
         .expect("instantiate");
     assert_eq!(s.set_integer(vr::MODEL, model as i32), Fmi2Status::Ok);
-    assert_eq!(
-        s.set_integer(vr::ESTIMATOR, EstimatorKind::Ekf as i32),
-        Fmi2Status::Ok
-    );
+    assert_eq!(s.set_integer(vr::ESTIMATOR, kind as i32), Fmi2Status::Ok);
     assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
     if let Some(sigma) = uncertainty {
         assert_eq!(
@@ -82,20 +89,41 @@ fn the_consider_term_widens_the_reported_std_and_leaves_the_estimate_alone() {
     }
 }
 
-/// The grip model's covariance holds its tyres' scale uncertainty (the grip states): every
-/// output is the same to the bit whatever the parameter.
+/// The covariance of the grip model's EKF and UKFs holds its tyres' scale uncertainty (the
+/// grip states): every output is the same to the bit whatever the parameter. Its LKF and
+/// particle filter, whose covariances do not follow the grip, report the term.
 #[test]
-fn the_grip_model_reports_its_own_covariance() {
+fn the_grip_models_ekf_and_ukfs_report_their_own_covariance() {
     let model = EstimatorModel::SingleTrackGrip;
-    let with = run(&mut estimator(model, Some(0.25)));
-    let without = run(&mut estimator(model, Some(0.0)));
-    for (k, ((w, _), (o, _))) in with.iter().zip(&without).enumerate() {
-        for i in 0..w.len() {
-            assert_eq!(w[i].to_bits(), o[i].to_bits(), "k = {k}, output {i}");
+    for kind in [
+        EstimatorKind::Ekf,
+        EstimatorKind::Ukf,
+        EstimatorKind::UkfScaled,
+    ] {
+        let with = run(&mut estimator_of_kind(kind, model, Some(0.25)));
+        let without = run(&mut estimator_of_kind(kind, model, Some(0.0)));
+        for (k, ((w, _), (o, _))) in with.iter().zip(&without).enumerate() {
+            for i in 0..w.len() {
+                assert_eq!(
+                    w[i].to_bits(),
+                    o[i].to_bits(),
+                    "{kind:?} k = {k}, output {i}"
+                );
+            }
         }
+        // and a sideslip std is reported (the filter's own, not 0)
+        assert!(with[200..].iter().all(|(w, _)| w[4] > 0.0), "{kind:?}");
     }
-    // and a sideslip std is reported (the filter's own, not 0)
-    assert!(with[200..].iter().all(|(w, _)| w[4] > 0.0));
+    for kind in [EstimatorKind::Lkf, EstimatorKind::ParticleFilter] {
+        let with = run(&mut estimator_of_kind(kind, model, Some(0.25)));
+        let without = run(&mut estimator_of_kind(kind, model, Some(0.0)));
+        // in the corner the rear slip angle is not 0, so the term widens the std
+        let wider = with[200..]
+            .iter()
+            .zip(&without[200..])
+            .all(|((w, _), (o, _))| w[4] > o[4]);
+        assert!(wider, "{kind:?}");
+    }
 }
 
 fn widens_the_reported_std_and_leaves_the_estimate_alone(model: EstimatorModel) {
