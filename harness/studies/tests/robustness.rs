@@ -132,6 +132,26 @@ fn the_grip_models_ekf_holds_the_escort_braking_in_a_turn() {
     assert!(!ekf.worse_than_baseline(), "{ekf:?}");
 }
 
+/// Issue 12 point 1 on the campaigns (torques unknown throughout): the grip model's speed stays
+/// within 2 % on every Escort run (measured at most 0.28 % on all 15 runs, its wheels keeping
+/// their slip while the torques read 0), where model A's EKF is up to 8.8 % off (braking in a
+/// turn: the braked front wheel pulls vx through its spin balance and vx_meas is then gated).
+#[test]
+fn the_grip_model_keeps_the_speed_within_two_percent_on_every_escort_run() {
+    for manoeuvre in [
+        "step_steer",
+        "iso3888_2",
+        "slow_ramp",
+        "sine_with_dwell",
+        "braking_in_a_turn",
+    ] {
+        let rows = escort_campaign_rows(manoeuvre);
+        for row in rows.iter().filter(|r| r.model == "A+grip") {
+            assert!(row.max_speed_error < 0.02, "{row:?}");
+        }
+    }
+}
+
 /// The grip model's EKF row (`EKF_G`) of the Escort's campaign run of `manoeuvre`.
 fn escort_grip_ekf_row(manoeuvre: &str) -> Row {
     escort_campaign_rows(manoeuvre)
