@@ -40,6 +40,12 @@
 //! holds `α'` at standstill. `σ = 0` is model A's instantaneous tyre: the forces use the
 //! kinematic slip angles and the transient states merely follow them.
 //!
+//! **Unknown torques.** With [`SingleTrackGripModel::with_unknown_torques`] (the FMU's default),
+//! while every torque input reads 0 and `ax` is measured, the tyre forces are those of freely
+//! rolling wheels and each wheel keeps its slip velocity ([`unknown_torques`]): the wheels'
+//! spin balance against a torque told 0 otherwise lets the filter trade slip angle against
+//! grip along the direction its sensors cannot see.
+//!
 //! The Jacobians are forward-mode derivatives of the vehicle-models step (dual numbers, only the
 //! directions a call needs), as for model A.
 
