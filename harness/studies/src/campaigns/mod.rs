@@ -39,10 +39,6 @@ const VEHICLE: &str = "vehicle";
 /// A filter whose speed estimate leaves the truth by more than half (a run-away vx, issue 12's
 /// failure) or whose output is not finite has diverged.
 const DIVERGED_SPEED_ERROR: f64 = 0.5;
-/// Issue 12 point 1: with the torques unknown vx stays within 2 % of the true speed.
-const SPEED_ERROR_TARGET: f64 = 0.02;
-/// Below this true speed, m/s, a relative speed error is not scored (the robustness cases' floor).
-const SPEED_ERROR_FLOOR: f64 = 2.0;
 /// Issue 17 point 5: the best estimator's sideslip RMSE is at most 0.3 deg.
 const TARGET_RMSE_DEG: f64 = 0.3;
 /// FMVSS 126 S7.6: the sine-with-dwell amplitude is capped at 270 deg of steering wheel.
@@ -114,7 +110,7 @@ pub struct Row {
     pub zero_baseline: f64,
     pub peak_sideslip: f64,
     /// Largest relative error of `vx_est` after the first sample, where the true speed is at
-    /// least [`SPEED_ERROR_FLOOR`] (issue 12 point 1 asks for 2 % with the torques unknown).
+    /// least [`metrics::RELATIVE_SPEED_FLOOR`] (issue 12 point 1 asks for 2 % with the torques unknown).
     pub max_speed_error: f64,
     pub diverged: bool,
 }
@@ -357,7 +353,7 @@ fn row(
             .from_time(f64::NEG_INFINITY)
             .fold(0.0f64, |p, k| p.max(sideslip.truth[k].abs())),
         // from the first estimate on: the instant before it is the start value of vx_initial
-        max_speed_error: vx.max_relative_error_from(scenario.step, SPEED_ERROR_FLOOR),
+        max_speed_error: vx.max_relative_error_from(scenario.step, metrics::RELATIVE_SPEED_FLOOR),
         diverged: !sideslip.all_finite()
             || vx.max_relative_error_from(f64::NEG_INFINITY, 1.0) > DIVERGED_SPEED_ERROR,
     })
@@ -497,7 +493,7 @@ impl CampaignReport {
         let speed_off = self
             .rows
             .iter()
-            .filter(|r| r.max_speed_error > SPEED_ERROR_TARGET)
+            .filter(|r| r.max_speed_error > metrics::SPEED_LIMIT)
             .count();
         format!(
             "Issue 17 point 5: the best RMSE is at most {TARGET_RMSE_DEG} deg in {on_target} of {} runs; \
@@ -506,7 +502,7 @@ impl CampaignReport {
              than {:.0} % off in {speed_off} rows.",
             summaries.len(),
             self.rows.len(),
-            100.0 * SPEED_ERROR_TARGET
+            100.0 * metrics::SPEED_LIMIT
         )
     }
 
