@@ -13,7 +13,7 @@ use estimation::models::single_track_grip::{
     extend_state, GripPrior, SingleTrackGripModel, GRIP_STATE_DIM, TRANSIENT_SLIP_FRONT,
     TRANSIENT_SLIP_REAR,
 };
-use estimation::registry::EstimatorSettings;
+use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
@@ -21,8 +21,8 @@ use vehicle_models::single_track::STATE_DIM;
 use vehicle_models::HsriTyre;
 
 use crate::model_a::{self, ModelA};
-use crate::model_description::{EstimatorKind, RealOutputs, Variables};
-use crate::parameters::{self, positive};
+use crate::model_description::{RealOutputs, Variables};
+use crate::parameters::positive;
 use crate::runner::{EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors};
 
 /// Model 3 as the filters see it.
@@ -66,13 +66,10 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     /// driving, where the grip is unobservable) nor in the particle filter's (its particles
     /// collapse along the grip directions): without the term their sideslip NEES on the
     /// campaigns was 1-75 and 2-1034, so they keep it.
-    fn estimates_tyre_scale(v: &Variables) -> bool {
+    fn estimates_tyre_scale(choice: EstimatorChoice) -> bool {
         matches!(
-            parameters::estimator_choice(v),
-            Ok((
-                EstimatorKind::Ekf | EstimatorKind::Ukf | EstimatorKind::UkfScaled,
-                _
-            ))
+            choice,
+            EstimatorChoice::Ekf | EstimatorChoice::Ukf | EstimatorChoice::UkfScaled
         )
     }
 
@@ -190,9 +187,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
 
     /// Model A's outputs from the first five states and their covariance; `ay_est` with the
     /// estimated grip factors and transient slip angles (the slip-angle outputs stay the
-    /// kinematic ones of model A). The grip states
-    /// scale the tyre law but its shape is still the seed car's, so the runner's consider term
-    /// for the rear stiffness applies here too.
+    /// kinematic ones of model A). The runner adds the rear stiffness's consider term only for
+    /// the LKF and the particle filter ([`Self::estimates_tyre_scale`]).
     fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, _: &Variables) -> RealOutputs {
         let body_sample = body_estimate(&InitialEstimate {
             state: sample.state,

@@ -131,7 +131,7 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// follows it (the grip model's EKF and UKFs), so the reported std already holds the
     /// stiffness uncertainty that [`with_stiffness_consider`] adds for the others, and the
     /// runner leaves that term out.
-    fn estimates_tyre_scale(_v: &Variables) -> bool {
+    fn estimates_tyre_scale(_choice: EstimatorChoice) -> bool {
         false
     }
 
@@ -1024,7 +1024,7 @@ where
     /// filter estimates its tyres' scale ([`EstimationModel::estimates_tyre_scale`]).
     fn outputs_of(&self, sample: &OutputSample<N, Model::Extra>) -> RealOutputs {
         let outputs = self.model.outputs(sample, &self.parameters);
-        if Model::estimates_tyre_scale(&self.parameters) {
+        if Model::estimates_tyre_scale(self.choice) {
             outputs
         } else {
             with_stiffness_consider(outputs, &self.parameters)

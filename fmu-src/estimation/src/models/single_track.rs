@@ -606,14 +606,15 @@ impl<T: TyreModel> SpeedAnchoredModel<T> {
         (input[AX_VALID_INPUT] == 1.0).then_some(input[AX_INPUT])
     }
 
-    /// `vx + T (ax + r vy)` (the kinematics above).
-    fn kinematic_speed(&self, state: &SVector<f64, STATE_DIM>, ax: f64) -> f64 {
+    /// `vx + T (ax + r vy)` (the kinematics above), generic over the scalar; `state` starts
+    /// with model A's states (the grip model's too).
+    pub(super) fn kinematic_speed<S: Scalar, const K: usize>(&self, state: &[S; K], ax: S) -> S {
         let (vx, vy, r) = (
             state[state_index::VX],
             state[state_index::VY],
             state[state_index::YAW_RATE],
         );
-        vx + self.inner.sample_time() * (ax + r * vy)
+        vx + (ax + r * vy) * self.inner.sample_time()
     }
 
     /// The `vx` row of `∂f/∂x` under the kinematics.
@@ -650,7 +651,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED
             Self::rear_drive(input),
         );
         if let Some(ax) = Self::ax(input) {
-            next[state_index::VX] = self.kinematic_speed(state, ax);
+            next[state_index::VX] = self.kinematic_speed(&state.data.0[0], ax);
         }
         next
     }
@@ -674,7 +675,7 @@ impl<T: TyreModel> StateSpaceModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED
             Self::rear_drive(input),
         );
         if let Some(ax) = Self::ax(input) {
-            next[state_index::VX] = self.kinematic_speed(state, ax);
+            next[state_index::VX] = self.kinematic_speed(&state.data.0[0], ax);
             for (j, value) in self.kinematic_row(state).into_iter().enumerate() {
                 jacobian[(state_index::VX, j)] = value;
             }

@@ -300,24 +300,20 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> [S; GRIP_STATE_DIM] {
-        let body = self.body_step(&self.force_state(x, u), u);
+        let rolling = self.rolling_body(x, u);
+        let body = self.body_step(&Self::force_state(x, rolling.as_ref()), u);
         let mut next: [S; GRIP_STATE_DIM] =
             core::array::from_fn(|i| if i < STATE_DIM { body[i] } else { x[i] });
         if u[AX_VALID_INPUT].value() == 1.0 {
-            let (vx, vy, r) = (
-                x[state_index::VX],
-                x[state_index::VY],
-                x[state_index::YAW_RATE],
-            );
-            next[state_index::VX] =
-                vx + (u[AX_INPUT] + r * vy) * self.anchored.inner().sample_time();
+            next[state_index::VX] = self.anchored.kinematic_speed(x, u[AX_INPUT]);
         }
-        if self.unknown_torques_apply(u) {
+        if let Some(rolling) = rolling {
             let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
             let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
             let [front, rear] = unknown_torques::keeping_slip(
                 self.vehicle(),
                 &body,
+                &rolling,
                 next[state_index::VX],
                 &driver,
             );
@@ -334,24 +330,29 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         next
     }
 
-    /// Whether the wheels of [`Self::with_unknown_torques`] apply at input `u`.
-    fn unknown_torques_apply<S: Scalar>(&self, u: &[S; ANCHORED_INPUT_DIM]) -> bool {
-        self.unknown_torques && unknown_torques::torques_unknown(u)
-    }
-
-    /// The state the tyre forces are evaluated at: `x`, or, while the torques are unknown
-    /// ([`Self::with_unknown_torques`]), `x` with both wheels at free rolling.
-    fn force_state<S: Scalar>(
+    /// While the torques are unknown ([`Self::with_unknown_torques`]), model A's states of `x`
+    /// with both wheels at free rolling; otherwise `None`.
+    fn rolling_body<S: Scalar>(
         &self,
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
-    ) -> [S; GRIP_STATE_DIM] {
-        let mut forces = *x;
-        if self.unknown_torques_apply(u) {
+    ) -> Option<[S; STATE_DIM]> {
+        (self.unknown_torques && unknown_torques::torques_unknown(u)).then(|| {
             let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
             let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
-            let rolling = unknown_torques::free_rolling(self.vehicle(), &body, &driver);
-            forces[..STATE_DIM].copy_from_slice(&rolling);
+            unknown_torques::free_rolling(self.vehicle(), &body, &driver)
+        })
+    }
+
+    /// The state the tyre forces are evaluated at: `x`, with the body of `rolling` where the
+    /// torques are unknown ([`Self::rolling_body`]).
+    fn force_state<S: Scalar>(
+        x: &[S; GRIP_STATE_DIM],
+        rolling: Option<&[S; STATE_DIM]>,
+    ) -> [S; GRIP_STATE_DIM] {
+        let mut forces = *x;
+        if let Some(rolling) = rolling {
+            forces[..STATE_DIM].copy_from_slice(rolling);
         }
         forces
     }
@@ -363,7 +364,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> [S; ANCHORED_MEASUREMENT_DIM] {
-        let forces = self.force_state(x, u);
+        let forces = Self::force_state(x, self.rolling_body(x, u).as_ref());
         let body: [S; STATE_DIM] = core::array::from_fn(|i| forces[i]);
         let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
         let y = self.vehicle().measurement_with_lateral_states(

@@ -70,16 +70,17 @@ pub fn free_rolling<S: Scalar, T: TyreModel>(
 }
 
 /// The wheel speeds `[ωF, ωR]` one sample on when each keeps its slip velocity while the body
-/// goes from `body` to the speed `next_vx` (the body's `vy` and `r` of the sample's start).
+/// goes from `body` to the speed `next_vx` (the body's `vy` and `r` of the sample's start);
+/// `rolling` is `body` at free rolling ([`free_rolling`], which the forces used already).
 pub fn keeping_slip<S: Scalar, T: TyreModel>(
     vehicle: &SingleTrackModel<T>,
     body: &[S; STATE_DIM],
+    rolling: &[S; STATE_DIM],
     next_vx: S,
     driver: &[S; INPUT_DIM],
 ) -> [S; 2] {
-    let mut then = *body;
+    let mut then = *rolling;
     then[state_index::VX] = next_vx;
-    let now = free_rolling(vehicle, body, driver);
     let then = free_rolling(vehicle, &then, driver);
-    [state_index::OMEGA_FRONT, state_index::OMEGA_REAR].map(|i| body[i] + (then[i] - now[i]))
+    [state_index::OMEGA_FRONT, state_index::OMEGA_REAR].map(|i| body[i] + (then[i] - rolling[i]))
 }
