@@ -10,6 +10,7 @@ use estimation::models::single_track::{
     SingleTrackEstimationModel, SpeedAnchoredModel, ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM,
     AX_INPUT, AX_VALID_INPUT, VX_ROW,
 };
+use estimation::models::unknown_torques;
 use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
@@ -321,14 +322,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
             return None;
         }
         let speed = state[state_index::VX].abs();
-        let torques_unknown = [
-            input_index::DRIVE_TORQUE,
-            input_index::BRAKE_TORQUE,
-            REAR_DRIVE_TORQUE,
-        ]
-        .into_iter()
-        .all(|i| input[i] == 0.0);
-        let slip = if torques_unknown {
+        let slip = if unknown_torques::torques_read_zero(&input.data.0[0]) {
             v.unknown_torque_slip_std
         } else {
             0.0

@@ -38,8 +38,9 @@ use vehicle_models::{Scalar, SingleTrackModel, TyreModel};
 use super::single_track::{ANCHORED_INPUT_DIM, AX_VALID_INPUT, REAR_DRIVE_INPUT};
 
 /// Every torque input (front drive, brake, rear drive) reads exactly 0: the FMU's convention for
-/// "torques unknown" (`unknown_torque_slip_std`).
-pub fn torques_read_zero<S: Scalar>(u: &[S; ANCHORED_INPUT_DIM]) -> bool {
+/// "torques unknown" (`unknown_torque_slip_std`). `u` is any input that begins with the
+/// driver input and the rear drive torque (the anchored model's, the FMU runner's).
+pub fn torques_read_zero<S: Scalar, const K: usize>(u: &[S; K]) -> bool {
     [
         input_index::DRIVE_TORQUE,
         input_index::BRAKE_TORQUE,
