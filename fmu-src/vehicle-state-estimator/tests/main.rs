@@ -13,6 +13,7 @@ mod parameter_bounds;
 mod rear_drive;
 mod registry;
 mod robustness;
+mod sliding_wheels;
 mod stiffness_consider;
 mod tunable;
 mod wheel_lift;

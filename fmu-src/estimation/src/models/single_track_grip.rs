@@ -177,6 +177,11 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         }
     }
 
+    /// Whether zero torques mean unknown ones ([`Self::with_unknown_torques`]).
+    pub fn takes_zero_torques_as_unknown(&self) -> bool {
+        self.unknown_torques
+    }
+
     /// The same model with tyres that relax over `relaxation_length` m (see the module docs);
     /// finite and at least 0.
     pub fn with_relaxation_length(self, relaxation_length: f64) -> Result<Self, SettingsError> {

@@ -1,0 +1,62 @@
+//! The grip model's rule for sliding wheels (`model_grip::sliding_axles`): while the torques read
+//! 0 (unknown) and an axle's estimated longitudinal slip passes 10 %, that axle's grip factor gets
+//! the prior's variance `grip_std²` per sample on top of its noise; not otherwise, and not when
+//! the torques are told (the model's combined slip then accounts for the sliding wheel).
+
+use estimation::models::single_track_grip::{extend_state, GripState, GRIP_FRONT, GRIP_REAR};
+use nalgebra::SMatrix;
+use vehicle_models::driver_input::index as input_index;
+use vehicle_models::single_track::state_index;
+use VehicleStateEstimator::model_description::Variables;
+use VehicleStateEstimator::model_grip::ModelGrip;
+use VehicleStateEstimator::runner::{EstimationModel, InputVector};
+
+const SPEED: f64 = 20.0;
+
+fn model() -> ModelGrip {
+    ModelGrip::from_parameters(&Variables::default()).expect("the defaults build model 3")
+}
+
+/// Straight driving at [`SPEED`] with the wheels' slips `[front, rear]` (000: 5.65).
+fn driving(model: &ModelGrip, slips: [f64; 2]) -> GripState {
+    let mut body = model.vehicle().straight_rolling_state(SPEED);
+    for (index, slip) in [state_index::OMEGA_FRONT, state_index::OMEGA_REAR]
+        .into_iter()
+        .zip(slips)
+    {
+        body[index] *= 1.0 + slip;
+    }
+    extend_state(&body)
+}
+
+/// The extra process noise of the front and rear grip factors.
+fn grip_noise(model: &ModelGrip, state: &GripState, input: &InputVector) -> [f64; 2] {
+    let noise = model
+        .extra_process_noise(state, input, &Variables::default())
+        .unwrap_or_else(SMatrix::zeros);
+    [GRIP_FRONT, GRIP_REAR].map(|i| noise[(i, i)])
+}
+
+#[test]
+fn a_sliding_axle_relearns_its_grip_while_the_torques_are_unknown() {
+    let model = model();
+    let variance = Variables::default().grip_std.powi(2);
+    let unknown = InputVector::zeros();
+    // Rolling; a braked front and a driven rear wheel below 10 %; a locked inner rear wheel
+    // halving its axle's mean wheel speed; a spinning driven front wheel at 12 %.
+    let cases = [
+        ([0.0, 0.0], [0.0, 0.0]),
+        ([-0.05, 0.08], [0.0, 0.0]),
+        ([0.0, -0.5], [0.0, variance]),
+        ([0.12, 0.0], [variance, 0.0]),
+    ];
+    for (slips, expected) in cases {
+        let noise = grip_noise(&model, &driving(&model, slips), &unknown);
+        assert_eq!(noise, expected, "slips {slips:?}");
+    }
+    // Told the brake torque, the model's combined slip accounts for the sliding wheel.
+    let mut braking = InputVector::zeros();
+    braking[input_index::BRAKE_TORQUE] = 1500.0;
+    let locked = driving(&model, [0.0, -0.5]);
+    assert_eq!(grip_noise(&model, &locked, &braking), [0.0, 0.0]);
+}
