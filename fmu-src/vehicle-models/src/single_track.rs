@@ -73,7 +73,7 @@ pub type SingleTrackMeasurement = SVector<f64, MEASUREMENT_DIM>;
 
 /// Two wheels per axle: the single-track axle force is twice the force of one tyre
 /// (000: text before table 5.2).
-const WHEELS_PER_AXLE: f64 = 2.0;
+pub const WHEELS_PER_AXLE: f64 = 2.0;
 
 /// Model A's state with names.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

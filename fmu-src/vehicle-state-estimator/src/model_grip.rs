@@ -18,7 +18,7 @@ use estimation::registry::{EstimatorChoice, EstimatorSettings};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
-use vehicle_models::single_track::STATE_DIM;
+use vehicle_models::single_track::{STATE_DIM, WHEELS_PER_AXLE};
 use vehicle_models::HsriTyre;
 
 use crate::model_a::{self, ModelA};
@@ -64,33 +64,65 @@ fn body_estimate(estimate: &InitialEstimate<GRIP_STATE_DIM>) -> InitialEstimate<
 /// Dynamics, 3rd ed., §1.2).
 const SLIDING_SLIP: f64 = 0.1;
 
+/// The share of its friction potential beyond which an axle's side force is taken to be set by
+/// the friction rather than by the cornering stiffness (see [`sliding_axles`]).
+const SATURATED_SHARE: f64 = 0.8;
+
 /// The grip factors' states, front and rear.
 const GRIP_FACTORS: [usize; 2] = [GRIP_FRONT, GRIP_REAR];
 
-/// Which axles' wheels slide while the torques are unknown: a braked or driven wheel whose slip
-/// (000: 5.65, from the estimate, whose wheels follow their measurements then) exceeds
-/// [`SLIDING_SLIP`]. The model evaluates its tyre forces at free rolling then
-/// (`estimation::models::unknown_torques`), so what braking or traction takes from the side
-/// force is a force error for the grip states; past the peak slip it is no longer small and
-/// no longer slow: a locked wheel carries almost no side force (friction ellipse, Pacejka §4.3),
-/// and the grip factor of its axle falls within a few samples, faster than its Gauss-Markov
-/// prior lets it follow. While an axle's wheels slide, its grip factor gets the prior's whole
-/// variance `grip_std²` per sample: its grip is learned anew from the sensors. Measured on the
-/// campaigns (`harness robustness`, braking in a turn with the cars as their files describe
-/// them, no ABS; the BMW 320i's inner rear wheel locks from 4.7 s): EKF_G's sideslip RMSE Escort
-/// / BMW / Vanagon 0.096 / 0.175 / 0.131° → 0.096 / 0.121 / 0.100°, the BMW's NEES 2.62 → 0.87
-/// with 79 → 96 % of samples inside the 95 % bound; the other twelve runs, and the braked
-/// corners with the cars' ABS on (which keeps the slip below 10 %), unchanged. Per sample
-/// `0.05²` instead of `grip_std²`: BMW 0.128°, 92 %; a threshold of 15 %: 0.142°, 89 %.
+/// Which axles' tyres slide, so that their grip factor must be learned anew: the factor scales
+/// the whole force curve of the parameters' tyre, and what it has to be depends on the part of
+/// the curve the tyre is on. Each such axle's factor gets the prior's whole variance `grip_std²`
+/// per sample. An axle slides when, at the estimate (model A's tyre law, 000: 5.65-5.73):
+///
+/// - **longitudinally**, while the torques are unknown: a braked or driven wheel's slip exceeds
+///   [`SLIDING_SLIP`]. The model evaluates its tyre forces at free rolling then
+///   (`estimation::models::unknown_torques`), so what braking or traction takes from the side
+///   force is a force error for the grip states; past the peak slip it is no longer small and no
+///   longer slow: a locked wheel carries almost no side force (friction ellipse, Pacejka §4.3),
+///   and its axle's factor falls within a few samples, faster than the Gauss-Markov prior
+///   follows. Measured (`harness robustness`, braking in a turn, the cars without ABS as their
+///   files describe them; the BMW 320i's inner rear wheel locks from 4.7 s): EKF_G's sideslip
+///   RMSE Escort / BMW / Vanagon 0.096 / 0.175 / 0.131° → 0.096 / 0.121 / 0.100°, the BMW's NEES
+///   2.62 → 0.87 with 79 → 96 % of the samples inside the 95 % bound; with ABS on (slip below
+///   10 %) unchanged. Per sample `0.05²` instead: BMW 0.128°, 92 %; a 15 % threshold: 0.142°,
+///   89 %.
+/// - **laterally**: its side force exceeds [`SATURATED_SHARE`] of its friction potential
+///   `f0 FZ` (000: 5.67). Below it the factor is the ratio of the car's cornering stiffness to
+///   the parameters'; at the limit it is the ratio of the frictions, which differs, and a sine
+///   with dwell swings the axle from one to the other and through zero within half a second.
+///   Measured on the campaigns' lane changes and sines with dwell (EKF_G sideslip RMSE, NEES,
+///   share inside): the VW Vanagon's sine (9.7° of sideslip) 0.121° / 2.02 / 82 % → 0.067° /
+///   1.12 / 91 %, its lane change 0.072 → 0.068°, the Escort's and BMW's sines 0.041 / 0.057 →
+///   0.045 / 0.067°; share 0.7 with `0.02²`: the lane changes into the band too but the
+///   Escort's slow ramp 0.150 → 0.163° and the sines 0.054 / 0.071°; 0.9: no run changes.
 fn sliding_axles(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [bool; 2] {
-    if !(model.takes_zero_torques_as_unknown()
-        && unknown_torques::torques_read_zero(&input.data.0[0]))
-    {
-        return [false; 2];
-    }
     let driver = input.fixed_rows::<INPUT_DIM>(0).into_owned();
     let outputs = model.vehicle().outputs(&body(state), &driver);
-    [outputs.slip_front, outputs.slip_rear].map(|slip| slip.abs() > SLIDING_SLIP)
+    let torques_unknown = model.takes_zero_torques_as_unknown()
+        && unknown_torques::torques_read_zero(&input.data.0[0]);
+    let chassis = &model.vehicle().vehicle.chassis;
+    let tyre = &model.vehicle().tyre.params;
+    let saturated = |force: f64, wheel_load: f64| {
+        let potential = tyre.friction_potential(wheel_load) * wheel_load * WHEELS_PER_AXLE;
+        force.abs() > SATURATED_SHARE * potential
+    };
+    [
+        (
+            outputs.slip_front,
+            outputs.lateral_force_front,
+            chassis.front_wheel_load,
+        ),
+        (
+            outputs.slip_rear,
+            outputs.lateral_force_rear,
+            chassis.rear_wheel_load,
+        ),
+    ]
+    .map(|(slip, force, wheel_load)| {
+        (torques_unknown && slip.abs() > SLIDING_SLIP) || saturated(force, wheel_load)
+    })
 }
 
 impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelGrip {
@@ -202,8 +234,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         self.anchored().scheduling_input(operating, sample)
     }
 
-    /// Model A's extra wheel noise, and `grip_std²` on the grip factor of an axle whose wheels
-    /// slide while the torques are unknown ([`sliding_axles`]).
+    /// Model A's extra wheel noise, and `grip_std²` on the grip factor of an axle whose tyres
+    /// slide ([`sliding_axles`]).
     fn extra_process_noise(
         &self,
         state: &StateGrip,

@@ -1,7 +1,8 @@
-//! The grip model's rule for sliding wheels (`model_grip::sliding_axles`): while the torques read
-//! 0 (unknown) and an axle's estimated longitudinal slip passes 10 %, that axle's grip factor gets
-//! the prior's variance `grip_std²` per sample on top of its noise; not otherwise, and not when
-//! the torques are told (the model's combined slip then accounts for the sliding wheel).
+//! The grip model's rule for sliding tyres (`model_grip::sliding_axles`): an axle's grip factor
+//! gets the prior's variance `grip_std²` per sample on top of its noise while its wheels slide
+//! longitudinally with the torques unknown (estimated slip beyond 10 %; not when the torques are
+//! told, the model's combined slip then accounts for it) or its side force passes 80 % of its
+//! friction potential; not otherwise.
 
 use estimation::models::single_track_grip::{extend_state, GripState, GRIP_FRONT, GRIP_REAR};
 use nalgebra::SMatrix;
@@ -26,6 +27,13 @@ fn driving(model: &ModelGrip, slips: [f64; 2]) -> GripState {
     {
         body[index] *= 1.0 + slip;
     }
+    extend_state(&body)
+}
+
+/// Cornering at [`SPEED`] with a sideslip of `sideslip` (rad) and no yaw rate, the wheels rolling.
+fn sliding_sideways(model: &ModelGrip, sideslip: f64) -> GripState {
+    let mut body = model.vehicle().straight_rolling_state(SPEED);
+    body[state_index::VY] = SPEED * sideslip.tan();
     extend_state(&body)
 }
 
@@ -59,4 +67,27 @@ fn a_sliding_axle_relearns_its_grip_while_the_torques_are_unknown() {
     braking[input_index::BRAKE_TORQUE] = 1500.0;
     let locked = driving(&model, [0.0, -0.5]);
     assert_eq!(grip_noise(&model, &locked, &braking), [0.0, 0.0]);
+}
+
+#[test]
+fn a_saturated_axle_relearns_its_grip_whatever_the_torques() {
+    let model = model();
+    let variance = Variables::default().grip_std.powi(2);
+    let mut told = InputVector::zeros();
+    told[input_index::DRIVE_TORQUE] = 100.0;
+    for input in [InputVector::zeros(), told] {
+        // 1°: both axles in the linear range; 15°: both on the flat top of the curve.
+        let linear = grip_noise(
+            &model,
+            &sliding_sideways(&model, 1_f64.to_radians()),
+            &input,
+        );
+        assert_eq!(linear, [0.0, 0.0]);
+        let saturated = grip_noise(
+            &model,
+            &sliding_sideways(&model, 15_f64.to_radians()),
+            &input,
+        );
+        assert_eq!(saturated, [variance, variance]);
+    }
 }

@@ -1,11 +1,15 @@
 //! Issue 12's robustness section and the mismatch campaigns (issues 13, 17), one case each
-//! through the master and the FMUs: the one-sample ay glitch of the shipped case list, and the
-//! step steer and the braking in a turn on the Ford Escort of the shipped campaigns.
+//! through the master and the FMUs: the one-sample ay glitch of the shipped case list, the
+//! Ford Escort's runs of the shipped campaigns, and the grip model's honesty where the BMW 320i's
+//! wheel locks and on the VW Vanagon's sine with dwell.
 //!
 //! Needs the packaged FMUs (`cargo run --release -p packaging`) in
 //! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command
 //! (`fmi_master::runner::packaged_fmu_dir`).
 
+use std::path::PathBuf;
+
+use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{packaged_fmu_dir, scenario_dir, Environment};
 use harness::campaigns::{Campaign, Row, SHIPPED_CAMPAIGNS};
 use harness::robustness::{run_case, CaseFile, SHIPPED_CASES};
@@ -56,18 +60,12 @@ fn escort_campaign_rows(manoeuvre: &str) -> Vec<Row> {
     campaign_rows("ford_escort.ssv", manoeuvre)
 }
 
-/// The rows of one manoeuvre of the shipped campaigns on the car whose parameter file is `car`,
-/// every estimator.
-fn campaign_rows(car: &str, manoeuvre: &str) -> Vec<Row> {
+/// The shipped campaigns, a scratch environment, the estimator FMU and the parameter file of the
+/// campaign car whose file name ends with `car`.
+fn shipped_campaign(car: &str) -> (Campaign, Scratch, Environment, LoadedFmu, PathBuf) {
     let scratch = Scratch::new("campaign");
     let env = environment(&scratch);
     let campaign = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).expect("campaigns");
-    let manoeuvre = campaign
-        .file
-        .manoeuvres
-        .iter()
-        .find(|m| m.name == manoeuvre)
-        .unwrap_or_else(|| panic!("the shipped campaigns have {manoeuvre}"));
     let car = campaign
         .file
         .cars
@@ -76,12 +74,48 @@ fn campaign_rows(car: &str, manoeuvre: &str) -> Vec<Row> {
         .map(|c| campaign.file.dir.join(c))
         .unwrap_or_else(|| panic!("the shipped campaigns drive {car}"));
     let fmu = campaign.estimator_fmu(&env).expect("estimator FMU");
+    (campaign, scratch, env, fmu, car)
+}
+
+/// The rows of one manoeuvre of the shipped campaigns on the car whose parameter file is `car`,
+/// every estimator. A sine with dwell runs with the library's amplitude, not the campaign's
+/// (see [`campaign_rows_as_listed`]).
+fn campaign_rows(car: &str, manoeuvre: &str) -> Vec<Row> {
+    let (campaign, _scratch, env, fmu, car) = shipped_campaign(car);
+    let manoeuvre = campaign
+        .file
+        .manoeuvres
+        .iter()
+        .find(|m| m.name == manoeuvre)
+        .unwrap_or_else(|| panic!("the shipped campaigns have {manoeuvre}"));
     let (_, rows) = campaign
         .run_one(&car, manoeuvre, manoeuvre.section.clone(), &env, &fmu)
         .unwrap_or_else(|e| panic!("{} on {} runs: {e}", manoeuvre.name, car.display()));
     assert_eq!(rows.len(), campaign.estimators.len());
     assert!(rows.iter().all(|r| !r.diverged), "{rows:#?}");
     rows
+}
+
+/// The rows of one manoeuvre of the shipped campaigns on the car whose parameter file is `car`,
+/// as `harness robustness` runs them (a sine with dwell at the amplitude from the car's slow
+/// ramp), every estimator.
+fn campaign_rows_as_listed(car: &str, manoeuvre: &str) -> Vec<Row> {
+    let (campaign, _scratch, env, fmu, car) = shipped_campaign(car);
+    campaign
+        .run_as_listed(&car, manoeuvre, &env, &fmu)
+        .unwrap_or_else(|e| panic!("{manoeuvre} on {} runs: {e}", car.display()))
+}
+
+/// The grip model's EKF row meets issue 17 point 3 (sideslip NEES 0.5-2, at least 90 % of the
+/// samples inside the 95 % bound) within `rmse_deg` of sideslip RMSE.
+fn assert_grip_ekf_honest(rows: &[Row], rmse_deg: f64) {
+    let ekf = rows
+        .iter()
+        .find(|r| r.estimator == "EKF_G")
+        .expect("the campaigns run EKF_G");
+    assert!((0.5..=2.0).contains(&ekf.mean_nees), "{ekf:?}");
+    assert!(ekf.share_inside >= 0.9, "{ekf:?}");
+    assert!(ekf.rmse.to_degrees() < rmse_deg, "{ekf:?}");
 }
 
 /// Model B's EKF and UKF rows.
@@ -145,14 +179,19 @@ fn the_grip_models_ekf_holds_the_escort_braking_in_a_turn() {
 /// the 95 % bound and 0.121 deg (without the rule NEES 2.62, 79 % inside, 0.175 deg).
 #[test]
 fn the_grip_models_ekf_stays_honest_when_the_bmws_inner_rear_wheel_locks() {
-    let rows = campaign_rows("bmw_320i.ssv", "braking_in_a_turn");
-    let ekf = rows
-        .iter()
-        .find(|r| r.estimator == "EKF_G")
-        .expect("the campaigns run EKF_G");
-    assert!((0.5..=2.0).contains(&ekf.mean_nees), "{ekf:?}");
-    assert!(ekf.share_inside >= 0.9, "{ekf:?}");
-    assert!(ekf.rmse.to_degrees() < 0.15, "{ekf:?}");
+    assert_grip_ekf_honest(&campaign_rows("bmw_320i.ssv", "braking_in_a_turn"), 0.15);
+}
+
+/// Issue 17 point 3 at the limit: the VW Vanagon's sine with dwell (9.7 deg of sideslip) swings
+/// its axles between the linear range of the tyre curve and its flat top within half a second.
+/// While an axle's side force is beyond 80 % of its friction potential the grip model relearns
+/// that axle's grip factor (`model_grip::sliding_axles`), and its EKF's reported std covers the
+/// error: measured NEES 1.12 with 91 % of the samples inside and 0.067 deg (without the rule NEES
+/// 2.02, 82 % inside, 0.121 deg).
+#[test]
+fn the_grip_models_ekf_stays_honest_on_the_vanagons_sine_with_dwell() {
+    let rows = campaign_rows_as_listed("vw_vanagon.ssv", "sine_with_dwell");
+    assert_grip_ekf_honest(&rows, 0.1);
 }
 
 /// Issue 12 point 1 on the campaigns (torques unknown throughout): the grip model's speed stays

@@ -222,6 +222,46 @@ impl Campaign {
     }
 }
 
+impl Campaign {
+    /// Manoeuvre `name` on the car of `car_file` as [`run`] runs it: a sine with dwell after the
+    /// manoeuvre its amplitude comes from (whose rows are dropped). One [`Row`] per estimator.
+    pub fn run_as_listed(
+        &self,
+        car_file: &Path,
+        name: &str,
+        env: &Environment,
+        estimator_fmu: &LoadedFmu,
+    ) -> Result<Vec<Row>> {
+        let find = |wanted: &str| {
+            self.file
+                .manoeuvres
+                .iter()
+                .find(|m| m.name == wanted)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "campaign file {}: no manoeuvre {wanted:?}",
+                        self.file.dir.display()
+                    )
+                })
+        };
+        let m = find(name)?;
+        let mut angles_at_03g = HashMap::new();
+        if let Some(source) = &m.amplitude_from {
+            let earlier = find(source)?;
+            let (output, _) = self.run_one(
+                car_file,
+                earlier,
+                earlier.section.clone(),
+                env,
+                estimator_fmu,
+            )?;
+            angles_at_03g.insert(source.clone(), angle_at_03g(&output.result, "vehicle.ay")?);
+        }
+        let (section, _) = manoeuvre_section(m, &angles_at_03g)?;
+        Ok(self.run_one(car_file, m, section, env, estimator_fmu)?.1)
+    }
+}
+
 /// A car's name in the tables: its parameter file's stem.
 fn car_name(car_file: &Path) -> String {
     car_file.file_stem().map_or_else(
@@ -253,7 +293,12 @@ pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport
         let car_file = campaign.file.dir.join(car_entry);
         let mut angles_at_03g: HashMap<String, f64> = HashMap::new();
         for m in &campaign.file.manoeuvres {
-            let section = manoeuvre_section(m, &angles_at_03g, &mut report, &car_name(&car_file))?;
+            let (section, amplitude) = manoeuvre_section(m, &angles_at_03g)?;
+            if let Some(amplitude) = amplitude {
+                report
+                    .amplitudes
+                    .push((car_name(&car_file), amplitude.to_degrees()));
+            }
             let (output, rows) = campaign.run_one(&car_file, m, section, env, &estimator_fmu)?;
             let is_source = campaign
                 .file
@@ -285,17 +330,16 @@ fn draw(output: &RunOutput, title: &str, car: &str, out: &Path) -> Result<(Strin
     Ok((caption, path))
 }
 
-/// The row's [manoeuvre]: as written, or a sine with dwell with its amplitude from the car's
-/// slowly increasing steer (`scale` × the 0.3 g angle, FMVSS 126 S7.6, capped at 270 deg).
+/// The row's [manoeuvre]: as written, or a sine with dwell with its amplitude (returned too,
+/// rad) from the car's slowly increasing steer (`scale` × the 0.3 g angle, FMVSS 126 S7.6,
+/// capped at 270 deg).
 fn manoeuvre_section(
     m: &CampaignManoeuvre,
     angles_at_03g: &HashMap<String, f64>,
-    report: &mut CampaignReport,
-    car_name: &str,
-) -> Result<ManoeuvreSection> {
+) -> Result<(ManoeuvreSection, Option<f64>)> {
     let mut section = m.section.clone();
     let (Some(source), Some(scale)) = (&m.amplitude_from, m.scale) else {
-        return Ok(section);
+        return Ok((section, None));
     };
     let manoeuvre = match (&section.library, &section.custom) {
         (Some(name), None) => manoeuvres::library(name),
@@ -310,12 +354,10 @@ fn manoeuvre_section(
     };
     let angle = angles_at_03g[source];
     swd.amplitude = (scale * angle.abs()).min(MAX_AMPLITUDE_DEG.to_radians());
-    report
-        .amplitudes
-        .push((car_name.to_string(), swd.amplitude.to_degrees()));
+    let amplitude = swd.amplitude;
     section.library = None;
     section.custom = Some(Manoeuvre::SineWithDwell(swd));
-    Ok(section)
+    Ok((section, Some(amplitude)))
 }
 
 /// The figures of `estimator` in one run.
