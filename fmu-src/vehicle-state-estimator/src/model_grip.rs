@@ -10,7 +10,7 @@
 use estimation::kalman::InitialEstimate;
 use estimation::models::single_track::{ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM};
 use estimation::models::single_track_grip::{
-    extend_state, GripPrior, SingleTrackGripModel, GRIP_FRONT, GRIP_REAR, GRIP_STATE_DIM,
+    extend_state, GripPrior, SingleTrackGripModel, GRIP_FACTORS, GRIP_STATE_DIM,
     TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR,
 };
 use estimation::models::unknown_torques;
@@ -67,9 +67,6 @@ const SLIDING_SLIP: f64 = 0.1;
 /// The share of its friction potential beyond which an axle's side force is taken to be set by
 /// the friction rather than by the cornering stiffness (see [`sliding_axles`]).
 const SATURATED_SHARE: f64 = 0.8;
-
-/// The grip factors' states, front and rear.
-const GRIP_FACTORS: [usize; 2] = [GRIP_FRONT, GRIP_REAR];
 
 /// Which axles' tyres slide, so that their grip factor must be learned anew: the factor scales
 /// the whole force curve of the parameters' tyre, and what it has to be depends on the part of

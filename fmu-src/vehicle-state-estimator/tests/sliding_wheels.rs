@@ -4,7 +4,7 @@
 //! told, the model's combined slip then accounts for it) or its side force passes 80 % of its
 //! friction potential; not otherwise.
 
-use estimation::models::single_track_grip::{extend_state, GripState, GRIP_FRONT, GRIP_REAR};
+use estimation::models::single_track_grip::{extend_state, GripState, GRIP_FACTORS};
 use nalgebra::SMatrix;
 use vehicle_models::driver_input::index as input_index;
 use vehicle_models::single_track::state_index;
@@ -42,7 +42,7 @@ fn grip_noise(model: &ModelGrip, state: &GripState, input: &InputVector) -> [f64
     let noise = model
         .extra_process_noise(state, input, &Variables::default())
         .unwrap_or_else(SMatrix::zeros);
-    [GRIP_FRONT, GRIP_REAR].map(|i| noise[(i, i)])
+    GRIP_FACTORS.map(|i| noise[(i, i)])
 }
 
 #[test]

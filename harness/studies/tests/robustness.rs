@@ -83,11 +83,8 @@ fn shipped_campaign(car: &str) -> (Campaign, Scratch, Environment, LoadedFmu, Pa
 fn campaign_rows(car: &str, manoeuvre: &str) -> Vec<Row> {
     let (campaign, _scratch, env, fmu, car) = shipped_campaign(car);
     let manoeuvre = campaign
-        .file
-        .manoeuvres
-        .iter()
-        .find(|m| m.name == manoeuvre)
-        .unwrap_or_else(|| panic!("the shipped campaigns have {manoeuvre}"));
+        .manoeuvre(manoeuvre)
+        .unwrap_or_else(|e| panic!("the shipped campaigns: {e}"));
     let (_, rows) = campaign
         .run_one(&car, manoeuvre, manoeuvre.section.clone(), &env, &fmu)
         .unwrap_or_else(|e| panic!("{} on {} runs: {e}", manoeuvre.name, car.display()));

@@ -74,6 +74,9 @@ pub const GRIP_FRONT: usize = STATE_DIM;
 /// Index of the rear axle's grip factor.
 pub const GRIP_REAR: usize = STATE_DIM + 1;
 
+/// The grip factors' indices, front and rear.
+pub const GRIP_FACTORS: [usize; 2] = [GRIP_FRONT, GRIP_REAR];
+
 /// Index of the front tyres' transient slip angle `tan α'`.
 pub const TRANSIENT_SLIP_FRONT: usize = STATE_DIM + 2;
 
@@ -325,7 +328,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             next[state_index::OMEGA_FRONT] = front;
             next[state_index::OMEGA_REAR] = rear;
         }
-        for i in [GRIP_FRONT, GRIP_REAR] {
+        for i in GRIP_FACTORS {
             // g(k+1) = 1 + a (g(k) − 1) (Brown and Hwang, §2.9)
             next[i] = (x[i] - 1.0) * self.decay + 1.0;
         }

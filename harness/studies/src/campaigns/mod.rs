@@ -220,9 +220,21 @@ impl Campaign {
             .collect::<Result<Vec<_>>>()?;
         Ok((output, rows))
     }
-}
 
-impl Campaign {
+    /// The manoeuvre of the campaign file named `name`.
+    pub fn manoeuvre(&self, name: &str) -> Result<&CampaignManoeuvre> {
+        self.file
+            .manoeuvres
+            .iter()
+            .find(|m| m.name == name)
+            .ok_or_else(|| {
+                anyhow!(
+                    "campaign file {}: no manoeuvre {name:?}",
+                    self.file.dir.display()
+                )
+            })
+    }
+
     /// Manoeuvre `name` on the car of `car_file` as [`run`] runs it: a sine with dwell after the
     /// manoeuvre its amplitude comes from (whose rows are dropped). One [`Row`] per estimator.
     pub fn run_as_listed(
@@ -232,22 +244,10 @@ impl Campaign {
         env: &Environment,
         estimator_fmu: &LoadedFmu,
     ) -> Result<Vec<Row>> {
-        let find = |wanted: &str| {
-            self.file
-                .manoeuvres
-                .iter()
-                .find(|m| m.name == wanted)
-                .ok_or_else(|| {
-                    anyhow!(
-                        "campaign file {}: no manoeuvre {wanted:?}",
-                        self.file.dir.display()
-                    )
-                })
-        };
-        let m = find(name)?;
+        let m = self.manoeuvre(name)?;
         let mut angles_at_03g = HashMap::new();
         if let Some(source) = &m.amplitude_from {
-            let earlier = find(source)?;
+            let earlier = self.manoeuvre(source)?;
             let (output, _) = self.run_one(
                 car_file,
                 earlier,
