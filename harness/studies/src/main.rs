@@ -155,8 +155,9 @@ enum Command {
         no_plots: bool,
     },
     /// Fit the estimator to a car from a recorded drive: model A's per-axle cornering-stiffness
-    /// scales by EM, the noise levels from the innovations; held-out score against the
-    /// defaults; writes an SSP parameter-value file (.ssv)
+    /// scales by EM, model B's stiffness level by the log's sideslip reference (where the map
+    /// names one), the noise levels from the innovations; held-out score against the defaults;
+    /// writes an SSP parameter-value file (.ssv)
     Fit {
         log: PathBuf,
         #[arg(long)]

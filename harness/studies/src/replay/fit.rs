@@ -12,13 +12,15 @@
 //!    transfer model A lacks. Measured on the example log (harness/logs/README.md): trained on
 //!    the whole of 0-20 s the EM gave k_F = 0.913, k_R = 1.090, on its linear part (0-10 s)
 //!    0.964 and 1.055 (the car's static-load equivalent: 1.072, 1.091); on 12-16 s alone,
-//!    beyond the threshold, k_R = 1.65. For `--model b` only the noise is fitted:
-//!    the FMU takes model B's per-axle tyre factors (`cornering_stiffness_scale_front/_rear`,
-//!    `tyre_front/rear_*`, issue 17 point 4), but the offline identification runs on model A
-//!    only, and its scales hold model A's missing load transfer in their balance: written for
-//!    model B they helped the Escort's drives and made the BMW 320i's and the VW Vanagon's worse
-//!    (harness/logs/README.md, "Why `--model b` fits no tyre factors"), so a user sets them from
-//!    the tyre's data (fmu-src/estimation/README.md, per-axle tyres).
+//!    beyond the threshold, k_R = 1.65. For `--model b` the level of both factors (one `λ` on
+//!    the starting `k_F`, `k_R`, their balance kept) by the training sideslip RMSE against the
+//!    log's `reference.sideslip`, where the map names one ([`super::reference_fit`], which says
+//!    why the reference and why one factor), and `cornering_stiffness_uncertainty` lowered to
+//!    [`FITTED_LEVEL_UNCERTAINTY`]; without a reference no tyre factor: the offline
+//!    identification runs on model A only, and its scales hold model A's missing load transfer
+//!    in their balance (written for model B they helped the Escort's drives and made the BMW
+//!    320i's and the VW Vanagon's worse), while model B's own NIS does not tell the level
+//!    (harness/logs/README.md, "Why the sensors alone fit no tyre factors of model B").
 //! 2. **Noise levels**: model A: a factor on every process-noise standard deviation (the
 //!    measurement noise is the sensors' and stays; [`super::noise`] says why), maximising the
 //!    innovation likelihood of the training segment through an offline EKF on model A with the
@@ -34,8 +36,9 @@
 //!    only if model A's tyres with it can carry the measured lateral acceleration
 //!    ([`super::friction`], which states both rules and why); otherwise the default stays and is
 //!    not written. Model B keeps the starting friction: model A's likelihood optimum is model
-//!    A's structure past the limit, and model B's own NIS is least where its held-out sideslip is
-//!    worse (harness/logs/README.md, "Why `--model b` fits no peak friction").
+//!    A's structure past the limit, model B's own NIS is least where its held-out sideslip is
+//!    worse, and the training sideslip reference of a drive that stops short of the limit is
+//!    flat in the friction (harness/logs/README.md, "Why `--model b` fits no peak friction").
 //! 4. **Held-out score**: the FMU replays the validation segment with the starting parameters
 //!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
 //!    freedom (1 for a consistent filter) when the log has no reference.
@@ -60,6 +63,7 @@ use fmi_master::scoring::StateScore;
 
 use super::align::Grid;
 use super::drive::{self, Feed, Recording};
+use super::reference_fit::{TyreFit, FITTED_LEVEL_UNCERTAINTY};
 use super::{prepare, report, Prepared};
 
 /// The estimator model to fit.
@@ -126,6 +130,8 @@ pub struct FitOutcome {
     pub scales: Option<([f64; 2], bool)>,
     /// Model A: the rows the scales were identified on (the training segment's linear part).
     pub scale_rows: Option<Range<usize>>,
+    /// Model B: its tyre factors by the log's sideslip reference ([`super::reference_fit`]).
+    pub tyre_fit: Option<TyreFit>,
     /// Factors on the process- and on the measurement-noise standard deviations.
     pub noise_factors: (f64, f64),
     /// Model A: the likelihood search behind them.
@@ -204,10 +210,25 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         FitModel::A => {
             let rows = linear_rows(&fmu, &prepared, &start, train_rows.clone())?;
             let (scales, converged) = identify_scales(&fmu, &prepared, &start, rows.clone())?;
-            fitted.extend(PARAMETER_NAMES.iter().map(|n| n.to_string()).zip(scales));
+            fitted.extend(scale_values(scales));
             (Some((scales, converged)), Some(rows))
         }
         FitModel::B => (None, None),
+    };
+    let tyre_fit = match options.model {
+        FitModel::A => None,
+        FitModel::B => {
+            let found = fit_tyres_b(&fmu, &prepared, &start, train_rows.clone())?;
+            if let TyreFit::Fitted(f) = found {
+                fitted.extend(scale_values(f.scales));
+                let uncertainty = real_value(&fmu, &start, "cornering_stiffness_uncertainty")?;
+                fitted.push((
+                    "cornering_stiffness_uncertainty".to_string(),
+                    uncertainty.min(FITTED_LEVEL_UNCERTAINTY),
+                ));
+            }
+            Some(found)
+        }
     };
     let with_scales = with_reals(&fmu, &start, &fitted)?;
     let (noise_factors, noise_fit) = match options.model {
@@ -262,6 +283,7 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         model: options.model,
         scales,
         scale_rows,
+        tyre_fit,
         noise_factors,
         noise_fit,
         friction,
@@ -274,6 +296,52 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         validate_rows,
         fitted,
     })
+}
+
+/// Model B: the level of `cornering_stiffness_scale_front/_rear` by the training sideslip
+/// reference, where the map names one with samples in `rows` ([`super::reference_fit`]).
+fn fit_tyres_b(
+    fmu: &LoadedFmu,
+    prepared: &Prepared,
+    values: &[(VariableInfo, ParameterValue)],
+    rows: Range<usize>,
+) -> Result<TyreFit> {
+    let reference = prepared
+        .references
+        .iter()
+        .find(|(channel, _)| channel.target == "sideslip")
+        .map(|(_, samples)| &samples[rows.clone()]);
+    let samples = reference.map_or(0, |r| r.iter().filter(|v| v.is_finite()).count());
+    if samples < super::reference_fit::MIN_REFERENCE_ROWS {
+        return Ok(TyreFit::NoReference);
+    }
+    let start = PARAMETER_NAMES
+        .map(|name| real_value(fmu, values, name))
+        .into_iter()
+        .collect::<Result<Vec<f64>>>()?;
+    // From the log's first row, so that the filter meets the training rows warm.
+    let (grid, feeds) = segment(prepared, 0..rows.end);
+    let training_rmse = |scales: [f64; 2]| -> Result<f64> {
+        let trial = with_reals(fmu, values, &scale_values(scales))?;
+        let recording = drive::run(fmu, &trial, &grid, &feeds)?;
+        Ok(report::scores(prepared, &recording, rows.clone())
+            .iter()
+            .find(|s| s.label == "sideslip" && s.estimator == "estimator")
+            .map_or(f64::NAN, |s| s.rmse))
+    };
+    Ok(TyreFit::Fitted(super::reference_fit::fit_level(
+        [start[0], start[1]],
+        training_rmse,
+    )?))
+}
+
+/// `cornering_stiffness_scale_front/_rear` = `scales`, as parameter values.
+fn scale_values(scales: [f64; 2]) -> Vec<(String, f64)> {
+    PARAMETER_NAMES
+        .iter()
+        .map(|n| n.to_string())
+        .zip(scales)
+        .collect()
 }
 
 /// Model B: the common noise factor `sqrt(Σ NIS / Σ dof)` of an FMU run on the training rows.
@@ -706,7 +774,18 @@ impl FitOutcome {
             (Some(([front, rear], converged)), Some(rows)) => {
                 text += &format!("  cornering_stiffness_scale_front = {front:.4}, cornering_stiffness_scale_rear = {rear:.4} (EM {} on rows {}..{})\n", if converged { "converged" } else { "NOT converged" }, rows.start, rows.end)
             }
-            _ => text += "  model B: covariances only (its per-axle tyre factors are set from the tyre's data, not fitted)\n",
+            _ => {
+                if let Some(tyre_fit) = &self.tyre_fit {
+                    text += &tyre_fit.summary();
+                }
+                if let Some((_, u)) = self
+                    .fitted
+                    .iter()
+                    .find(|(n, _)| n == "cornering_stiffness_uncertainty")
+                {
+                    text += &format!("  cornering_stiffness_uncertainty = {u} (the fitted level's, reference_fit::FITTED_LEVEL_UNCERTAINTY)\n");
+                }
+            }
         }
         let (process, measurement) = self.noise_factors;
         text += &format!(

@@ -17,6 +17,7 @@ pub mod log;
 pub mod map;
 pub mod noise;
 pub mod record;
+pub mod reference_fit;
 pub mod report;
 pub mod units;
 
