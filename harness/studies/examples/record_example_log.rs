@@ -37,6 +37,7 @@ fn main() -> Result<()> {
             &default_fmu_dir(),
             "record_ford_escort_limit.toml",
             &scratch,
+            &[],
         )?;
         println!(
             "{}",

@@ -8,10 +8,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
-use fmi_master::cosim::RunResult;
+use fmi_master::cosim::{ParameterValue, RunResult};
 use fmi_master::recording::partial_name;
 use fmi_master::runner::{run_scenario, workspace_root, Environment};
-use fmi_master::scenario::Scenario;
+use fmi_master::scenario::{Scenario, VarRef};
 use mf4_rs::blocks::common::DataType;
 use mf4_rs::writer::MdfWriter;
 
@@ -77,18 +77,24 @@ fn stamp(t: f64, n: usize) -> f64 {
 
 /// The recorded drive of the example log (`harness/logs/record_ford_escort.toml`).
 pub fn record_drive(fmu_dir: &Path, out_dir: &Path) -> Result<RunResult> {
-    record_scenario(fmu_dir, "record_ford_escort.toml", out_dir)
+    record_scenario(fmu_dir, "record_ford_escort.toml", out_dir, &[])
 }
 
-/// The drive of the scenario file `name` in `harness/logs`.
-pub fn record_scenario(fmu_dir: &Path, name: &str, out_dir: &Path) -> Result<RunResult> {
+/// The drive of the scenario file `name` in `harness/logs`, with its parameters overridden by
+/// `overrides` (as `harness run --set`: the same drive on another road, say).
+pub fn record_scenario(
+    fmu_dir: &Path,
+    name: &str,
+    out_dir: &Path,
+    overrides: &[(VarRef, ParameterValue)],
+) -> Result<RunResult> {
     let fmu_dir = &fmi_master::runner::packaged_fmus_in(fmu_dir)?;
     let scenario = Scenario::from_file(&workspace_root().join("harness/logs").join(name))?;
     let env = Environment {
         fmu_dir: fmu_dir.to_path_buf(),
         out_dir: out_dir.join("recording"),
     };
-    let output = run_scenario(scenario, &env, &[], false, |_| {})?;
+    let output = run_scenario(scenario, &env, overrides, false, |_| {})?;
     let _ = std::fs::remove_dir_all(env.work_dir());
     Ok(output.result)
 }
