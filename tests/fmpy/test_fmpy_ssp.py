@@ -8,7 +8,7 @@ does not read the DefaultExperiment. `bound_parameters` and `default_experiment`
 parts, so the run is the one the SSD describes: the driver inputs of both FMUs from
 resources/driver_inputs.ssv, the start, stop time and step of the DefaultExperiment."""
 
-import shutil
+import subprocess
 import zipfile
 
 import numpy as np
@@ -126,27 +126,36 @@ def test_ssp_estimator_tracks_the_vehicle(ssp_run):
         assert error < 1e-2
 
 
+def with_binding(ssp_file, component, source, path, resource=None):
+    """A copy of the SSP at `path` whose `component` also binds the parameter set `source`
+    (relative to the SSD, after the shipped bindings); `resource`, a file, is added to the
+    archive under that name."""
+    with zipfile.ZipFile(ssp_file) as archive:
+        ssd = archive.read("SystemStructure.ssd").decode("utf-8")
+    start = f'<ssd:Component name="{component}"'
+    binding = '<ssd:ParameterBindings>\n'
+    position = ssd.index(binding, ssd.index(start)) + len(binding)
+    bound = ssd[:position] + \
+        f'          <ssd:ParameterBinding type="application/x-ssp-parameter-set" source="{source}"/>\n' + \
+        ssd[position:]
+    with zipfile.ZipFile(ssp_file) as original, zipfile.ZipFile(path, "w") as target:
+        for item in original.infolist():
+            data = bound.encode() if item.filename == "SystemStructure.ssd" else original.read(item)
+            target.writestr(item, data)
+        if resource is not None:
+            target.write(resource, source)
+    return path
+
+
 def test_a_car_binding_is_applied(ssp_file, interfaces, tmp_path, vehicle):
     """packaging/README.md: a user binds a shipped car to the ReferenceVehicle. With the BMW 320i
     the reference runs the full vehicle (model 3) with the car's mass."""
     car = "resources/bmw_320i.ssv"
     with zipfile.ZipFile(ssp_file) as archive:
-        ssd = archive.read("SystemStructure.ssd").decode("utf-8")
         mass = next(float(p.find("{*}Real").get("value"))
                     for p in etree.fromstring(archive.read(car)).iter("{*}Parameter")
                     if p.get("name") == "mass")
-    component = f'<ssd:Component name="{support.VEHICLE}"'
-    binding = '<ssd:ParameterBindings>\n'
-    position = ssd.index(binding, ssd.index(component)) + len(binding)
-    with_car = ssd[:position] + \
-        f'          <ssd:ParameterBinding type="application/x-ssp-parameter-set" source="{car}"/>\n' + \
-        ssd[position:]
-    modified = tmp_path / "with_car.ssp"
-    shutil.copy(ssp_file, modified)
-    with zipfile.ZipFile(ssp_file) as source, zipfile.ZipFile(modified, "w") as target:
-        for item in source.infolist():
-            data = with_car.encode() if item.filename == "SystemStructure.ssd" else source.read(item)
-            target.writestr(item, data)
+    modified = with_binding(ssp_file, support.VEHICLE, car, tmp_path / "with_car.ssp")
     parameters = bound_parameters(modified, interfaces)
     assert f"{support.VEHICLE}.mass" in [p.name for p in parameters.parameters]
     result = run(modified, interfaces, 0.1)
@@ -158,3 +167,31 @@ def test_a_car_binding_is_applied(ssp_file, interfaces, tmp_path, vehicle):
     default = run(ssp_file, interfaces, 0.1)
     assert column(result, support.VEHICLE, "roll_angle")[-1] > 1e-3
     assert np.all(column(default, support.VEHICLE, "roll_angle") == 0.0)
+
+
+def test_a_fitted_parameter_file_is_applied_to_the_estimator(ssp_file, interfaces, tmp_path,
+                                                            workspace_executables, estimator_fmu):
+    """Issue 14 point 2: the .ssv `harness fit` writes is accepted by the shipped .ssp. Fitted to
+    the example log with model B, bound to the estimator component, it switches the estimator to
+    model B (an enumeration by item name, converted as for the cars) with the fitted tyre level."""
+    root = support.ROOT
+    logs = root / "harness" / "logs"
+    fitted = tmp_path / "fitted.ssv"
+    subprocess.run([str(workspace_executables[("bin", "harness")]), "fit", str(logs / "ford_escort_sis.csv"),
+                    "--map", str(logs / "ford_escort_sis.toml"), "--model", "b", "--train", "2:8",
+                    "--validate", "8:14", "--out", str(fitted), "--fmu-dir", str(estimator_fmu.parent)],
+                   cwd=root, check=True, capture_output=True, text=True, timeout=120)
+    written = {p.get("name"): p[0] for p in etree.parse(str(fitted)).iter("{*}Parameter")}
+    level = float(written["cornering_stiffness_scale_front"].get("value"))
+    assert written["model"].get("value") == "two_track_3_state"
+    modified = with_binding(ssp_file, support.ESTIMATOR, "resources/fitted.ssv",
+                            tmp_path / "with_fit.ssp", resource=fitted)
+    bound = {p.name: p.value for p in bound_parameters(modified, interfaces).parameters}
+    assert float(bound[f"{support.ESTIMATOR}.cornering_stiffness_scale_front"]) == pytest.approx(level)
+    assert level != 1.0
+    assert bound[f"{support.ESTIMATOR}.model"] == 2  # model B, by its item's number
+    result = run(modified, interfaces, 0.5)
+    default = run(ssp_file, interfaces, 0.5)
+    sideslip = column(result, support.ESTIMATOR, "sideslip_est")
+    assert np.all(np.isfinite(sideslip))
+    assert not np.array_equal(sideslip, column(default, support.ESTIMATOR, "sideslip_est"))
