@@ -41,8 +41,8 @@
 //! kinematic slip angles and the transient states merely follow them.
 //!
 //! **Unknown torques.** With [`SingleTrackGripModel::with_unknown_torques`] (the FMU's default),
-//! while every torque input reads 0 and `ax` is measured, the tyre forces are those of freely
-//! rolling wheels and each wheel keeps its slip velocity ([`unknown_torques`]): the wheels'
+//! while every torque input reads 0 (with or without `ax` measured), the tyre forces are those
+//! of freely rolling wheels and each wheel keeps its slip velocity ([`unknown_torques`]): the wheels'
 //! spin balance against a torque told 0 otherwise lets the filter trade slip angle against
 //! grip along the direction its sensors cannot see.
 //!
@@ -170,7 +170,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     }
 
     /// The same model whose zero torques mean unknown ones (`unknown_torques`): while every
-    /// torque input reads 0 and `ax` is measured, the tyre forces are those of freely rolling
+    /// torque input reads 0, the tyre forces are those of freely rolling
     /// wheels and each wheel keeps its slip (see [`unknown_torques`]); otherwise model A's
     /// wheels. Without it (the default) zero torques are zero torques.
     pub fn with_unknown_torques(self, unknown_torques: bool) -> Self {
@@ -638,8 +638,8 @@ mod tests {
     }
 
     /// With the torques unknown the tyre forces are those of freely rolling wheels, whatever the
-    /// wheel states, and each wheel keeps its slip velocity; with a torque given, without `ax`,
-    /// or with the switch off, the wheels are model A's, to the bit.
+    /// wheel states, and each wheel keeps its slip velocity, also without `ax`; with a torque
+    /// given, or with the switch off, the wheels are model A's, to the bit.
     #[test]
     fn unknown_torques_leave_the_forces_to_freely_rolling_wheels() {
         let known = grip_model().with_relaxation_length(0.4).unwrap();
@@ -674,16 +674,34 @@ mod tests {
         assert!((front_slip(&next, next_vx) - front_slip(&x, vx)).abs() < 1e-12);
         assert!((rear_slip(&next, next_vx) - rear_slip(&x, vx)).abs() < 1e-12);
         assert_ne!(next, known.transition(&x, &u));
-        // a brake torque reported, or no ax: model A's wheels
-        let braked = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 800.0]);
-        let no_ax = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 0.0]);
-        for u in [
-            SpeedAnchoredModel::<HsriTyre>::extend_input(&braked, 0.0, Some(-4.0)),
-            SpeedAnchoredModel::<HsriTyre>::extend_input(&no_ax, 0.0, None),
-        ] {
-            assert_eq!(unknown.transition(&x, &u), known.transition(&x, &u));
-            assert_eq!(unknown.measurement(&x, &u), known.measurement(&x, &u));
-        }
+        // without ax the same wheels, the speed from the body's force balance
+        let no_ax = SpeedAnchoredModel::<HsriTyre>::extend_input(
+            &SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 0.0]),
+            0.0,
+            None,
+        );
+        let coasting = unknown.transition(&x, &no_ax);
+        assert_eq!(
+            unknown.measurement(&x, &no_ax)[ay],
+            unknown.measurement(&spun, &no_ax)[ay]
+        );
+        let coasting_vx = coasting[state_index::VX];
+        assert!((rear_slip(&coasting, coasting_vx) - rear_slip(&x, vx)).abs() < 1e-12);
+        assert_ne!(coasting, known.transition(&x, &no_ax));
+        // a brake torque reported: model A's wheels
+        let braked = SpeedAnchoredModel::<HsriTyre>::extend_input(
+            &SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 800.0]),
+            0.0,
+            Some(-4.0),
+        );
+        assert_eq!(
+            unknown.transition(&x, &braked),
+            known.transition(&x, &braked)
+        );
+        assert_eq!(
+            unknown.measurement(&x, &braked),
+            known.measurement(&x, &braked)
+        );
     }
 
     /// At grip 1 the first five states and the measurement are the speed-anchored model A's to
