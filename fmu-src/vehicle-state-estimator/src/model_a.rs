@@ -371,6 +371,21 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         estimate_outputs(self, sample)
     }
 
+    /// `d/dt atan(w / vx)` of the rear axle's lateral velocity `w = vy − lR r` (000: 5.22), from
+    /// the model's derivatives at the estimate (000: 5.42-5.46).
+    fn rear_slip_angle_rate(&self, sample: &OutputSample<STATE_DIM, ()>) -> Option<f64> {
+        let x = sample.state;
+        let driver = sample.input.fixed_rows::<INPUT_DIM>(0).into_owned();
+        let rates = self.vehicle().derivatives(&x, &driver);
+        let rear = self.vehicle().vehicle.chassis.cog_to_rear_axle;
+        let (vx, w) = (
+            x[state_index::VX],
+            x[state_index::VY] - rear * x[state_index::YAW_RATE],
+        );
+        let w_rate = rates[state_index::VY] - rear * rates[state_index::YAW_RATE];
+        Some((w_rate * vx - w * rates[state_index::VX]) / (vx * vx + w * w))
+    }
+
     fn write_extra(_: &(), _: &mut StateWriter) {}
 
     fn read_extra(_: &mut (), _: &mut StateReader<'_>) -> Result<(), StateError> {

@@ -41,8 +41,24 @@ fn estimator_of_kind(
     model: EstimatorModel,
     uncertainty: Option<f64>,
 ) -> Slave {
+    estimator_with_lag(kind, model, uncertainty, None)
+}
+
+/// [`estimator_of_kind`] with `tyre_relaxation_length` set when given (model A's lag term).
+fn estimator_with_lag(
+    kind: EstimatorKind,
+    model: EstimatorModel,
+    uncertainty: Option<f64>,
+    relaxation_length: Option<f64>,
+) -> Slave {
     let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "consider", GUID)
         .expect("instantiate");
+    if let Some(length) = relaxation_length {
+        assert_eq!(
+            s.set_real(vr::TYRE_RELAXATION_LENGTH, length),
+            Fmi2Status::Ok
+        );
+    }
     assert_eq!(s.set_integer(vr::MODEL, model as i32), Fmi2Status::Ok);
     assert_eq!(s.set_integer(vr::ESTIMATOR, kind as i32), Fmi2Status::Ok);
     assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
@@ -126,11 +142,20 @@ fn the_grip_models_ekf_and_ukfs_report_their_own_covariance() {
     }
 }
 
+/// The stiffness term alone: model A's lag term off (relaxation length 0; model B has none).
 fn widens_the_reported_std_and_leaves_the_estimate_alone(model: EstimatorModel) {
     let sigma = 0.25;
-    let with = run(&mut estimator(model, Some(sigma)));
-    let without = run(&mut estimator(model, Some(0.0)));
-    let default = run(&mut estimator(model, None));
+    let ekf = |uncertainty| {
+        run(&mut estimator_with_lag(
+            EstimatorKind::Ekf,
+            model,
+            uncertainty,
+            Some(0.0),
+        ))
+    };
+    let with = ekf(Some(sigma));
+    let without = ekf(Some(0.0));
+    let default = ekf(None);
     for (k, ((w, _), (o, _))) in with.iter().zip(&without).enumerate() {
         // The estimate (sideslip, vy, vx, yaw rate, rear slip angle) is the same to the bit.
         for i in [0, 1, 2, 3, 6] {
@@ -179,4 +204,42 @@ fn in_the_corner_the_consider_term_covers_the_error_the_filter_covariance_does_n
         without < 0.5,
         "the filter's covariance alone {without:.2} inside"
     );
+}
+
+/// Model A's second term, the tyre lag it leaves out ((σr / |vx|) |α̇R|, in quadrature; see
+/// `with_stiffness_consider`): the estimate is the same to the bit, the reported sideslip std is
+/// wider while the slip angle moves (the step at 1.0-1.1 s and the yaw response after it) and
+/// the same in the steady corner, where the slip angle stands still; `cornering_stiffness_
+/// uncertainty` = 0 turns it off with the stiffness term.
+#[test]
+fn model_a_reports_its_tyre_lag_while_the_slip_angle_moves() {
+    let model = EstimatorModel::SingleTrack5State;
+    let ekf = |uncertainty, length| {
+        run(&mut estimator_with_lag(
+            EstimatorKind::Ekf,
+            model,
+            uncertainty,
+            Some(length),
+        ))
+    };
+    let lagging = ekf(None, 0.5);
+    let instantaneous = ekf(None, 0.0);
+    for (k, ((l, _), (i, _))) in lagging.iter().zip(&instantaneous).enumerate() {
+        for j in [0, 1, 2, 3, 6] {
+            assert_eq!(l[j].to_bits(), i[j].to_bits(), "k = {k}, output {j}");
+        }
+        assert!(l[4] >= i[4] && l[5] >= i[5], "k = {k}");
+    }
+    let widening = |k: usize| lagging[k].0[4] / instantaneous[k].0[4];
+    let transient = (100..160).map(widening).fold(0.0f64, f64::max);
+    assert!(
+        transient > 1.5,
+        "largest widening in the transient {transient}"
+    );
+    let steady = (250..300).map(widening).fold(0.0f64, f64::max);
+    println!("sideslip std widened by the lag term: up to {transient:.2} x in the transient, {steady:.4} x steady");
+    assert!(steady < 1.01, "widening in the steady corner {steady}");
+    let off = ekf(Some(0.0), 0.5);
+    let none = ekf(Some(0.0), 0.0);
+    assert!(off.iter().zip(&none).all(|(a, b)| a.0 == b.0));
 }
