@@ -144,7 +144,7 @@ fn the_grip_models_ekf_and_ukfs_report_their_own_covariance() {
 
 /// The stiffness term alone: model A's lag term off (relaxation length 0; model B has none).
 fn widens_the_reported_std_and_leaves_the_estimate_alone(model: EstimatorModel) {
-    let sigma = 0.25;
+    let sigma = 0.2;
     let ekf = |uncertainty| {
         run(&mut estimator_with_lag(
             EstimatorKind::Ekf,
@@ -178,7 +178,7 @@ fn widens_the_reported_std_and_leaves_the_estimate_alone(model: EstimatorModel) 
             "{model:?} k = {k}"
         );
     }
-    // The default is the documented 0.25.
+    // The default is the documented 0.2.
     assert!(with.iter().zip(&default).all(|(a, b)| a.0 == b.0));
 }
 

@@ -39,7 +39,7 @@ pub const LEVEL_RANGE: (f64, f64) = (0.7, 1.4);
 /// step moves it by 0.005-0.06°).
 pub const LEVEL_TOLERANCE: f64 = 2e-3;
 /// The relative one-sigma uncertainty of the rear stiffness that the FMU's consider term
-/// (`cornering_stiffness_uncertainty`, default 0.25 for a stiffness nobody measured) keeps once
+/// (`cornering_stiffness_uncertainty`, default 0.2 for a stiffness nobody measured; 0.25 when this was measured) keeps once
 /// the level is fitted: the level that fits a training segment is not the one that fits a
 /// drive beyond it (the held-out segments' own best levels lay 0-7 % from the fitted ones; the
 /// BMW 320i's held-out 20-30 s at the limit wanted 0.96 against 1.034), and the reported
