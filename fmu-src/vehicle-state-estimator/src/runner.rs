@@ -1138,9 +1138,10 @@ where
 /// instantaneous, puts the difference into its sideslip: `(σr / |vx|) |α̇R|`, added in
 /// quadrature with the first, while σ > 0 (σ = 0 reports the filter's covariance alone, as
 /// the seeds' scenarios set). Measured on the mismatch campaigns (harness robustness, model A's
-/// five filters with a covariance, 75 rows; offline from the recorded estimates first): rows in
-/// issue 17 point 3's band 40 → 47 (see `tyre_relaxation_length`). Model B leaves it out: its
-/// rows went 29 → 11, its `ay_model_error` already widening its covariance in the transients.
+/// 90 rows, σ 0.25): rows in issue 17 point 3's band 43 → 50, rows above it 37 → 17
+/// (fmu-src/vehicle-state-estimator/README.md, "Model A's tyre lag"). Model B leaves it out:
+/// tried offline on its recorded estimates, its rows in the band went 29 → 11-24, its
+/// `ay_model_error` already widening its covariance in the transients.
 pub(crate) fn with_stiffness_consider(
     mut values: RealOutputs,
     v: &Variables,
