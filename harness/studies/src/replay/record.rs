@@ -51,6 +51,15 @@ fn log_columns() -> Vec<LogColumn> {
             1.0 / 9.80665,
             false,
         ),
+        // The ESC sensor cluster's longitudinal accelerometer, positive forward: the example
+        // map leaves it out (its figures are those of a log without it), a map for the grip
+        // model takes it (README, "Which model").
+        column(
+            "longitudinal_acceleration",
+            "vehicle.ax_meas",
+            1.0 / 9.80665,
+            false,
+        ),
         column("vehicle_speed", "vehicle.vx_meas", 3.6, false),
         column(
             "wheel_speed_front",
