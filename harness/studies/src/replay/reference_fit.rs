@@ -3,7 +3,8 @@
 //! **Why the reference.** In a quasi-steady drive the sensors model B reads (yaw rate, ay) fix
 //! the balance of the axles' cornering stiffness (the understeer) and not its level: the FMU's
 //! training NIS is nearly flat along `k_F = k_R`, while the held-out sideslip along that line
-//! runs from 0.06° to 0.77° (harness/logs/README.md, "Why the sensors alone fit no tyre factors of model B").
+//! runs from 0.06° to 0.77° (harness/logs/README.md, "Why the sensors alone fit no tyre
+//! factors of model B").
 //! What pins the level is the quantity itself: a log from a test drive usually carries an
 //! inertial reference with a sideslip channel (a GNSS-aided IMU or an optical sensor), and
 //! calibrating the estimator to reproduce it on a training segment is what such a reference is
@@ -17,7 +18,7 @@
 //! lateral acceleration (measured 2026-12-04 with a Nelder-Mead simplex on the Ford Escort's,
 //! BMW 320i's and VW Vanagon's drives, `--train 2:8 --validate 8:14`: training sideslip RMSE
 //! 0.026-0.043° down to 0.012-0.016°, held-out 0.159 / 0.070 / 0.041° to 0.131 / 0.303 /
-//! 0.263°). The level alone: 0.159 / 0.069 / 0.041° to 0.082 / 0.039 / 0.041°
+//! 0.263°). The level alone: 0.159 / 0.070 / 0.041° to 0.085 / 0.038 / 0.039°
 //! (harness/logs/README.md, "Model B's tyre level from the sideslip reference").
 //!
 //! **How.** The training sideslip RMSE of FMU runs (from the log's first row, so that the filter
@@ -39,8 +40,8 @@ pub const LEVEL_RANGE: (f64, f64) = (0.7, 1.4);
 /// step moves it by 0.005-0.06°).
 pub const LEVEL_TOLERANCE: f64 = 2e-3;
 /// The relative one-sigma uncertainty of the rear stiffness that the FMU's consider term
-/// (`cornering_stiffness_uncertainty`, default 0.2 for a stiffness nobody measured; 0.25 when this was measured) keeps once
-/// the level is fitted: the level that fits a training segment is not the one that fits a
+/// (`cornering_stiffness_uncertainty`, default 0.2 for a stiffness nobody measured; 0.25 when
+/// this was measured) keeps once the level is fitted: the level that fits a training segment is not the one that fits a
 /// drive beyond it (the held-out segments' own best levels lay 0-7 % from the fitted ones; the
 /// BMW 320i's held-out 20-30 s at the limit wanted 0.96 against 1.034), and the reported
 /// sideslip std must cover that. Measured 2026-12-04 on the three cars' drives, both splits
