@@ -14,6 +14,7 @@ use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::fit::{fit, start_value, FitModel, FitOptions};
 use harness::replay::friction::FrictionFit;
+use harness::replay::report::estimator_rmse;
 use harness::replay::{estimator_path, prepare, record, replay, ReplayOptions};
 
 use crate::scratch::Scratch;
@@ -86,11 +87,7 @@ fn the_csv_and_mf4_logs_replay_alike_with_units_signs_and_rates_converted() {
         }
     }
     let sideslip = |o: &harness::replay::ReplayOutcome| {
-        o.scores
-            .iter()
-            .find(|s| s.label == "sideslip" && s.estimator == "estimator")
-            .expect("sideslip score")
-            .rmse
+        estimator_rmse(&o.scores, "sideslip").expect("sideslip score")
     };
     let (a, b) = (sideslip(&from_csv), sideslip(&from_mf4));
     assert!(
@@ -234,6 +231,13 @@ fn fit_options(
     }
 }
 
+/// `harness fit` with `options`, its summary printed (shown when a test fails).
+fn fit_and_print(options: FitOptions) -> harness::replay::fit::FitOutcome {
+    let outcome = fit(&options).unwrap_or_else(|e| panic!("fit: {e:#}"));
+    eprintln!("{}", outcome.summary());
+    outcome
+}
+
 #[test]
 fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
     let scratch = Scratch::new("replay-fit");
@@ -245,8 +249,7 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
     // which has none, k_R came out 1.65: in a quasi-steady drive only the understeer
     // balance of the axles is observable, and the load transfer model A lacks bends it
     // (harness/logs/README.md).
-    let fitted = fit(&fit_options(csv, &out, Some((2.0, 8.0)), Some((8.0, 14.0)))).expect("fit");
-    eprintln!("{}", fitted.summary());
+    let fitted = fit_and_print(fit_options(csv, &out, Some((2.0, 8.0)), Some((8.0, 14.0))));
     // The Ford Escort's Magic Formula cornering stiffness at the static wheel load
     // (p_ky1 F_z0 sin(2 atan(F_z / (p_ky2 F_z0))), Pacejka 2012 (4.E25)) over model A's HSRI
     // stiffness (Cα1 + Cα2 q) F_z (000: 5.70): front 74589 / 69607 N/rad, rear 51762 / 47442.
@@ -339,12 +342,10 @@ fn fit_of_model_b_sets_its_tyre_level_by_the_sideslip_reference() {
     let scratch = Scratch::new("replay-fit-b");
     let csv = &csv_log(&scratch.0);
     let out = scratch.0.join("escort_b.ssv");
-    let fitted = fit(&FitOptions {
+    let fitted = fit_and_print(FitOptions {
         model: FitModel::B,
         ..fit_options(csv, &out, Some((2.0, 8.0)), Some((8.0, 14.0)))
-    })
-    .expect("fit of model B");
-    eprintln!("{}", fitted.summary());
+    });
     let Some(TyreFit::Fitted(level)) = fitted.tyre_fit else {
         panic!(
             "the log has a sideslip reference, yet {:?}",
@@ -399,11 +400,7 @@ fn fit_of_model_b_sets_its_tyre_level_by_the_sideslip_reference() {
         &again.recording,
         fitted.validate_rows.clone(),
     );
-    let replayed = held_out
-        .iter()
-        .find(|s| s.label == "sideslip" && s.estimator == "estimator")
-        .expect("sideslip score")
-        .rmse;
+    let replayed = estimator_rmse(&held_out, "sideslip").expect("sideslip score");
     assert!(
         (replayed - after).abs() < 1e-9 * after,
         "held-out sideslip RMSE {replayed} deg replayed with the .ssv, {after} deg in the fit"
@@ -440,12 +437,10 @@ fn fit_of_model_b_follows_a_wet_road_by_the_sideslip_reference() {
         "on a road of friction 0.7 the car made {peak} m/s²"
     );
     let csv = record::write_csv(&run, &scratch.0, "wet").expect("CSV log");
-    let fitted = fit(&FitOptions {
+    let fitted = fit_and_print(FitOptions {
         model: FitModel::B,
         ..fit_options(&csv, &scratch.0.join("wet_b.ssv"), None, None)
-    })
-    .expect("fit of model B");
-    eprintln!("{}", fitted.summary());
+    });
     assert!(matches!(fitted.tyre_fit, Some(TyreFit::Fitted(_))));
     let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
     assert!(
@@ -470,13 +465,11 @@ fn fit_of_model_b_without_a_sideslip_reference_scales_its_covariances_and_keeps_
     assert!(map_text.contains(section), "the example map changed");
     let unreferenced = scratch.0.join("no_sideslip_reference.toml");
     std::fs::write(&unreferenced, map_text.replace(section, "")).unwrap();
-    let fitted = fit(&FitOptions {
+    let fitted = fit_and_print(FitOptions {
         model: FitModel::B,
         map: unreferenced,
         ..fit_options(csv, &out, Some((2.0, 8.0)), Some((8.0, 14.0)))
-    })
-    .expect("fit of model B");
-    eprintln!("{}", fitted.summary());
+    });
     assert_eq!(fitted.tyre_fit, Some(TyreFit::NoReference));
     assert!(fitted.summary().contains("tyre stiffness not fitted"));
     assert!(!fitted
@@ -506,8 +499,7 @@ fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimat
     let scratch = Scratch::new("replay-fit-limit");
     let csv = &csv_log(&scratch.0);
     let out = scratch.0.join("escort_limit.ssv");
-    let fitted = fit(&fit_options(csv, &out, None, None)).expect("fit");
-    eprintln!("{}", fitted.summary());
+    let fitted = fit_and_print(fit_options(csv, &out, None, None));
     match fitted.friction {
         Some(FrictionFit::Refused {
             reach,
@@ -600,12 +592,7 @@ fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
     let csv = record::write_csv(&run, dir, "limit").expect("CSV log");
     let outcome =
         replay(&replay_options(&csv, dir.join("limit_replay"))).unwrap_or_else(|e| panic!("{e:#}"));
-    let estimate = outcome
-        .scores
-        .iter()
-        .find(|s| s.label == "sideslip" && s.estimator == "estimator")
-        .expect("sideslip score")
-        .rmse;
+    let estimate = estimator_rmse(&outcome.scores, "sideslip").expect("sideslip score");
     let baseline = zero_sideslip_rmse(&outcome.scores);
     assert!(
         estimate < 0.8 * baseline,

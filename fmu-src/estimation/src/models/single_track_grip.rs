@@ -345,7 +345,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> Option<[S; STATE_DIM]> {
-        (self.unknown_torques && unknown_torques::torques_unknown(u)).then(|| {
+        (self.unknown_torques && unknown_torques::torques_read_zero(u)).then(|| {
             let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
             let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
             unknown_torques::free_rolling(self.vehicle(), &body, &driver)

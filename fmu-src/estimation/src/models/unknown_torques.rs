@@ -2,7 +2,12 @@
 //! torque input reads exactly 0 (most cars report none). `vx` then follows the speed anchor's
 //! kinematics where `ax` is measured ([`super::single_track::SpeedAnchoredModel`]), else the
 //! body's force balance with the freely rolling wheels' forces below (the car coasting), and
-//! in both cases `vx_meas` or the wheel speeds correct it.
+//! in both cases `vx_meas` or the wheel speeds correct it. The case once also required `ax`;
+//! without it the seed's wheels returned, and on the Ford Escort's drive to the limit without an
+//! `ax` column (harness/logs, `ax_meas` NaN) the grip model's EKF was 4.56° off in sideslip RMSE
+//! (NEES 931); with the wheels of this module 1.33° (NEES 277; the sideslip then rests on the
+//! tyre law alone, README "Which model"), and the campaigns, which measure `ax`, unchanged
+//! (2026-12-04).
 //!
 //! **What the seed's wheels do then.** Each wheel's spin balance `J ω̇ = T − r Fx` (000:
 //! 5.45-5.46) sees the tyre's braking or driving force without the torque that balances it, and
@@ -37,7 +42,7 @@ use vehicle_models::driver_input::{index as input_index, INPUT_DIM};
 use vehicle_models::single_track::{state_index, STATE_DIM};
 use vehicle_models::{Scalar, SingleTrackModel, TyreModel};
 
-use super::single_track::{ANCHORED_INPUT_DIM, REAR_DRIVE_INPUT};
+use super::single_track::REAR_DRIVE_INPUT;
 
 /// Every torque input (front drive, brake, rear drive) reads exactly 0: the FMU's convention for
 /// "torques unknown" (`unknown_torque_slip_std`). `u` is any input that begins with the
@@ -50,16 +55,6 @@ pub fn torques_read_zero<S: Scalar, const K: usize>(u: &[S; K]) -> bool {
     ]
     .into_iter()
     .all(|i| u[i].value() == 0.0)
-}
-
-/// The torques read zero: the case the module docs describe, whether or not `ax` is measured.
-/// It once also required `ax`; without it the seed's wheels returned, and on the Ford Escort's
-/// drive to the limit without an `ax` column (harness/logs, `ax_meas` NaN) the grip model's EKF
-/// was 4.56° off in sideslip RMSE (NEES 931); with the wheels of this module 1.33° (NEES 277;
-/// the sideslip then rests on the tyre law alone, README "Which model"), and the campaigns,
-/// which measure `ax`, unchanged (2026-12-04).
-pub fn torques_unknown<S: Scalar>(u: &[S; ANCHORED_INPUT_DIM]) -> bool {
-    torques_read_zero(u)
 }
 
 /// `body` with both wheels at free rolling: `ω = Vx,wheel / r`, the wheel centre's speed along

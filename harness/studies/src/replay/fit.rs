@@ -324,10 +324,8 @@ fn fit_tyres_b(
     let training_rmse = |scales: [f64; 2]| -> Result<f64> {
         let trial = with_reals(fmu, values, &scale_values(scales))?;
         let recording = drive::run(fmu, &trial, &grid, &feeds)?;
-        Ok(report::scores(prepared, &recording, rows.clone())
-            .iter()
-            .find(|s| s.label == "sideslip" && s.estimator == "estimator")
-            .map_or(f64::NAN, |s| s.rmse))
+        let scores = report::scores(prepared, &recording, rows.clone());
+        Ok(report::estimator_rmse(&scores, "sideslip").unwrap_or(f64::NAN))
     };
     Ok(TyreFit::Fitted(super::reference_fit::fit_level(
         [start[0], start[1]],
@@ -828,13 +826,10 @@ impl FitOutcome {
 
     /// Held-out RMSE of the estimator's `label` before and after the fit.
     pub fn rmse(&self, label: &str) -> Option<(f64, f64)> {
-        let find = |scores: &[StateScore]| {
-            scores
-                .iter()
-                .find(|s| s.label == label && s.estimator == "estimator")
-                .map(|s| s.rmse)
-        };
-        Some((find(&self.before)?, find(&self.after)?))
+        Some((
+            report::estimator_rmse(&self.before, label)?,
+            report::estimator_rmse(&self.after, label)?,
+        ))
     }
 }
 
@@ -859,7 +854,7 @@ pub struct WorseHeldOut {
 pub fn worse_held_out(before: &[StateScore], after: &[StateScore]) -> Vec<WorseHeldOut> {
     after
         .iter()
-        .filter(|fitted| fitted.estimator == "estimator")
+        .filter(|fitted| fitted.estimator == report::ESTIMATOR)
         .filter_map(|fitted| {
             let start = before
                 .iter()

@@ -23,6 +23,17 @@ fn display(unit: &str) -> (f64, String) {
     }
 }
 
+/// The name [`scores`] gives the estimator's rows (the zero-sideslip baseline has its own).
+pub const ESTIMATOR: &str = "estimator";
+
+/// The RMSE of the estimator's `label` among `scores`, if it was scored.
+pub fn estimator_rmse(scores: &[StateScore], label: &str) -> Option<f64> {
+    scores
+        .iter()
+        .find(|s| s.label == label && s.estimator == ESTIMATOR)
+        .map(|s| s.rmse)
+}
+
 /// One score per reference channel, then the zero-sideslip baseline when a sideslip
 /// reference exists. `rows` limits the scoring to part of the grid (a held-out segment).
 pub fn scores(
@@ -42,7 +53,7 @@ pub fn scores(
         let (scale, unit) = display(&channel.si);
         out.push(score_state(
             name,
-            "estimator",
+            ESTIMATOR,
             &unit,
             &truth[rows.clone()],
             &estimate[rows.clone()],
