@@ -531,62 +531,6 @@ mod tests {
 
     #[test]
     fn save_and_restore_continue_bit_identically() {
-        #[derive(Default)]
-        struct Tape(Vec<f64>, Vec<bool>, usize, usize);
-        impl SnapshotSink for Tape {
-            fn u8(&mut self, v: u8) {
-                self.0.push(f64::from(v));
-            }
-            fn u32(&mut self, v: u32) {
-                self.0.push(f64::from(v));
-            }
-            fn u64(&mut self, v: u64) {
-                self.0.push(v as f64);
-            }
-            fn f64(&mut self, v: f64) {
-                self.0.push(v);
-            }
-            fn bool(&mut self, v: bool) {
-                self.1.push(v);
-            }
-            fn bytes(&mut self, _: &[u8]) {
-                unreachable!()
-            }
-            fn f64s(&mut self, v: &[f64]) {
-                self.0.extend_from_slice(v);
-            }
-        }
-        impl SnapshotSource for Tape {
-            fn u8(&mut self, w: &str) -> Result<u8, SnapshotError> {
-                Ok(SnapshotSource::f64(self, w)? as u8)
-            }
-            fn u32(&mut self, w: &str) -> Result<u32, SnapshotError> {
-                Ok(SnapshotSource::f64(self, w)? as u32)
-            }
-            fn u64(&mut self, w: &str) -> Result<u64, SnapshotError> {
-                Ok(SnapshotSource::f64(self, w)? as u64)
-            }
-            fn f64(&mut self, _: &str) -> Result<f64, SnapshotError> {
-                self.2 += 1;
-                Ok(self.0[self.2 - 1])
-            }
-            fn bool(&mut self, _: &str) -> Result<bool, SnapshotError> {
-                self.3 += 1;
-                Ok(self.1[self.3 - 1])
-            }
-            fn bytes(&mut self, _: &str) -> Result<Vec<u8>, SnapshotError> {
-                unreachable!()
-            }
-            fn f64s(&mut self, _: &str, _: usize) -> Result<Vec<f64>, SnapshotError> {
-                unreachable!()
-            }
-            fn f64s_into(&mut self, target: &mut [f64], w: &str) -> Result<(), SnapshotError> {
-                for value in target.iter_mut() {
-                    *value = SnapshotSource::f64(self, w)?;
-                }
-                Ok(())
-            }
-        }
         let config = AdaptationConfig {
             window: 12,
             max_scale: 100.0,
@@ -608,7 +552,7 @@ mod tests {
             original.observe(&report(1.0 + 0.37 * k), &correction(k), &q);
         }
         assert!(original.scale() > 1.0);
-        let mut tape = Tape::default();
+        let mut tape = crate::snapshot::Tape::default();
         original.save(&mut tape);
         let mut restored = NoiseAdaptation::new(config).unwrap();
         restored.restore(&mut tape).unwrap();

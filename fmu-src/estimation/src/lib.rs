@@ -45,6 +45,9 @@ pub mod particle;
 /// Innovation-based adaptive process noise (covariance matching on the NIS).
 pub mod adaptive;
 
+/// A fixed-gain observer's reported covariance scaled to its windowed NIS.
+pub mod innovation_scaling;
+
 pub mod registry;
 pub mod running;
 pub mod snapshot;

@@ -61,3 +61,66 @@ pub(crate) fn read_gaussian<const N: usize>(
     source.f64s_into(covariance.as_mut_slice(), "covariance")?;
     Ok((state, covariance))
 }
+
+/// A stored state in memory, for the tests of `save`/`restore`: the numbers, the flags and a
+/// read position in each.
+#[cfg(test)]
+#[derive(Default)]
+pub(crate) struct Tape(Vec<f64>, Vec<bool>, usize, usize);
+
+#[cfg(test)]
+impl SnapshotSink for Tape {
+    fn u8(&mut self, v: u8) {
+        self.0.push(f64::from(v));
+    }
+    fn u32(&mut self, v: u32) {
+        self.0.push(f64::from(v));
+    }
+    fn u64(&mut self, v: u64) {
+        self.0.push(v as f64);
+    }
+    fn f64(&mut self, v: f64) {
+        self.0.push(v);
+    }
+    fn bool(&mut self, v: bool) {
+        self.1.push(v);
+    }
+    fn bytes(&mut self, _: &[u8]) {
+        unreachable!()
+    }
+    fn f64s(&mut self, v: &[f64]) {
+        self.0.extend_from_slice(v);
+    }
+}
+#[cfg(test)]
+impl SnapshotSource for Tape {
+    fn u8(&mut self, w: &str) -> Result<u8, SnapshotError> {
+        Ok(SnapshotSource::f64(self, w)? as u8)
+    }
+    fn u32(&mut self, w: &str) -> Result<u32, SnapshotError> {
+        Ok(SnapshotSource::f64(self, w)? as u32)
+    }
+    fn u64(&mut self, w: &str) -> Result<u64, SnapshotError> {
+        Ok(SnapshotSource::f64(self, w)? as u64)
+    }
+    fn f64(&mut self, _: &str) -> Result<f64, SnapshotError> {
+        self.2 += 1;
+        Ok(self.0[self.2 - 1])
+    }
+    fn bool(&mut self, _: &str) -> Result<bool, SnapshotError> {
+        self.3 += 1;
+        Ok(self.1[self.3 - 1])
+    }
+    fn bytes(&mut self, _: &str) -> Result<Vec<u8>, SnapshotError> {
+        unreachable!()
+    }
+    fn f64s(&mut self, _: &str, _: usize) -> Result<Vec<f64>, SnapshotError> {
+        unreachable!()
+    }
+    fn f64s_into(&mut self, target: &mut [f64], w: &str) -> Result<(), SnapshotError> {
+        for value in target.iter_mut() {
+            *value = SnapshotSource::f64(self, w)?;
+        }
+        Ok(())
+    }
+}

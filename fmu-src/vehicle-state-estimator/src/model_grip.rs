@@ -277,6 +277,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 rows_used: sample.rows_used,
                 holding: sample.holding,
                 held_speed: sample.held_speed,
+                covariance_scale: sample.covariance_scale,
             },
         );
         values.ay_est = self

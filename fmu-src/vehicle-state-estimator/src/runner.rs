@@ -5,7 +5,8 @@
 
 use std::fmt::Debug;
 
-use estimation::adaptive::{Correction, NoiseAdaptation};
+use estimation::adaptive::{Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
+use estimation::innovation_scaling::InnovationScaling;
 use estimation::kalman::InitialEstimate;
 use estimation::registry::{
     self, BoxedEstimator, EstimatorChoice, EstimatorSettings, RegistryModel,
@@ -280,6 +281,9 @@ pub struct OutputSample<const N: usize, Extra> {
     pub holding: bool,
     /// The speed the sensors measured in a held sample, if any.
     pub held_speed: Option<MeasuredSpeed>,
+    /// The factor on everything the estimator reports of its uncertainty, `covariance` and the
+    /// consider terms: the Luenberger observer's innovation scaling, 1 for the other estimators.
+    pub covariance_scale: f64,
 }
 
 /// A speed as the sensors measure it, without the filter: what a held sample reports as vx_est.
@@ -488,6 +492,19 @@ fn innovation_window(sample_time: f64) -> usize {
     (samples.min(MAX_INNOVATION_WINDOW as f64) as usize) | 1
 }
 
+/// The window of the Luenberger observer's innovation scaling
+/// (`estimation::innovation_scaling`), in seconds. Measured on the mismatch campaigns (harness
+/// robustness, Luenberger_A's 15 rows in issue 17 point 3's band, offline on the recorded NIS):
+/// no scaling 1, 1 s 10, 1.5 s 9, 2 s 8, 3 s 7; a longer window lags behind the manoeuvre's
+/// transients, a shorter one behind nothing but is noisier.
+const OBSERVER_SCALING_WINDOW: f64 = 1.0;
+
+/// [`OBSERVER_SCALING_WINDOW`] in samples, at least the least window the scaling takes.
+fn observer_scaling_window(sample_time: f64) -> usize {
+    let samples = (OBSERVER_SCALING_WINDOW / sample_time).round();
+    samples.clamp(MIN_WINDOW as f64, MAX_WINDOW as f64) as usize
+}
+
 /// `schedule_threshold`, finite and at least 0.
 fn schedule_threshold(v: &Variables) -> Result<f64, String> {
     non_negative("schedule_threshold", v.schedule_threshold)
@@ -583,6 +600,8 @@ where
     pending: Vec<OutputSample<N, Model::Extra>>,
     /// The adaptive process noise (`adaptive_process_noise`; FMU state).
     adaptation: Option<NoiseAdaptation<N>>,
+    /// The Luenberger observer's reported covariance scaled to its innovations (FMU state).
+    observer_scaling: Option<InnovationScaling>,
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
@@ -662,6 +681,10 @@ where
             pending: Vec::with_capacity(PENDING_CAPACITY),
             adaptation: parameters::adaptation(v)?
                 .map(NoiseAdaptation::new)
+                .transpose()
+                .map_err(|e| e.0)?,
+            observer_scaling: (choice == EstimatorChoice::Luenberger)
+                .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
                 .transpose()
                 .map_err(|e| e.0)?,
         })
@@ -809,7 +832,7 @@ where
         {
             self.filter.inflate_covariance(&extra);
         }
-        bits | self.adapt(&report, correction.as_ref())
+        bits | self.adapt(&report, correction.as_ref()) | self.scale_observer(&report)
     }
 
     /// The model's extra measurement noise at the filter's current (predicted) estimate.
@@ -843,6 +866,17 @@ where
         if let Some(extra) = adaptation.inflation(&process_noise) {
             self.filter.inflate_covariance(&extra);
         }
+        let adapting = i32::from(state.adapting) * status::ADAPTING;
+        adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
+    }
+
+    /// The Luenberger observer's innovation scaling ([`OBSERVER_SCALING_WINDOW`]): the update's
+    /// NIS into its window; returns status bits 4096 and 8192.
+    fn scale_observer(&mut self, report: &UpdateReport<M>) -> i32 {
+        let Some(scaling) = self.observer_scaling.as_mut() else {
+            return 0;
+        };
+        let state = scaling.observe(report);
         let adapting = i32::from(state.adapting) * status::ADAPTING;
         adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
     }
@@ -996,6 +1030,7 @@ where
             rows_used: self.rows_used,
             holding: self.holding,
             held_speed: self.held_speed,
+            covariance_scale: self.observer_scaling.as_ref().map_or(1.0, |s| s.scale()),
         });
     }
 
@@ -1028,9 +1063,17 @@ where
     }
 
     /// The model's outputs of `sample` with the rear stiffness's consider term, unless the
-    /// filter estimates its tyres' scale ([`EstimationModel::estimates_tyre_scale`]).
+    /// filter estimates its tyres' scale ([`EstimationModel::estimates_tyre_scale`]); both the
+    /// covariance and the consider term carry the sample's `covariance_scale`. Measured with
+    /// the scale on the covariance alone: Luenberger_A's campaign rows in issue 17 point 3's
+    /// band stayed 1 of 15 (the consider terms dominate its reported sideslip std).
     fn outputs_of(&self, sample: &OutputSample<N, Model::Extra>) -> RealOutputs {
-        let outputs = self.model.outputs(sample, &self.parameters);
+        let scale = sample.covariance_scale;
+        let scaled = OutputSample {
+            covariance: sample.covariance * scale,
+            ..*sample
+        };
+        let outputs = self.model.outputs(&scaled, &self.parameters);
         if Model::estimates_tyre_scale(self.choice) {
             outputs
         } else {
@@ -1038,6 +1081,7 @@ where
                 outputs,
                 &self.parameters,
                 self.model.rear_slip_angle_rate(sample),
+                scale,
             )
         }
     }
@@ -1080,6 +1124,9 @@ where
         if let Some(adaptation) = &self.adaptation {
             adaptation.save(&mut Sink(writer));
         }
+        if let Some(scaling) = &self.observer_scaling {
+            scaling.save(&mut Sink(writer));
+        }
     }
 
     pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
@@ -1113,6 +1160,11 @@ where
                 .restore(&mut Source(reader))
                 .map_err(|e| StateError::new(e.0))?;
         }
+        if let Some(scaling) = runner.observer_scaling.as_mut() {
+            scaling
+                .restore(&mut Source(reader))
+                .map_err(|e| StateError::new(e.0))?;
+        }
         Ok(runner)
     }
 }
@@ -1142,10 +1194,14 @@ where
 /// (fmu-src/vehicle-state-estimator/README.md, "Model A's tyre lag"). Model B leaves it out:
 /// tried offline on its recorded estimates, its rows in the band went 29 → 11-24, its
 /// `ay_model_error` already widening its covariance in the transients.
+///
+/// `covariance_scale` multiplies the term's variance as it does the covariance's
+/// ([`OutputSample::covariance_scale`]).
 pub(crate) fn with_stiffness_consider(
     mut values: RealOutputs,
     v: &Variables,
     rear_slip_angle_rate: Option<f64>,
+    covariance_scale: f64,
 ) -> RealOutputs {
     let stiffness = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
     if !(stiffness > 0.0 && stiffness.is_finite()) {
@@ -1155,7 +1211,7 @@ pub(crate) fn with_stiffness_consider(
         .map(|rate| v.tyre_relaxation_length / values.vx_est.abs() * rate.abs())
         .filter(|lag| lag.is_finite())
         .unwrap_or(0.0);
-    let sideslip_consider = stiffness.hypot(lag);
+    let sideslip_consider = stiffness.hypot(lag) * covariance_scale.sqrt();
     let lateral_velocity_consider = values.vx_est.abs() * sideslip_consider;
     values.sideslip_std = values.sideslip_std.hypot(sideslip_consider);
     values.vy_std = values.vy_std.hypot(lateral_velocity_consider);

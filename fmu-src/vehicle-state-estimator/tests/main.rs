@@ -9,6 +9,7 @@ mod gate_model_error;
 mod load_unload;
 mod model_b;
 mod model_grip;
+mod observer_scaling;
 mod parameter_bounds;
 mod rear_drive;
 mod registry;

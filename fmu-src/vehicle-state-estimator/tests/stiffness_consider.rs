@@ -36,7 +36,7 @@ fn estimator(model: EstimatorModel, uncertainty: Option<f64>) -> Slave {
 
 /// The estimator `kind` on `model` at its defaults, with `uncertainty` as the parameter when
 /// given.
-fn estimator_of_kind(
+pub(crate) fn estimator_of_kind(
     kind: EstimatorKind,
     model: EstimatorModel,
     uncertainty: Option<f64>,
@@ -74,15 +74,39 @@ fn estimator_with_lag(
 
 /// Every step's outputs ([`OUTPUTS`]) and true sideslip of `s` on the step steer.
 fn run(s: &mut Slave) -> Vec<([f64; 7], f64)> {
+    run_with_status(s, ReferenceModelKind::TwoTrack, 2.5)
+        .into_iter()
+        .map(|step| (step.outputs, step.truth))
+        .collect()
+}
+
+/// One step of [`run_with_status`].
+pub(crate) struct Step {
+    /// [`OUTPUTS`].
+    pub outputs: [f64; 7],
+    /// The true sideslip.
+    pub truth: f64,
+    pub status: i32,
+    pub nis: f64,
+    pub rows_used: i32,
+}
+
+/// Every step of `s` on a step steer of `step_degrees` road-wheel angle, the truth from the
+/// reference vehicle's `truth` model.
+pub(crate) fn run_with_status(
+    s: &mut Slave,
+    truth: ReferenceModelKind,
+    step_degrees: f64,
+) -> Vec<Step> {
     let params = ReferenceVehicleParams {
-        model: ReferenceModelKind::TwoTrack,
+        model: truth,
         ..ReferenceVehicleParams::default()
     };
     let mut truth = ReferenceVehicle::new(&params, SPEED);
     let mut trace = Vec::new();
     for k in 0..SAMPLES {
         let t = k as f64 * SAMPLE_TIME;
-        let steering = 2.5_f64.to_radians() * ((t - 1.0) / 0.1).clamp(0.0, 1.0);
+        let steering = step_degrees.to_radians() * ((t - 1.0) / 0.1).clamp(0.0, 1.0);
         let input = DriverInputVector::new(steering, 0.0, 0.0);
         set_sensors(s, steering, &truth.truth(&input));
         assert_eq!(s.do_step(t, SAMPLE_TIME), Fmi2Status::Ok);
@@ -90,7 +114,13 @@ fn run(s: &mut Slave) -> Vec<([f64; 7], f64)> {
             truth.step(&input, 0.001).expect("reference step");
         }
         let outputs: [f64; 7] = s.reals(&OUTPUTS).try_into().expect("seven outputs");
-        trace.push((outputs, truth.truth(&input).sideslip));
+        trace.push(Step {
+            outputs,
+            truth: truth.truth(&input).sideslip,
+            status: s.get_integer(vr::STATUS).1,
+            nis: s.get_real(vr::NIS).1,
+            rows_used: s.get_integer(vr::ROWS_USED).1,
+        });
     }
     trace
 }
