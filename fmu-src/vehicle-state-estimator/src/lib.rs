@@ -66,6 +66,7 @@ pub mod model_b;
 pub mod model_grip;
 pub mod parameters;
 pub mod runner;
+pub mod speed_filter;
 mod state;
 
 use model_a::RunnerA;

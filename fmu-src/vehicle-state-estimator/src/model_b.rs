@@ -1,8 +1,9 @@
 //! Model B (the 3-state form of seed 001, `x = [sideslip, yaw_rate, ay]`, `u = [steering_angle,
 //! vx]`, `y = [ay, yaw_rate]`, 001: eqs 6-11, `TwoTrackEstimationModel`) as the FMU runs it: the
 //! same car as model A with Magic Formula tyres matched to the HSRI parameters (seed 001 prints
-//! no tyre data; SPEC §4). The speed is an input (vx_meas or the wheel-speed fallback); the
-//! wheel speeds are passed through.
+//! no tyre data; SPEC §4). The speed is an input (vx_meas or the wheel-speed fallback, with a
+//! measured ax filtered by the longitudinal kinematics: `speed_filter`); the wheel speeds are
+//! passed through.
 
 use estimation::kalman::InitialEstimate;
 use estimation::models::two_track::TwoTrackEstimationModel;
@@ -22,6 +23,7 @@ use crate::runner::{
     ay_model_error_noise, finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors,
     WheelRadii,
 };
+use crate::speed_filter::{SpeedFilter, SpeedSample};
 use crate::status;
 
 /// Model B as the filters see it.
@@ -35,7 +37,8 @@ pub type RunnerB = Runner<ModelB, STATE_DIM, MEASUREMENT_DIM, INPUT_DIM>;
 /// (XML: vx_est, omega_front_est, omega_rear_est).
 #[derive(Clone, Copy, Debug)]
 pub struct PassedThrough {
-    pub speed: f64,
+    /// The speed model B runs at: the measured one, or filtered with a measured ax.
+    pub speed: SpeedFilter,
     pub omega_front: f64,
     pub omega_rear: f64,
 }
@@ -101,7 +104,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let speed = sensors.speed(radii, min_speed).unwrap_or(v.vx_initial);
         let [front_rolling, rear_rolling] = radii.free_rolling(speed);
         PassedThrough {
-            speed,
+            speed: SpeedFilter::measured(speed),
             omega_front: finite_or(sensors.omega_front, front_rolling),
             omega_rear: finite_or(sensors.omega_rear, rear_rolling),
         }
@@ -121,7 +124,9 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         }
         let radii = WheelRadii::of(&runner.parameters);
         let Some(speed) = sensors.speed(radii, runner.min_speed) else {
-            // Model B divides by the speed: hold the estimate until a speed is measured again.
+            // Model B divides by the speed: hold the estimate until a speed is measured again
+            // (and filter it afresh from there).
+            passed.speed = SpeedFilter::measured(passed.speed.value);
             return Err(status::BELOW_MIN_SPEED);
         };
         let mut bits = 0;
@@ -133,11 +138,33 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             // vx_meas is missing and the wheel-speed fallback stands in for it.
             bits |= status::ROW_SKIPPED;
         }
-        passed.speed = speed;
         // The measured ax shifts the axle loads (vehicle_models' two_track_lateral docs), taken
         // as model A takes it, with use_speed_measurements; missing, the loads of free rolling
-        // (seed 001's model).
+        // (seed 001's model). With it the speed is filtered by the kinematics (speed_filter).
         let (_, ax) = speed_measurements(&runner.parameters, sensors);
+        // An ax_meas left unconnected reads its start value, exactly 0: a speed predicted at 0
+        // m/s² would lag a braking car (0.8 m/s at 4 m/s² with the defaults), so the speed is
+        // filtered only by an ax that is not exactly 0 (load transfer is nil at 0 anyway).
+        let kinematic_ax = ax.filter(|&ax| ax != 0.0);
+        let v = &runner.parameters;
+        let state = runner.filter.state();
+        let (sideslip, yaw_rate) = (state[state_index::SIDESLIP], state[state_index::YAW_RATE]);
+        let gate = runner.speed_gate();
+        let passed = &mut runner.extra;
+        bits |= passed.speed.step(
+            &SpeedSample {
+                measured: speed,
+                measurement_variance: v.measurement_noise_std_vx * v.measurement_noise_std_vx,
+                ax: kinematic_ax,
+                yaw_rate,
+                lateral_velocity: passed.speed.value * sideslip.tan(),
+                sample_time: v.sample_time,
+                process_variance: v.process_noise_std_vx * v.process_noise_std_vx,
+                min_speed: runner.min_speed,
+            },
+            gate,
+        );
+        let speed = passed.speed.value;
         Ok(Sample {
             measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
             input: SVector::from([runner.input[0], speed, ax.unwrap_or(0.0)]),
@@ -197,10 +224,10 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let passed = sample.extra;
         let steering = sample.input[0];
         // the slip angles do not depend on ax
-        let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed, 0.0]);
+        let u = SVector::<f64, INPUT_DIM>::from([steering, passed.speed.ahead, 0.0]);
         // vy = vx tan β and the axle slip angles (001: eqs 4-5).
         let derived = self.vehicle().outputs(&x, &u);
-        let vx = passed.speed;
+        let vx = passed.speed.ahead;
         let (sideslip, yaw_rate) = (x[state_index::SIDESLIP], x[state_index::YAW_RATE]);
         let vy = derived.lateral_velocity;
         // Longitudinal slip (ω r − vxW) / vxW with the wheel-centre speed along the wheel and the
@@ -222,7 +249,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             slip_angle_rear_est: derived.slip_angle_rear,
             slip_front_est: slip(passed.omega_front, v.wheel_radius_front, front_along_wheel),
             slip_rear_est: slip(passed.omega_rear, v.wheel_radius_rear, vx),
-            vx_std: v.measurement_noise_std_vx,
+            vx_std: passed.speed.std().unwrap_or(v.measurement_noise_std_vx),
             // d(vx tan β)/dβ = vx / cos²β (first-order propagation).
             vy_std: vx * std(state_index::SIDESLIP) / (cos_sideslip * cos_sideslip),
             yaw_rate_std: std(state_index::YAW_RATE),
@@ -234,7 +261,12 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     }
 
     fn write_extra(passed: &PassedThrough, writer: &mut StateWriter) {
-        writer.f64(passed.speed);
+        let speed = &passed.speed;
+        writer.f64(speed.value);
+        writer.f64(speed.variance);
+        writer.u64(speed.rejected);
+        writer.f64(speed.ahead);
+        writer.f64(speed.ahead_variance);
         writer.f64(passed.omega_front);
         writer.f64(passed.omega_rear);
     }
@@ -243,7 +275,13 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         passed: &mut PassedThrough,
         reader: &mut StateReader<'_>,
     ) -> Result<(), StateError> {
-        passed.speed = reader.f64("speed")?;
+        passed.speed = SpeedFilter {
+            value: reader.f64("speed")?,
+            variance: reader.f64("speed variance")?,
+            rejected: reader.u64("speed samples gated")?,
+            ahead: reader.f64("predicted speed")?,
+            ahead_variance: reader.f64("predicted speed variance")?,
+        };
         passed.omega_front = reader.f64("front wheel speed")?;
         passed.omega_rear = reader.f64("rear wheel speed")?;
         Ok(())

@@ -18,6 +18,7 @@ use vehicle_models::driver_input::INPUT_DIM;
 
 use crate::model_description::{EstimatorModel, RealOutputs, Variables};
 use crate::parameters::{self, positive};
+use crate::speed_filter::SpeedGate;
 use crate::state::{Sink, Source};
 use crate::status;
 
@@ -714,6 +715,15 @@ where
                 "the estimator cannot continue from its estimate with the tuned parameters",
             ))
         }
+    }
+
+    /// The gate's threshold and re-admission samples (`gate_measurements`), for a model's
+    /// own tests of a measurement outside the filter (model B's speed).
+    pub(crate) fn speed_gate(&self) -> Option<SpeedGate> {
+        self.gate.map(|gate| SpeedGate {
+            threshold: gate.threshold,
+            readmit_samples: gate.readmit_samples,
+        })
     }
 
     /// The running filter (for tests and benchmarks).

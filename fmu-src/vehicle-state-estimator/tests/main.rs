@@ -15,6 +15,7 @@ mod rear_drive;
 mod registry;
 mod robustness;
 mod sliding_wheels;
+mod speed_filter;
 mod stiffness_consider;
 mod tunable;
 mod wheel_lift;

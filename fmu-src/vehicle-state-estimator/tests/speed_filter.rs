@@ -1,0 +1,181 @@
+//! Model B's speed filter (`speed_filter`): without `ax` the measured speed passes through; with
+//! it the filtered speed is nearer the truth than the sensor, a glitch is gated, and a real step
+//! is re-admitted after the lock-out (the FMU's `readmit_time`); through the FMU, model B's
+//! `vx_est` and `vx_std` with and without `ax_meas`.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+use fmi_export::ffi::Fmi2Status;
+use fmi_export::fmi2_api_of;
+use fmi_export::testing::Slave;
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
+use VehicleStateEstimator::speed_filter::{SpeedFilter, SpeedGate, SpeedSample};
+use VehicleStateEstimator::status;
+
+const T: f64 = 0.01;
+const GATE: SpeedGate = SpeedGate {
+    threshold: 10.83,
+    readmit_samples: 50,
+};
+
+fn sample(measured: f64, ax: Option<f64>) -> SpeedSample {
+    SpeedSample {
+        measured,
+        measurement_variance: 0.1 * 0.1,
+        ax,
+        yaw_rate: 0.0,
+        lateral_velocity: 0.0,
+        sample_time: T,
+        process_variance: 0.005 * 0.005,
+        min_speed: 1.0,
+    }
+}
+
+/// A car braking at 4 m/s² from 25 m/s for 4 s; the speed sensor's noise 0.1 m/s. Returns
+/// the largest error of the filtered speed and of the measured one after the first second.
+fn braking(ax_known: bool, glitch_at: Option<usize>, gate: Option<SpeedGate>) -> (f64, f64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let noise = Normal::new(0.0, 0.1).unwrap();
+    let mut filter = SpeedFilter::measured(25.0);
+    let (mut filtered, mut raw) = (0.0f64, 0.0f64);
+    for k in 0..400 {
+        let truth = 25.0 - 4.0 * T * k as f64;
+        let mut measured = truth + noise.sample(&mut rng);
+        if glitch_at == Some(k) {
+            measured += 30.0;
+        }
+        let bits = filter.step(&sample(measured, ax_known.then_some(-4.0)), gate);
+        assert_eq!(bits & status::SENSOR_READMITTED, 0, "k = {k}");
+        if k >= 100 {
+            filtered = filtered.max((filter.value - truth).abs());
+            raw = raw.max((measured - truth).abs());
+        }
+    }
+    (filtered, raw)
+}
+
+#[test]
+fn without_ax_the_speed_is_the_measured_one() {
+    let mut filter = SpeedFilter::measured(20.0);
+    for measured in [20.0, 21.5, 19.0] {
+        assert_eq!(filter.step(&sample(measured, None), Some(GATE)), 0);
+        assert_eq!((filter.value, filter.rejected), (measured, 0));
+        assert_eq!(filter.std(), None);
+    }
+}
+
+#[test]
+fn with_ax_the_filtered_speed_is_closer_to_the_truth_than_the_measured_one() {
+    let (filtered, raw) = braking(true, None, Some(GATE));
+    println!("largest error: filtered {filtered:.3} m/s, measured {raw:.3} m/s");
+    assert!(filtered < 0.4 * raw, "filtered {filtered}, measured {raw}");
+}
+
+#[test]
+fn a_glitch_in_the_measured_speed_is_gated() {
+    let (clean, _) = braking(true, None, Some(GATE));
+    let (glitched, raw) = braking(true, Some(200), Some(GATE));
+    let (ungated, _) = braking(true, Some(200), None);
+    println!(
+        "largest error: {clean:.3} m/s clean, {glitched:.3} with a 30 m/s glitch, {ungated:.3} ungated"
+    );
+    assert!(raw > 29.0);
+    assert!(glitched < 1.5 * clean, "{glitched} against {clean}");
+    assert!(ungated > 1.0, "{ungated}");
+}
+
+#[test]
+fn a_real_step_in_the_speed_is_readmitted_after_the_lock_out() {
+    let mut filter = SpeedFilter::measured(20.0);
+    filter.step(&sample(20.0, Some(0.0)), Some(GATE));
+    let mut bits = Vec::new();
+    for _ in 0..GATE.readmit_samples {
+        bits.push(filter.step(&sample(25.0, Some(0.0)), Some(GATE)));
+    }
+    assert!(bits[..bits.len() - 1]
+        .iter()
+        .all(|&b| b == status::ROW_GATED));
+    assert_eq!(
+        *bits.last().unwrap(),
+        status::ROW_GATED | status::SENSOR_READMITTED
+    );
+    assert_eq!(filter.value, 25.0);
+}
+
+/// Model B at its defaults through the C ABI, braking straight at 4 m/s² from 25 m/s for 3 s,
+/// the speed sensor's noise 0.1 m/s (the default `measurement_noise_std_vx`), a 30 m/s glitch
+/// in `vx_meas` at 1.5 s when `glitch`; `ax_meas` as given. Returns the RMS and largest error
+/// of `vx_est` after the first second, and the last `vx_std`.
+fn model_b_braking(ax_meas: Option<f64>, glitch: bool) -> (f64, f64, f64) {
+    let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "speed", GUID)
+        .expect("instantiate");
+    assert_eq!(
+        s.set_integer(vr::MODEL, EstimatorModel::TwoTrack3State as i32),
+        Fmi2Status::Ok
+    );
+    assert_eq!(
+        s.set_integer(vr::ESTIMATOR, EstimatorKind::Ekf as i32),
+        Fmi2Status::Ok
+    );
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, T), Fmi2Status::Ok);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let noise = Normal::new(0.0, 0.1).unwrap();
+    let (mut squared, mut largest, mut count) = (0.0, 0.0f64, 0);
+    for k in 0..300 {
+        let t = k as f64 * T;
+        let speed = 25.0 - 4.0 * t;
+        let mut measured = speed + noise.sample(&mut rng);
+        if glitch && k == 150 {
+            measured += 30.0;
+        }
+        let wheel = speed / 0.3;
+        for (reference, value) in [
+            (vr::STEERING_ANGLE, 0.0),
+            (vr::YAW_RATE_MEAS, 0.0),
+            (vr::AY_MEAS, 0.0),
+            (vr::OMEGA_FRONT_MEAS, wheel),
+            (vr::OMEGA_REAR_MEAS, wheel),
+            (vr::VX_MEAS, measured),
+            (vr::AX_MEAS, ax_meas.unwrap_or(0.0)),
+        ] {
+            assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
+        }
+        assert_eq!(s.do_step(t, T), Fmi2Status::Ok);
+        // The outputs are the estimate at the next sample instant.
+        let error = s.get_real(vr::VX_EST).1 - (speed - 4.0 * T);
+        if k >= 100 {
+            squared += error * error;
+            largest = largest.max(error.abs());
+            count += 1;
+        }
+    }
+    let rms = (squared / f64::from(count)).sqrt();
+    (rms, largest, s.get_real(vr::VX_STD).1)
+}
+
+#[test]
+fn model_b_filters_its_speed_with_a_measured_ax_and_takes_it_as_measured_without() {
+    let (filtered, filtered_largest, filtered_std) = model_b_braking(Some(-4.0), false);
+    // ax_meas left at its start value 0 (unconnected): the speed as measured, its std the
+    // sensor's, the error the sensor's noise (and its one-sample lag behind the prediction).
+    let (measured, measured_largest, measured_std) = model_b_braking(None, false);
+    println!(
+        "vx_est error RMS / largest: {filtered:.3} / {filtered_largest:.3} m/s filtered (std \
+         {filtered_std:.3}), {measured:.3} / {measured_largest:.3} m/s as measured (std {measured_std})"
+    );
+    assert_eq!(measured_std, 0.1);
+    assert!(measured > 0.08, "{measured}");
+    assert!(filtered < 0.4 * measured, "{filtered} against {measured}");
+    assert!(
+        filtered_std < 0.05 && filtered_std > 0.5 * filtered,
+        "{filtered_std}"
+    );
+    let (glitched, glitched_largest, _) = model_b_braking(Some(-4.0), true);
+    assert!(
+        glitched_largest < 1.5 * filtered_largest,
+        "a 30 m/s glitch: largest error {glitched_largest} against {filtered_largest} ({glitched} RMS)"
+    );
+}
