@@ -92,7 +92,12 @@ impl SpeedFilter {
     pub fn step(&mut self, sample: &SpeedSample, gate: Option<SpeedGate>) -> i32 {
         let bits = self.update(sample, gate);
         if let (Some(ax), true) = (sample.ax, self.variance.is_finite()) {
-            self.ahead = Self::predicted(self.value, ax, sample);
+            let ahead = Self::predicted(self.value, ax, sample);
+            self.ahead = if Self::plausible(ahead, sample) {
+                ahead
+            } else {
+                self.value
+            };
             self.ahead_variance = self.variance + sample.process_variance;
         }
         bits
@@ -121,14 +126,19 @@ impl SpeedFilter {
                 }
                 self.value = predicted;
                 self.variance = prior;
-                return self.held_above(sample.min_speed, sample) | status::ROW_GATED;
+                return self.restart_if_implausible(sample) | status::ROW_GATED;
             }
         }
         let gain = prior / innovation_variance;
         self.value = predicted + gain * innovation;
         self.variance = (1.0 - gain) * prior;
         self.rejected = 0;
-        self.held_above(sample.min_speed, sample)
+        self.restart_if_implausible(sample)
+    }
+
+    /// `min_speed ≤ speed ≤ 2 z + 10 m/s` with `z` the measured speed (see [`Self::restart_if_implausible`]).
+    fn plausible(speed: f64, sample: &SpeedSample) -> bool {
+        (sample.min_speed..=2.0 * sample.measured + 10.0).contains(&speed)
     }
 
     /// From the measured speed with its variance.
@@ -139,10 +149,12 @@ impl SpeedFilter {
         };
     }
 
-    /// Model B divides by the speed: an estimate that is not finite or fell below `min_speed`
-    /// (the measured speed is above it) restarts from the measurement.
-    fn held_above(&mut self, min_speed: f64, sample: &SpeedSample) -> i32 {
-        if !(self.value >= min_speed && self.variance.is_finite()) {
+    /// Model B divides by the speed: an estimate that is not finite, fell below `min_speed`
+    /// (the measured speed is above it) or rose above twice the measured speed plus 10 m/s (the
+    /// plausibility bound of the wheel speeds; a wild `r vy` of a lateral estimate that lost
+    /// itself) restarts from the measurement.
+    fn restart_if_implausible(&mut self, sample: &SpeedSample) -> i32 {
+        if !(Self::plausible(self.value, sample) && self.variance.is_finite()) {
             self.restart(sample);
         }
         0

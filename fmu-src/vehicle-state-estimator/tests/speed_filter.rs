@@ -87,6 +87,19 @@ fn a_glitch_in_the_measured_speed_is_gated() {
 }
 
 #[test]
+fn a_lateral_estimate_that_lost_itself_cannot_run_the_speed_away() {
+    let mut filter = SpeedFilter::measured(20.0);
+    filter.step(&sample(20.0, Some(0.0)), Some(GATE));
+    let wild = SpeedSample {
+        yaw_rate: 1e3,
+        lateral_velocity: 1e6,
+        ..sample(20.0, Some(0.0))
+    };
+    filter.step(&wild, Some(GATE));
+    assert_eq!((filter.value, filter.ahead), (20.0, 20.0));
+}
+
+#[test]
 fn a_real_step_in_the_speed_is_readmitted_after_the_lock_out() {
     let mut filter = SpeedFilter::measured(20.0);
     filter.step(&sample(20.0, Some(0.0)), Some(GATE));
