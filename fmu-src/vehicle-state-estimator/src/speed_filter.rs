@@ -126,17 +126,20 @@ impl SpeedFilter {
                 }
                 self.value = predicted;
                 self.variance = prior;
-                return self.restart_if_implausible(sample) | status::ROW_GATED;
+                self.restart_if_implausible(sample);
+                return status::ROW_GATED;
             }
         }
         let gain = prior / innovation_variance;
         self.value = predicted + gain * innovation;
         self.variance = (1.0 - gain) * prior;
         self.rejected = 0;
-        self.restart_if_implausible(sample)
+        self.restart_if_implausible(sample);
+        0
     }
 
-    /// `min_speed ≤ speed ≤ 2 z + 10 m/s` with `z` the measured speed (see [`Self::restart_if_implausible`]).
+    /// `min_speed ≤ speed ≤ 2 z + 10 m/s`, `z` the measured speed
+    /// ([`Self::restart_if_implausible`]).
     fn plausible(speed: f64, sample: &SpeedSample) -> bool {
         (sample.min_speed..=2.0 * sample.measured + 10.0).contains(&speed)
     }
@@ -153,10 +156,9 @@ impl SpeedFilter {
     /// (the measured speed is above it) or rose above twice the measured speed plus 10 m/s (the
     /// plausibility bound of the wheel speeds; a wild `r vy` of a lateral estimate that lost
     /// itself) restarts from the measurement.
-    fn restart_if_implausible(&mut self, sample: &SpeedSample) -> i32 {
+    fn restart_if_implausible(&mut self, sample: &SpeedSample) {
         if !(Self::plausible(self.value, sample) && self.variance.is_finite()) {
             self.restart(sample);
         }
-        0
     }
 }
