@@ -1,0 +1,86 @@
+"""Issue 12 point 1 through fmpy and the C ABI: model B's speed with a measured ax is the scalar
+Kalman filter of dvx/dt = ax + r vy (fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked
+sample by sample against filterpy's KalmanFilter as the oracle on straight braking (r vy = 0, so
+the filter is filterpy's with F = 1, B = T, H = 1). Without ax_meas (its start value 0, an
+unconnected input) vx_est is the measured speed and vx_std measurement_noise_std_vx."""
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+import fmu_support as support
+
+STEP = 0.01
+AX = -3.0
+SPEED0 = 22.0
+Q_STD = 0.005  # process_noise_std_vx, the FMU's default
+R_STD = 0.1  # measurement_noise_std_vx, the FMU's default
+SAMPLES = 300
+
+
+def measured_speeds():
+    rng = np.random.default_rng(12)
+    truth = SPEED0 + AX * STEP * np.arange(SAMPLES)
+    return truth, truth + rng.normal(0.0, 0.05, SAMPLES)
+
+
+def run_estimator(estimator, estimator_dir, ax):
+    """Model B (EKF) at its defaults braking straight; vx_est and vx_std after every sample."""
+    model_b = estimator.enumeration_value("model", "two_track_3_state")
+    ekf = estimator.enumeration_value("estimator", "ekf")
+    filt = support.Slave(estimator, estimator_dir, "model_b_speed")
+    _, measured = measured_speeds()
+    rows = []
+    try:
+        filt.initialise({"model": model_b, "estimator": ekf, "sample_time": STEP})
+        outputs = filt.real_references(["vx_est", "vx_std"])
+        for k in range(SAMPLES):
+            wheel = measured[k] / 0.3
+            filt.set({"steering_angle": 0.0, "yaw_rate_meas": 0.0, "ay_meas": 0.0,
+                      "omega_front_meas": wheel, "omega_rear_meas": wheel,
+                      "vx_meas": measured[k], "ax_meas": ax})
+            filt.fmu.doStep(currentCommunicationPoint=k * STEP, communicationStepSize=STEP)
+            rows.append(filt.fmu.getReal(outputs))
+    finally:
+        filt.free()
+    return np.array(rows), measured
+
+
+def oracle(measured):
+    """filterpy's scalar Kalman filter, started at the first measured speed with P = R, each
+    output its one-step prediction (the FMU's outputs are the estimate for the next sample)."""
+    kf = KalmanFilter(dim_x=1, dim_z=1, dim_u=1)
+    kf.F = np.array([[1.0]])
+    kf.B = np.array([[STEP]])
+    kf.H = np.array([[1.0]])
+    kf.Q = np.array([[Q_STD**2]])
+    kf.R = np.array([[R_STD**2]])
+    kf.x = np.array([[measured[0]]])
+    kf.P = np.array([[R_STD**2]])
+    rows = []
+    for k, z in enumerate(measured):
+        if k > 0:
+            kf.predict(u=np.array([[AX]]))
+            kf.update(np.array([[z]]))
+        ahead = kf.x[0, 0] + STEP * AX
+        rows.append((ahead, np.sqrt(kf.P[0, 0] + Q_STD**2)))
+    return np.array(rows)
+
+
+def test_model_b_speed_is_filterpys_kalman_filter_on_the_kinematics(estimator, estimator_dir):
+    assert estimator.start("process_noise_std_vx") == Q_STD
+    assert estimator.start("measurement_noise_std_vx") == R_STD
+    fmu, measured = run_estimator(estimator, estimator_dir, AX)
+    expected = oracle(measured)
+    np.testing.assert_allclose(fmu, expected, rtol=1e-12, atol=1e-12)
+    truth, _ = measured_speeds()
+    # vx_est is the estimate for the next sample instant
+    filtered = support.rmse(fmu[100:-1, 0], truth[101:])
+    raw = support.rmse(measured[100:], truth[100:])
+    assert filtered < 0.5 * raw, (filtered, raw)
+
+
+def test_without_ax_model_b_takes_the_measured_speed(estimator, estimator_dir):
+    assert estimator.start("ax_meas") == 0.0
+    fmu, measured = run_estimator(estimator, estimator_dir, 0.0)
+    np.testing.assert_array_equal(fmu[:, 0], measured)
+    np.testing.assert_array_equal(fmu[:, 1], np.full(SAMPLES, R_STD))
