@@ -496,8 +496,8 @@ fn innovation_window(sample_time: f64) -> usize {
 /// The window of the Luenberger observer's innovation scaling
 /// (`estimation::innovation_scaling`), in seconds. Measured on the mismatch campaigns (harness
 /// robustness, Luenberger_A's 15 rows in issue 17 point 3's band, offline on the recorded NIS):
-/// no scaling 1, 1 s 10, 1.5 s 9, 2 s 8, 3 s 7; a longer window lags behind the manoeuvre's
-/// transients, a shorter one behind nothing but is noisier.
+/// no scaling 1, 1 s 10, 1.5 s 9, 2 s 8, 3 s 7: a longer window lags behind the manoeuvre's
+/// transients (a shorter one sums fewer degrees of freedom, so its ratio scatters more).
 const OBSERVER_SCALING_WINDOW: f64 = 1.0;
 
 /// [`OBSERVER_SCALING_WINDOW`] in samples, at least the least window the scaling takes.
