@@ -163,8 +163,8 @@ struct Entry<const N: usize> {
     correction: Correction<N>,
 }
 
-impl<const N: usize> Entry<N> {
-    const EMPTY: Self = Self {
+impl<const N: usize> Summable for Entry<N> {
+    const ZERO: Self = Self {
         nis: 0.0,
         rows: 0.0,
         correction: Correction {
@@ -173,12 +173,110 @@ impl<const N: usize> Entry<N> {
         },
     };
 
-    /// `self += sign · other`, field by field.
-    fn add(&mut self, other: &Self, sign: f64) {
+    fn add_scaled(&mut self, other: &Self, sign: f64) {
         self.nis += sign * other.nis;
         self.rows += sign * other.rows;
         self.correction.squared += other.correction.squared * sign;
         self.correction.expected += other.correction.expected * sign;
+    }
+}
+
+/// An entry of a [`MovingSum`]: it adds to and subtracts from the window's sum.
+pub(crate) trait Summable: Copy {
+    /// The sum of no entry.
+    const ZERO: Self;
+    /// `self += sign · other`, field by field.
+    fn add_scaled(&mut self, other: &Self, sign: f64);
+}
+
+/// The last `len` entries (a ring, allocated once) and their sum, which is summed afresh each
+/// time the ring wraps, so rounding does not accumulate over a long run: the window of the
+/// adaptive process noise and of the observer's innovation scaling
+/// ([`crate::innovation_scaling`]).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct MovingSum<E> {
+    ring: Vec<E>,
+    next: usize,
+    filled: usize,
+    sum: E,
+}
+
+impl<E: Summable> MovingSum<E> {
+    pub(crate) fn new(len: usize) -> Self {
+        Self {
+            ring: vec![E::ZERO; len],
+            next: 0,
+            filled: 0,
+            sum: E::ZERO,
+        }
+    }
+
+    /// The window's length in entries.
+    pub(crate) fn len(&self) -> usize {
+        self.ring.len()
+    }
+
+    /// Every entry of the window has been pushed at least once.
+    pub(crate) fn is_full(&self) -> bool {
+        self.filled == self.ring.len()
+    }
+
+    /// The sum of the entries in the window.
+    pub(crate) fn sum(&self) -> &E {
+        &self.sum
+    }
+
+    /// Adds `entry`, replacing the oldest once the window is full.
+    pub(crate) fn push(&mut self, entry: E) {
+        let old = std::mem::replace(&mut self.ring[self.next], entry);
+        self.next = (self.next + 1) % self.ring.len();
+        self.filled = (self.filled + 1).min(self.ring.len());
+        if self.next == 0 {
+            self.sum = E::ZERO;
+            for e in &self.ring {
+                self.sum.add_scaled(e, 1.0);
+            }
+        } else {
+            self.sum.add_scaled(&entry, 1.0);
+            self.sum.add_scaled(&old, -1.0);
+        }
+    }
+
+    /// Writes the position, the fill, every entry and the sum (each by `write`).
+    pub(crate) fn save(
+        &self,
+        sink: &mut dyn SnapshotSink,
+        write: impl Fn(&E, &mut dyn SnapshotSink),
+    ) {
+        sink.u64(self.next as u64);
+        sink.u64(self.filled as u64);
+        for entry in self.ring.iter().chain(std::iter::once(&self.sum)) {
+            write(entry, sink);
+        }
+    }
+
+    /// Reads what [`Self::save`] wrote into a window of the same length; `what` names the
+    /// owner in the error and in the values read.
+    pub(crate) fn restore(
+        &mut self,
+        source: &mut dyn SnapshotSource,
+        what: &str,
+        read: impl Fn(&mut dyn SnapshotSource) -> Result<E, SnapshotError>,
+    ) -> Result<(), SnapshotError> {
+        let length = self.ring.len();
+        let next = source.u64(&format!("{what} position"))? as usize;
+        let filled = source.u64(&format!("{what} fill"))? as usize;
+        if next >= length || filled > length {
+            return Err(SnapshotError(format!(
+                "{what} state: position {next}, fill {filled} do not fit a window of {length}"
+            )));
+        }
+        for entry in self.ring.iter_mut().chain(std::iter::once(&mut self.sum)) {
+            *entry = read(source)?;
+        }
+        self.next = next;
+        self.filled = filled;
+        Ok(())
     }
 }
 
@@ -187,12 +285,8 @@ impl<const N: usize> Entry<N> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct NoiseAdaptation<const N: usize> {
     config: AdaptationConfig,
-    /// The last updates, a ring; allocated once.
-    window: Vec<Entry<N>>,
-    next: usize,
-    filled: usize,
-    /// The window's sums of every field of [`Entry`].
-    sum: Entry<N>,
+    /// The last updates and the sums of every field of [`Entry`].
+    window: MovingSum<Entry<N>>,
     /// `s_i`: state `i`'s process noise is `s_i Q₀_ii`.
     scales: SVector<f64, N>,
     status: AdaptationStatus,
@@ -203,10 +297,7 @@ impl<const N: usize> NoiseAdaptation<N> {
         config.validate()?;
         Ok(Self {
             config,
-            window: vec![Entry::EMPTY; config.window],
-            next: 0,
-            filled: 0,
-            sum: Entry::EMPTY,
+            window: MovingSum::new(config.window),
             scales: SVector::repeat(1.0),
             status: AdaptationStatus::default(),
         })
@@ -238,22 +329,20 @@ impl<const N: usize> NoiseAdaptation<N> {
         if report.rows_used == 0 || !report.nis.is_finite() || !correction.is_finite() {
             return self.status;
         }
-        self.push(Entry {
+        self.window.push(Entry {
             nis: report.nis,
             rows: report.rows_used as f64,
             correction: *correction,
         });
-        if self.filled < self.window.len() {
+        if !self.window.is_full() {
             return self.status;
         }
+        let sum = *self.window.sum();
         let updates = self.window.len() as f64;
         let high = chi_square_quantile(Z_9995, updates) / updates;
         let release = (-1.0 / (RELEASE_WINDOWS * updates)).exp();
         for i in 0..N {
-            let (made, expected) = (
-                self.sum.correction.squared[i],
-                self.sum.correction.expected[i],
-            );
+            let (made, expected) = (sum.correction.squared[i], sum.correction.expected[i]);
             let q0 = process_noise[(i, i)];
             let released = 1.0 + (self.scales[i] - 1.0) * release;
             let matched = if made > high * expected && q0 > 0.0 {
@@ -263,30 +352,13 @@ impl<const N: usize> NoiseAdaptation<N> {
             };
             self.scales[i] = matched.max(released).min(self.config.max_scale);
         }
-        let ratio = self.sum.nis / self.sum.rows;
-        let (low, high) = nis_ratio_band(self.sum.rows);
+        let ratio = sum.nis / sum.rows;
+        let (low, high) = nis_ratio_band(sum.rows);
         self.status = AdaptationStatus {
             adapting: self.scales.iter().any(|&s| s > 1.0),
             inconsistent: !(low..=high).contains(&ratio),
         };
         self.status
-    }
-
-    /// Adds an update to the ring; the sums are summed afresh each time the ring wraps, so
-    /// rounding does not accumulate over a long run.
-    fn push(&mut self, entry: Entry<N>) {
-        let old = std::mem::replace(&mut self.window[self.next], entry);
-        self.next = (self.next + 1) % self.window.len();
-        self.filled = (self.filled + 1).min(self.window.len());
-        if self.next == 0 {
-            self.sum = Entry::EMPTY;
-            for e in &self.window {
-                self.sum.add(e, 1.0);
-            }
-        } else {
-            self.sum.add(&entry, 1.0);
-            self.sum.add(&old, -1.0);
-        }
     }
 
     /// What to add to the prior covariance after a prediction with `Q₀`:
@@ -303,47 +375,41 @@ impl<const N: usize> NoiseAdaptation<N> {
     /// Writes the running state (scales, window, position, sums, status).
     pub fn save(&self, sink: &mut dyn SnapshotSink) {
         sink.f64s(self.scales.as_slice());
-        sink.u64(self.next as u64);
-        sink.u64(self.filled as u64);
-        for entry in self.window.iter().chain(std::iter::once(&self.sum)) {
+        self.window.save(sink, |entry, sink| {
             sink.f64(entry.nis);
             sink.f64(entry.rows);
             sink.f64s(entry.correction.squared.as_slice());
             sink.f64s(entry.correction.expected.as_slice());
-        }
+        });
         sink.bool(self.status.adapting);
         sink.bool(self.status.inconsistent);
     }
 
     /// Reads what [`Self::save`] wrote into an adaptation built with the same settings.
     pub fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
-        let length = self.window.len();
         let mut scales = SVector::<f64, N>::zeros();
         source.f64s_into(scales.as_mut_slice(), "adaptation scales")?;
-        let next = source.u64("adaptation position")? as usize;
-        let filled = source.u64("adaptation fill")? as usize;
         let max = self.config.max_scale;
-        if !scales.iter().all(|s| (1.0..=max).contains(s)) || next >= length || filled > length {
+        if !scales.iter().all(|s| (1.0..=max).contains(s)) {
             return Err(SnapshotError(format!(
-                "adaptation state: scales {:?}, position {next}, fill {filled} do not fit a \
-                 window of {length} with max scale {max}",
+                "adaptation state: scales {:?} do not fit a max scale of {max}",
                 scales.as_slice()
             )));
         }
-        for entry in self.window.iter_mut().chain(std::iter::once(&mut self.sum)) {
+        self.window.restore(source, "adaptation", |source| {
+            let mut entry = Entry::<N>::ZERO;
             entry.nis = source.f64("adaptation NIS")?;
             entry.rows = source.f64("adaptation rows")?;
             let c = &mut entry.correction;
             source.f64s_into(c.squared.as_mut_slice(), "adaptation corrections")?;
             source.f64s_into(c.expected.as_mut_slice(), "adaptation expected corrections")?;
-        }
+            Ok(entry)
+        })?;
         self.status = AdaptationStatus {
             adapting: source.bool("adaptation adapting")?,
             inconsistent: source.bool("adaptation inconsistent")?,
         };
         self.scales = scales;
-        self.next = next;
-        self.filled = filled;
         Ok(())
     }
 }

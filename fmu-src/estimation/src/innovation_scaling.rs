@@ -16,20 +16,37 @@
 //! seeds' setups) reports its propagated covariance unchanged; no decision is taken before the
 //! window is full.
 
-use crate::adaptive::{nis_ratio_band, AdaptationStatus, MAX_WINDOW, MIN_WINDOW};
+use crate::adaptive::{
+    nis_ratio_band, AdaptationStatus, MovingSum, Summable, MAX_WINDOW, MIN_WINDOW,
+};
 use crate::kalman::SettingsError;
 use crate::snapshot::{SnapshotError, SnapshotSink, SnapshotSource};
 use crate::UpdateReport;
 
+/// One update in the window: its NIS and the rows it used.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Innovations {
+    nis: f64,
+    rows: f64,
+}
+
+impl Summable for Innovations {
+    const ZERO: Self = Self {
+        nis: 0.0,
+        rows: 0.0,
+    };
+
+    fn add_scaled(&mut self, other: &Self, sign: f64) {
+        self.nis += sign * other.nis;
+        self.rows += sign * other.rows;
+    }
+}
+
 /// The window of NIS values and the scale it gives.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InnovationScaling {
-    /// `(NIS, rows used)` of the last updates, a ring; allocated once.
-    window: Vec<(f64, f64)>,
-    next: usize,
-    filled: usize,
-    /// The window's sums of NIS and rows.
-    sum: (f64, f64),
+    /// The last updates and their sums.
+    window: MovingSum<Innovations>,
     scale: f64,
     status: AdaptationStatus,
 }
@@ -44,10 +61,7 @@ impl InnovationScaling {
             )));
         }
         Ok(Self {
-            window: vec![(0.0, 0.0); window],
-            next: 0,
-            filled: 0,
-            sum: (0.0, 0.0),
+            window: MovingSum::new(window),
             scale: 1.0,
             status: AdaptationStatus::default(),
         })
@@ -64,12 +78,16 @@ impl InnovationScaling {
         if report.rows_used == 0 || !report.nis.is_finite() {
             return self.status;
         }
-        self.push((report.nis, report.rows_used as f64));
-        if self.filled < self.window.len() {
+        self.window.push(Innovations {
+            nis: report.nis,
+            rows: report.rows_used as f64,
+        });
+        if !self.window.is_full() {
             return self.status;
         }
-        let ratio = self.sum.0 / self.sum.1;
-        let (low, high) = nis_ratio_band(self.sum.1);
+        let sum = self.window.sum();
+        let ratio = sum.nis / sum.rows;
+        let (low, high) = nis_ratio_band(sum.rows);
         self.scale = if ratio > high { ratio } else { 1.0 };
         self.status = AdaptationStatus {
             adapting: self.scale > 1.0,
@@ -78,30 +96,12 @@ impl InnovationScaling {
         self.status
     }
 
-    /// Adds an update to the ring; the sums are summed afresh each time the ring wraps, so
-    /// rounding does not accumulate over a long run.
-    fn push(&mut self, entry: (f64, f64)) {
-        let old = std::mem::replace(&mut self.window[self.next], entry);
-        self.next = (self.next + 1) % self.window.len();
-        self.filled = (self.filled + 1).min(self.window.len());
-        if self.next == 0 {
-            self.sum = self
-                .window
-                .iter()
-                .fold((0.0, 0.0), |sum, e| (sum.0 + e.0, sum.1 + e.1));
-        } else {
-            self.sum = (self.sum.0 + entry.0 - old.0, self.sum.1 + entry.1 - old.1);
-        }
-    }
-
     /// Writes the running state (window, position, fill, sums, scale, status).
     pub fn save(&self, sink: &mut dyn SnapshotSink) {
-        sink.u64(self.next as u64);
-        sink.u64(self.filled as u64);
-        for (nis, rows) in self.window.iter().chain(std::iter::once(&self.sum)) {
-            sink.f64(*nis);
-            sink.f64(*rows);
-        }
+        self.window.save(sink, |entry, sink| {
+            sink.f64(entry.nis);
+            sink.f64(entry.rows);
+        });
         sink.f64(self.scale);
         sink.bool(self.status.adapting);
         sink.bool(self.status.inconsistent);
@@ -109,21 +109,13 @@ impl InnovationScaling {
 
     /// Reads what [`Self::save`] wrote into a scaling built with the same window.
     pub fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
-        let length = self.window.len();
-        let next = source.u64("innovation-scaling position")? as usize;
-        let filled = source.u64("innovation-scaling fill")? as usize;
-        if next >= length || filled > length {
-            return Err(SnapshotError(format!(
-                "innovation-scaling state: position {next}, fill {filled} do not fit a window \
-                 of {length}"
-            )));
-        }
-        for entry in self.window.iter_mut().chain(std::iter::once(&mut self.sum)) {
-            *entry = (
-                source.f64("innovation-scaling NIS")?,
-                source.f64("innovation-scaling rows")?,
-            );
-        }
+        self.window
+            .restore(source, "innovation-scaling", |source| {
+                Ok(Innovations {
+                    nis: source.f64("innovation-scaling NIS")?,
+                    rows: source.f64("innovation-scaling rows")?,
+                })
+            })?;
         let scale = source.f64("innovation-scaling scale")?;
         if !(scale.is_finite() && scale >= 1.0) {
             return Err(SnapshotError(format!(
@@ -135,8 +127,6 @@ impl InnovationScaling {
             adapting: source.bool("innovation-scaling adapting")?,
             inconsistent: source.bool("innovation-scaling inconsistent")?,
         };
-        self.next = next;
-        self.filled = filled;
         Ok(())
     }
 }

@@ -5,7 +5,7 @@
 
 use std::fmt::Debug;
 
-use estimation::adaptive::{Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
+use estimation::adaptive::{AdaptationStatus, Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
 use estimation::innovation_scaling::InnovationScaling;
 use estimation::kalman::InitialEstimate;
 use estimation::registry::{
@@ -493,6 +493,12 @@ fn innovation_window(sample_time: f64) -> usize {
     (samples.min(MAX_INNOVATION_WINDOW as f64) as usize) | 1
 }
 
+/// Status bits 4096 (adapting) and 8192 (inconsistent) of an adaptation's state.
+fn adaptation_bits(state: AdaptationStatus) -> i32 {
+    let adapting = i32::from(state.adapting) * status::ADAPTING;
+    adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
+}
+
 /// The window of the Luenberger observer's innovation scaling
 /// (`estimation::innovation_scaling`), in seconds. Measured on the mismatch campaigns (harness
 /// robustness, Luenberger_A's 15 rows in issue 17 point 3's band, offline on the recorded NIS):
@@ -876,8 +882,7 @@ where
         if let Some(extra) = adaptation.inflation(&process_noise) {
             self.filter.inflate_covariance(&extra);
         }
-        let adapting = i32::from(state.adapting) * status::ADAPTING;
-        adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
+        adaptation_bits(state)
     }
 
     /// The Luenberger observer's innovation scaling ([`OBSERVER_SCALING_WINDOW`]): the update's
@@ -886,9 +891,7 @@ where
         let Some(scaling) = self.observer_scaling.as_mut() else {
             return 0;
         };
-        let state = scaling.observe(report);
-        let adapting = i32::from(state.adapting) * status::ADAPTING;
-        adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
+        adaptation_bits(scaling.observe(report))
     }
 
     /// A sample on which the filter holds its estimate.

@@ -315,10 +315,7 @@ fn fit_tyres_b(
     if samples < super::reference_fit::MIN_REFERENCE_ROWS {
         return Ok(TyreFit::NoReference);
     }
-    let start = PARAMETER_NAMES
-        .map(|name| real_value(fmu, values, name))
-        .into_iter()
-        .collect::<Result<Vec<f64>>>()?;
+    let start = starting_scales(fmu, values)?;
     // From the log's first row, so that the filter meets the training rows warm.
     let (grid, feeds) = segment(prepared, 0..rows.end);
     let training_rmse = |scales: [f64; 2]| -> Result<f64> {
@@ -328,9 +325,17 @@ fn fit_tyres_b(
         Ok(report::estimator_rmse(&scores, "sideslip").unwrap_or(f64::NAN))
     };
     Ok(TyreFit::Fitted(super::reference_fit::fit_level(
-        [start[0], start[1]],
+        start,
         training_rmse,
     )?))
+}
+
+/// `cornering_stiffness_scale_front/_rear` of `values` (and the start values).
+fn starting_scales(fmu: &LoadedFmu, values: &[(VariableInfo, ParameterValue)]) -> Result<[f64; 2]> {
+    Ok([
+        real_value(fmu, values, PARAMETER_NAMES[0])?,
+        real_value(fmu, values, PARAMETER_NAMES[1])?,
+    ])
 }
 
 /// `cornering_stiffness_scale_front/_rear` = `scales`, as parameter values.
@@ -603,10 +608,11 @@ fn with_reals(
 /// Model A's vehicle as the FMU builds it from `values` (and its start values).
 fn vehicle(fmu: &LoadedFmu, values: &[(VariableInfo, ParameterValue)]) -> Result<SingleTrackHsri> {
     let source = ParameterSource::new(|name| real_value(fmu, values, name).ok());
+    let [front, rear] = starting_scales(fmu, values)?;
     let params = SingleTrackParams {
         chassis: source.chassis().map_err(|e| anyhow!(e))?,
-        cornering_stiffness_scale_front: real_value(fmu, values, PARAMETER_NAMES[0])?,
-        cornering_stiffness_scale_rear: real_value(fmu, values, PARAMETER_NAMES[1])?,
+        cornering_stiffness_scale_front: front,
+        cornering_stiffness_scale_rear: rear,
         ..SingleTrackParams::default()
     };
     Ok(SingleTrackModel::new(
