@@ -1,8 +1,11 @@
-"""Issue 12 point 1 through fmpy and the C ABI: model B's speed with a measured ax is the scalar
-Kalman filter of dvx/dt = ax + r vy (fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked
-sample by sample against filterpy's KalmanFilter as the oracle on straight braking (r vy = 0, so
-the filter is filterpy's with F = 1, B = T, H = 1). Without ax_meas (its start value 0, an
-unconnected input) vx_est is the measured speed and vx_std measurement_noise_std_vx."""
+"""Issue 12 point 1 through fmpy and the C ABI: model B's speed with a measured ax, and the speed
+model A reports, are the scalar Kalman filter of dvx/dt = ax + r vy
+(fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked sample by sample against filterpy's
+KalmanFilter as the oracle on straight braking (r vy = 0, so the filter is filterpy's with F = 1,
+B = T, H = 1). Without ax_meas (its start value 0, an unconnected input) model B's vx_est is the
+measured speed and vx_std measurement_noise_std_vx."""
+
+import pytest
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
@@ -23,11 +26,12 @@ def measured_speeds():
     return truth, truth + rng.normal(0.0, 0.05, SAMPLES)
 
 
-def run_estimator(estimator, estimator_dir, ax):
-    """Model B (EKF) at its defaults braking straight; vx_est and vx_std after every sample."""
-    model_b = estimator.enumeration_value("model", "two_track_3_state")
+def run_estimator(estimator, estimator_dir, ax, model="two_track_3_state"):
+    """The EKF on `model` (default model B) at its defaults braking straight, the torques
+    unknown; vx_est and vx_std after every sample."""
+    model_b = estimator.enumeration_value("model", model)
     ekf = estimator.enumeration_value("estimator", "ekf")
-    filt = support.Slave(estimator, estimator_dir, "model_b_speed")
+    filt = support.Slave(estimator, estimator_dir, f"{model}_speed")
     _, measured = measured_speeds()
     rows = []
     try:
@@ -66,10 +70,11 @@ def oracle(measured):
     return np.array(rows)
 
 
-def test_model_b_speed_is_filterpys_kalman_filter_on_the_kinematics(estimator, estimator_dir):
+@pytest.mark.parametrize("model", ["two_track_3_state", "single_track_5_state"])
+def test_the_speed_is_filterpys_kalman_filter_on_the_kinematics(estimator, estimator_dir, model):
     assert estimator.start("process_noise_std_vx") == Q_STD
     assert estimator.start("measurement_noise_std_vx") == R_STD
-    fmu, measured = run_estimator(estimator, estimator_dir, AX)
+    fmu, measured = run_estimator(estimator, estimator_dir, AX, model)
     expected = oracle(measured)
     np.testing.assert_allclose(fmu, expected, rtol=1e-12, atol=1e-12)
     truth, _ = measured_speeds()

@@ -142,26 +142,22 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         // as model A takes it, with use_speed_measurements; missing, the loads of free rolling
         // (seed 001's model). With it the speed is filtered by the kinematics (speed_filter).
         let (_, ax) = speed_measurements(&runner.parameters, sensors);
-        // An ax_meas left unconnected reads its start value, exactly 0: a speed predicted at 0
-        // m/s² would lag a braking car (0.8 m/s at 4 m/s² with the defaults), so the speed is
-        // filtered only by an ax that is not exactly 0 (load transfer is nil at 0 anyway).
-        let kinematic_ax = ax.filter(|&ax| ax != 0.0);
-        let v = &runner.parameters;
         let state = runner.filter.state();
         let (sideslip, yaw_rate) = (state[state_index::SIDESLIP], state[state_index::YAW_RATE]);
+        let covariance = runner.filter.covariance();
         let gate = runner.speed_gate();
         let passed = &mut runner.extra;
+        let filtered = passed.speed.value;
+        let cos = sideslip.cos();
+        // vy = vx tan β, var(vy) = (vx / cos²β)² var(β) to first order (001: eq 4).
+        let lateral = (
+            yaw_rate,
+            filtered * sideslip.tan(),
+            (filtered / (cos * cos)).powi(2)
+                * covariance[(state_index::SIDESLIP, state_index::SIDESLIP)],
+        );
         bits |= passed.speed.step(
-            &SpeedSample {
-                measured: speed,
-                measurement_variance: v.measurement_noise_std_vx * v.measurement_noise_std_vx,
-                ax: kinematic_ax,
-                yaw_rate,
-                lateral_velocity: passed.speed.value * sideslip.tan(),
-                sample_time: v.sample_time,
-                process_variance: v.process_noise_std_vx * v.process_noise_std_vx,
-                min_speed: runner.min_speed,
-            },
+            &SpeedSample::at(&runner.parameters, speed, ax, lateral, runner.min_speed),
             gate,
         );
         let speed = passed.speed.value;
@@ -261,12 +257,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     }
 
     fn write_extra(passed: &PassedThrough, writer: &mut StateWriter) {
-        let speed = &passed.speed;
-        writer.f64(speed.value);
-        writer.f64(speed.variance);
-        writer.u64(speed.rejected);
-        writer.f64(speed.ahead);
-        writer.f64(speed.ahead_variance);
+        passed.speed.write(writer);
         writer.f64(passed.omega_front);
         writer.f64(passed.omega_rear);
     }
@@ -275,13 +266,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         passed: &mut PassedThrough,
         reader: &mut StateReader<'_>,
     ) -> Result<(), StateError> {
-        passed.speed = SpeedFilter {
-            value: reader.f64("speed")?,
-            variance: reader.f64("speed variance")?,
-            rejected: reader.u64("speed samples gated")?,
-            ahead: reader.f64("predicted speed")?,
-            ahead_variance: reader.f64("predicted speed variance")?,
-        };
+        passed.speed = SpeedFilter::read(reader)?;
         passed.omega_front = reader.f64("front wheel speed")?;
         passed.omega_rear = reader.f64("rear wheel speed")?;
         Ok(())

@@ -732,6 +732,11 @@ where
         })
     }
 
+    /// The factor on the covariance the estimator reports ([`OutputSample::covariance_scale`]).
+    pub(crate) fn covariance_scale(&self) -> f64 {
+        self.observer_scaling.as_ref().map_or(1.0, |s| s.scale())
+    }
+
     /// The running filter (for tests and benchmarks).
     pub fn filter(&self) -> &BoxedEstimator<N, M, U> {
         &self.filter
@@ -1043,7 +1048,7 @@ where
             rows_used: self.rows_used,
             holding: self.holding,
             held_speed: self.held_speed,
-            covariance_scale: self.observer_scaling.as_ref().map_or(1.0, |s| s.scale()),
+            covariance_scale: self.covariance_scale(),
         });
     }
 

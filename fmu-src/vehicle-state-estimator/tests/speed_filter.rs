@@ -11,7 +11,9 @@ use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
-use VehicleStateEstimator::speed_filter::{SpeedFilter, SpeedGate, SpeedSample};
+use VehicleStateEstimator::speed_filter::{
+    SpeedFilter, SpeedGate, SpeedSample, HELD_AX_STD, HELD_AX_TIME, LATERAL_CORRELATION_TIME,
+};
 use VehicleStateEstimator::status;
 
 const T: f64 = 0.01;
@@ -27,6 +29,7 @@ fn sample(measured: f64, ax: Option<f64>) -> SpeedSample {
         ax,
         yaw_rate: 0.0,
         lateral_velocity: 0.0,
+        lateral_velocity_variance: 0.0,
         sample_time: T,
         process_variance: 0.005 * 0.005,
         min_speed: 1.0,
@@ -93,6 +96,7 @@ fn a_lateral_estimate_that_lost_itself_cannot_run_the_speed_away() {
     let wild = SpeedSample {
         yaw_rate: 1e3,
         lateral_velocity: 1e6,
+        lateral_velocity_variance: 0.0,
         ..sample(20.0, Some(0.0))
     };
     filter.step(&wild, Some(GATE));
@@ -115,6 +119,66 @@ fn a_real_step_in_the_speed_is_readmitted_after_the_lock_out() {
         status::ROW_GATED | status::SENSOR_READMITTED
     );
     assert_eq!(filter.value, 25.0);
+}
+
+#[test]
+fn a_missing_ax_is_held_for_half_a_second_and_then_the_filter_stops() {
+    let mut filter = SpeedFilter::measured(20.0);
+    filter.step(&sample(20.0, Some(-4.0)), Some(GATE));
+    let running = filter.step(&sample(20.0 - 4.0 * T, Some(-4.0)), Some(GATE));
+    assert_eq!(running, 0);
+    let before = filter;
+    // One all-zero sensor row: neither ax nor a measured speed.
+    assert_eq!(
+        filter.step(&sample(f64::NAN, None), Some(GATE)),
+        status::ROW_SKIPPED
+    );
+    assert_eq!(
+        filter.value,
+        before.value - 4.0 * T,
+        "predicted with the held ax"
+    );
+    let added = filter.variance - before.variance;
+    let expected = 0.005 * 0.005 + (T * HELD_AX_STD).powi(2);
+    assert!(
+        (added - expected).abs() < 1e-15,
+        "{added} against {expected}"
+    );
+    // ax missing with the speed measured: still filtering, until HELD_AX_TIME has passed.
+    let held = (HELD_AX_TIME / T).ceil() as usize;
+    for k in 1..held {
+        filter.step(&sample(20.0 - 4.0 * T * (k + 2) as f64, None), Some(GATE));
+        assert!(filter.filtering(), "k = {k}");
+    }
+    filter.step(&sample(17.5, None), Some(GATE));
+    assert!(!filter.filtering());
+    assert_eq!((filter.value, filter.std()), (17.5, None));
+}
+
+#[test]
+fn the_lateral_estimates_uncertainty_widens_the_prediction_with_the_yaw_rate() {
+    let straight = sample(20.0, Some(0.0));
+    let cornering = SpeedSample {
+        yaw_rate: 0.5,
+        lateral_velocity: 1.0,
+        lateral_velocity_variance: 0.3 * 0.3,
+        ..straight
+    };
+    assert_eq!(straight.prediction_variance(), straight.process_variance);
+    let lateral = cornering.prediction_variance() - cornering.process_variance;
+    let expected = 2.0 * LATERAL_CORRELATION_TIME * T * (0.5f64 * 0.3).powi(2);
+    assert!(
+        (lateral - expected).abs() < 1e-15,
+        "{lateral} against {expected}"
+    );
+    let not_finite = SpeedSample {
+        lateral_velocity_variance: f64::INFINITY,
+        ..cornering
+    };
+    assert_eq!(
+        not_finite.prediction_variance(),
+        not_finite.process_variance
+    );
 }
 
 /// Model B at its defaults through the C ABI, braking straight at 4 m/s² from 25 m/s for 3 s,

@@ -191,12 +191,15 @@ fn the_grip_models_ekf_stays_honest_on_the_vanagons_sine_with_dwell() {
     assert_grip_ekf_honest(&rows, 0.1);
 }
 
-/// Issue 12 point 1 on the campaigns (torques unknown throughout): the grip model's speed stays
-/// within 2 % on every Escort run (measured at most 0.28 % on all 15 runs, its wheels keeping
-/// their slip while the torques read 0), where model A's EKF is up to 8.8 % off (braking in a
-/// turn: the braked front wheel pulls vx through its spin balance and vx_meas is then gated).
+/// Issue 12 point 1 on the campaigns (torques unknown throughout): every estimator's speed stays
+/// within 2 % on every Escort run. The grip model's own speed does (measured at most 0.28 % on
+/// all 15 runs, its wheels keeping their slip while the torques read 0); model A's own speed
+/// does not (its EKF 8.8 % off braking in a turn: the braked front wheel pulls vx through its
+/// spin balance and vx_meas is then gated), so model A reports the speed filter's (the FMU's
+/// `model_a::step_reported_speed`; measured at most 0.4 % on the Escort's runs, 1.2 % on all
+/// 15); model B runs at the same filter's speed.
 #[test]
-fn the_grip_model_keeps_the_speed_within_two_percent_on_every_escort_run() {
+fn every_estimator_keeps_the_speed_within_two_percent_on_every_escort_run() {
     for manoeuvre in [
         "step_steer",
         "iso3888_2",
@@ -205,7 +208,8 @@ fn the_grip_model_keeps_the_speed_within_two_percent_on_every_escort_run() {
         "braking_in_a_turn",
     ] {
         let rows = escort_campaign_rows(manoeuvre);
-        for row in rows.iter().filter(|r| r.model == "A+grip") {
+        assert_eq!(rows.len(), 13, "{manoeuvre}: {rows:?}");
+        for row in &rows {
             assert!(row.max_speed_error < 0.02, "{row:?}");
         }
     }
