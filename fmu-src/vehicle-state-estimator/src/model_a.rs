@@ -422,8 +422,9 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
 /// `β` of model A's estimate: a cascade, the longitudinal estimate beside the lateral one, as
 /// production estimators split them (van Zanten, Bosch ESP Systems: 5 Years of Experience, SAE
 /// 2000-01-1633). Model A's filter, its sideslip and its wheels are unchanged. Otherwise (the
-/// seeds' `use_speed_measurements = false`, `ax` or `vx_meas` missing) the filter stops and
-/// model A reports its own speed. Returns the speed filter's status bits.
+/// seeds' `use_speed_measurements = false`, no measured speed to start from, `ax` or `vx_meas`
+/// missing for longer than [`crate::speed_filter::HELD_AX_TIME`]) the filter stops and model A
+/// reports its own speed. Returns the speed filter's status bits.
 fn step_reported_speed(runner: &mut RunnerA, sensors: &Sensors) -> i32 {
     let (measured, ax) = speed_measurements(&runner.parameters, sensors);
     let state = runner.filter.state();

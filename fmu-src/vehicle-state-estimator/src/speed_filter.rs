@@ -16,8 +16,8 @@
 //! speed is tested by the FMU's chi-square gate, `(z − vx⁻)² ≤ gate_threshold (P⁻ + R)`: a
 //! rejected sample keeps the prediction (status 128); rejected for `readmit_time` in a row, the
 //! filter restarts from the measured speed (status 256), so a real step cannot lock it out. A
-//! sample without a measured speed keeps the prediction; one without `ax` holds the last
-//! ([`HELD_AX_TIME`], [`HELD_AX_STD`]). Without a measured `ax` (or without
+//! sample without a measured speed keeps the prediction, one without `ax` holds the last, each
+//! for up to [`HELD_AX_TIME`] ([`HELD_AX_STD`]). Without a measured `ax` (or without
 //! `use_speed_measurements`, as the seed scenarios set) model B's speed is the measured one, as
 //! seed 001 takes it, and model A's its own state.
 //!
@@ -39,7 +39,8 @@ pub const LATERAL_CORRELATION_TIME: f64 = 0.7;
 /// 15037-1 allows braking inputs within 0.15 s).
 pub const HELD_AX_STD: f64 = 1.0;
 
-/// The longest an acceleration is held, s: issue 12 point 3's 0.5 s outage of a sensor.
+/// The longest an acceleration is held, or the speed predicted without a measured one, s: issue
+/// 12 point 3's 0.5 s outage of a sensor.
 pub const HELD_AX_TIME: f64 = 0.5;
 
 /// The filter's state; `variance` NaN while the speed is taken as measured.
@@ -59,6 +60,8 @@ pub struct SpeedFilter {
     pub ax: f64,
     /// Samples in a row whose prediction held `ax` for want of a measured one.
     pub ax_held: u64,
+    /// Samples in a row without a measured speed.
+    pub unmeasured: u64,
 }
 
 /// The gate of the measured speed: the FMU's `gate_threshold` and `readmit_time` in samples.
@@ -148,6 +151,7 @@ impl SpeedFilter {
             ahead_variance: f64::NAN,
             ax: f64::NAN,
             ax_held: 0,
+            unmeasured: 0,
         }
     }
 
@@ -197,13 +201,21 @@ impl SpeedFilter {
 
     /// The acceleration of this sample's prediction: the measured one, else while filtering
     /// the last one held for up to [`HELD_AX_TIME`] (one all-zero row or a short dropout of
-    /// `ax_meas` must not restart the filter from one noisy speed sample); `None` stops it.
+    /// `ax_meas` must not restart the filter from one noisy speed sample); `None` stops it, as
+    /// does a measured speed missing for longer than that (the integrated `ax` alone drifts).
     fn acceleration(&mut self, sample: &SpeedSample) -> Option<f64> {
+        let longest = (HELD_AX_TIME / sample.sample_time).ceil() as u64;
+        if sample.measured.is_finite() {
+            self.unmeasured = 0;
+        } else if self.unmeasured >= longest {
+            return None;
+        } else {
+            self.unmeasured += 1;
+        }
         if let Some(ax) = sample.ax {
             self.ax_held = 0;
             return Some(ax);
         }
-        let longest = (HELD_AX_TIME / sample.sample_time).ceil() as u64;
         if self.filtering() && self.ax.is_finite() && self.ax_held < longest {
             self.ax_held += 1;
             return Some(self.ax);
@@ -295,6 +307,7 @@ impl SpeedFilter {
         writer.f64(self.ahead_variance);
         writer.f64(self.ax);
         writer.u64(self.ax_held);
+        writer.u64(self.unmeasured);
     }
 
     /// The filter [`Self::write`] wrote.
@@ -307,6 +320,7 @@ impl SpeedFilter {
             ahead_variance: reader.f64("predicted speed variance")?,
             ax: reader.f64("speed filter's acceleration")?,
             ax_held: reader.u64("samples with ax held")?,
+            unmeasured: reader.u64("samples without a measured speed")?,
         })
     }
 }

@@ -156,6 +156,22 @@ fn a_missing_ax_is_held_for_half_a_second_and_then_the_filter_stops() {
 }
 
 #[test]
+fn without_a_measured_speed_the_filter_predicts_for_half_a_second_and_then_stops() {
+    let mut filter = SpeedFilter::measured(20.0);
+    filter.step(&sample(20.0, Some(-4.0)), Some(GATE));
+    let held = (HELD_AX_TIME / T).ceil() as usize;
+    for k in 1..=held {
+        let bits = filter.step(&sample(f64::NAN, Some(-4.0)), Some(GATE));
+        assert_eq!(bits, status::ROW_SKIPPED, "k = {k}");
+        assert!(filter.filtering(), "k = {k}");
+        assert!((filter.value - (20.0 - 4.0 * T * k as f64)).abs() < 1e-9);
+    }
+    filter.step(&sample(f64::NAN, Some(-4.0)), Some(GATE));
+    assert!(!filter.filtering(), "the integrated ax alone drifts");
+    assert_eq!(filter.std(), None);
+}
+
+#[test]
 fn the_lateral_estimates_uncertainty_widens_the_prediction_with_the_yaw_rate() {
     let straight = sample(20.0, Some(0.0));
     let cornering = SpeedSample {
