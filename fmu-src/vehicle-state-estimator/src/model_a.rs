@@ -21,8 +21,8 @@ use vehicle_models::{HsriTyre, SingleTrackModel};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
-    finite_or, EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors, WheelRadii,
-    REAR_DRIVE_TORQUE,
+    finite_or, stiffness_consider, EstimationModel, InputVector, OutputSample, Runner, Sample,
+    Sensors, WheelRadii, REAR_DRIVE_TORQUE,
 };
 use crate::speed_filter::{SpeedFilter, SpeedSample};
 use crate::status;
@@ -431,8 +431,14 @@ fn step_reported_speed(runner: &mut RunnerA, sensors: &Sensors) -> i32 {
     let sideslip = state[state_index::VY].atan2(state[state_index::VX]);
     let yaw_rate = state[state_index::YAW_RATE];
     let measured = measured.filter(|&speed| speed >= runner.min_speed);
-    let variance =
-        runner.filter.covariance()[(state_index::VY, state_index::VY)] * runner.covariance_scale();
+    // As reported: the covariance with the rear stiffness's consider term (σ |αR| vx, αR of
+    // 000: 5.22), both with the Luenberger observer's innovation scaling.
+    let rear = runner.parameters.cog_to_rear_axle;
+    let rear_slip = ((rear * yaw_rate - state[state_index::VY]) / state[state_index::VX]).atan();
+    let consider = stiffness_consider(&runner.parameters, rear_slip) * state[state_index::VX];
+    let variance = (runner.filter.covariance()[(state_index::VY, state_index::VY)]
+        + consider * consider)
+        * runner.covariance_scale();
     let gate = runner.speed_gate();
     let lateral = (yaw_rate, runner.extra.value * sideslip.tan(), variance);
     let bits = runner.extra.step(

@@ -20,8 +20,8 @@ use crate::model_a::{speed_measurements, MAX_PLAUSIBLE_AY};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
-    ay_model_error_noise, finite_or, EstimationModel, OutputSample, Runner, Sample, Sensors,
-    WheelRadii,
+    ay_model_error_noise, finite_or, stiffness_consider, EstimationModel, OutputSample, Runner,
+    Sample, Sensors, WheelRadii,
 };
 use crate::speed_filter::{SpeedFilter, SpeedSample};
 use crate::status;
@@ -149,15 +149,21 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         let passed = &mut runner.extra;
         let filtered = passed.speed.value;
         let cos = sideslip.cos();
-        // vy = vx tan β, var(vy) = (vx / cos²β)² var(β) to first order (001: eq 4).
+        // vy = vx tan β, var(vy) = (vx / cos²β)² var(β) to first order (001: eq 4), var(β) as
+        // reported: with the rear stiffness's consider term, tan αR = lR r / vx − tan β (000:
+        // 5.22).
+        let v = &runner.parameters;
+        let rear_slip = (v.cog_to_rear_axle * yaw_rate / filtered - sideslip.tan()).atan();
+        let consider = stiffness_consider(v, rear_slip);
+        let sideslip_variance =
+            covariance[(state_index::SIDESLIP, state_index::SIDESLIP)] + consider * consider;
         let lateral = (
             yaw_rate,
             filtered * sideslip.tan(),
-            (filtered / (cos * cos)).powi(2)
-                * covariance[(state_index::SIDESLIP, state_index::SIDESLIP)],
+            (filtered / (cos * cos)).powi(2) * sideslip_variance,
         );
         bits |= passed.speed.step(
-            &SpeedSample::at(&runner.parameters, speed, ax, lateral, runner.min_speed),
+            &SpeedSample::at(v, speed, ax, lateral, runner.min_speed),
             gate,
         );
         let speed = passed.speed.value;

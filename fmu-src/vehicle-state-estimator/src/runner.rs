@@ -1195,9 +1195,11 @@ where
 /// is that error's standard deviation; its first-order effect `σ |αR|` is added in quadrature
 /// to the reported standard deviations, the consider covariance of a parameter left
 /// unestimated (Schmidt 1966; Tapley, Schutz and Born, Statistical Orbit Determination, 2004,
-/// sect. 6.3). The estimate itself is unchanged. Model B's sideslip rests on its rear slip
-/// angle the same way (001: eq 5), so the runner adds the term to both models' outputs
-/// ([`Runner::publish`]). The grip model's EKF and UKFs estimate the scale of its tyre law
+/// sect. 6.3). The estimate itself is unchanged, but for the speed filter both models report
+/// `vx` from, which weighs the lateral estimate's reported uncertainty
+/// ([`crate::speed_filter::SpeedSample::prediction_variance`]). Model B's sideslip rests on
+/// its rear slip angle the same way (001: eq 5), so the runner adds the term to both models'
+/// outputs ([`Runner::publish`]). The grip model's EKF and UKFs estimate the scale of its tyre law
 /// and leave it out (measured: fmu-src/estimation/README.md, "Grip states").
 ///
 /// A second term for what model A leaves out of the tyre, its lag, where the model gives the
@@ -1215,13 +1217,19 @@ where
 ///
 /// `covariance_scale` multiplies the term's variance as it does the covariance's
 /// ([`OutputSample::covariance_scale`]).
+/// The rear stiffness's consider term of the sideslip, `σ |αR|` (see [`with_stiffness_consider`]),
+/// rad; `rear_slip_angle` αR in rad.
+pub(crate) fn stiffness_consider(v: &Variables, rear_slip_angle: f64) -> f64 {
+    v.cornering_stiffness_uncertainty * rear_slip_angle.abs()
+}
+
 pub(crate) fn with_stiffness_consider(
     mut values: RealOutputs,
     v: &Variables,
     rear_slip_angle_rate: Option<f64>,
     covariance_scale: f64,
 ) -> RealOutputs {
-    let stiffness = v.cornering_stiffness_uncertainty * values.slip_angle_rear_est.abs();
+    let stiffness = stiffness_consider(v, values.slip_angle_rear_est);
     if !(stiffness > 0.0 && stiffness.is_finite()) {
         return values;
     }

@@ -125,10 +125,12 @@ impl SpeedSample {
     /// estimate's error, about a manoeuvre's half period. As a first-order Gauss-Markov process
     /// of variance `(r σvy)²` and correlation time `τ` ([`LATERAL_CORRELATION_TIME`]) its
     /// integral grows in variance by `2 τ (r σvy)²` per second (Gelb, Applied Optimal
-    /// Estimation, 1974, table 3.8-1; Maybeck vol. 1, §4.11), `2 τ T (r σvy)²` per sample.
-    /// Without it a lateral estimate that is off (the Luenberger observer's on the Vanagon's
-    /// sine with dwell, 8° of sideslip) drew the speed off `vx_meas` until the gate locked the
-    /// measurement out: 4.2 % off.
+    /// Estimation, 1974, table 3.8-1; Maybeck vol. 1, §4.11), `2 τ T (r σvy)²` per sample,
+    /// `σvy` as the FMU reports it (the models pass it with the rear stiffness's consider
+    /// term). Without it a lateral estimate that is off (the Luenberger observer's on the
+    /// Vanagon's sine with dwell, 8° of sideslip) drew the speed off `vx_meas` until the gate
+    /// locked the measurement out: 4.2 % off; with the filter's covariance alone, the speed's
+    /// reported std was overconfident on the sines (model A's EKF on the Vanagon's: NEES 6.3).
     pub fn prediction_variance(&self) -> f64 {
         let rate_error = self.yaw_rate * self.yaw_rate * self.lateral_velocity_variance;
         let lateral = 2.0 * LATERAL_CORRELATION_TIME * self.sample_time * rate_error;

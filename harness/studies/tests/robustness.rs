@@ -196,7 +196,7 @@ fn the_grip_models_ekf_stays_honest_on_the_vanagons_sine_with_dwell() {
 /// all 15 runs, its wheels keeping their slip while the torques read 0); model A's own speed
 /// does not (its EKF 8.8 % off braking in a turn: the braked front wheel pulls vx through its
 /// spin balance and vx_meas is then gated), so model A reports the speed filter's (the FMU's
-/// `model_a::step_reported_speed`; measured at most 0.4 % on the Escort's runs, 1.2 % on all
+/// `model_a::step_reported_speed`; measured at most 0.6 % on the Escort's runs, 0.8 % on all
 /// 15); model B runs at the same filter's speed.
 #[test]
 fn every_estimator_keeps_the_speed_within_two_percent_on_every_escort_run() {
