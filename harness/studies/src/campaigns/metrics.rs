@@ -150,9 +150,14 @@ impl<'a> Track<'a> {
     /// inside the chi-square(1) 95 % bound 3.84, over the samples with finite values and σ > 0.
     /// A sample with a non-finite estimate counts as outside.
     pub fn consistency(&self) -> (f64, f64) {
+        self.consistency_from(f64::NEG_INFINITY)
+    }
+
+    /// [`Self::consistency`] over the scored samples from time `t` on.
+    pub fn consistency_from(&self, t: f64) -> (f64, f64) {
         let bound = chi_square_quantile(0.95, 1.0);
         let (mut sum, mut used, mut inside, mut total) = (0.0, 0usize, 0usize, 0usize);
-        for k in self.from_time(f64::NEG_INFINITY) {
+        for k in self.from_time(t) {
             if !self.truth[k].is_finite() {
                 continue;
             }
