@@ -34,9 +34,8 @@ use crate::status;
 /// dwell's 0.7 Hz steer, the longest manoeuvre period of the campaigns (FMVSS 126 S7.5).
 pub const LATERAL_CORRELATION_TIME: f64 = 0.7;
 
-/// The one-sigma uncertainty of an acceleration held for want of a measured one, m/s²: the
-/// change of a braking car's deceleration over 0.1 s at the 10 m/s³ of a brake's onset (ISO
-/// 15037-1 allows braking inputs within 0.15 s).
+/// The one-sigma uncertainty of an acceleration held for want of a measured one, m/s²: about
+/// the change of a car's deceleration over 0.1 s while a brake builds up at 10 m/s³.
 pub const HELD_AX_STD: f64 = 1.0;
 
 /// The longest an acceleration is held, or the speed predicted without a measured one, s: issue
@@ -74,7 +73,8 @@ pub struct SpeedGate {
 /// What one sample gives the filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedSample {
-    /// The measured speed (`vx_meas`, else the wheels' rolling speed), at least `min_speed`.
+    /// The measured speed (model B: `vx_meas`, else the wheels' rolling speed; model A:
+    /// `vx_meas`), at least `min_speed`; NaN if there is none this sample.
     pub measured: f64,
     /// `R` of `measured`, (m/s)².
     pub measurement_variance: f64,
@@ -124,8 +124,9 @@ impl SpeedSample {
     /// into the integrated `r vy`. That error is not white: it lasts as long as the lateral
     /// estimate's error, about a manoeuvre's half period. As a first-order Gauss-Markov process
     /// of variance `(r σvy)²` and correlation time `τ` ([`LATERAL_CORRELATION_TIME`]) its
-    /// integral grows in variance by `2 τ (r σvy)²` per second (Gelb, Applied Optimal
-    /// Estimation, 1974, table 3.8-1; Maybeck vol. 1, §4.11), `2 τ T (r σvy)²` per sample,
+    /// integral grows in variance by `2 τ (r σvy)²` per second over times longer than `τ`
+    /// (Brown and Hwang, Introduction to Random Signals and Applied Kalman Filtering, 4th ed.
+    /// 2012, §2.9), `2 τ T (r σvy)²` per sample,
     /// `σvy` as the FMU reports it (the models pass it with the rear stiffness's consider
     /// term). Without it a lateral estimate that is off (the Luenberger observer's on the
     /// Vanagon's sine with dwell, 8° of sideslip) drew the speed off `vx_meas` until the gate
