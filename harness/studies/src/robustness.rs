@@ -653,7 +653,7 @@ mod tests {
     /// Issue 12 points 1 and 4 on the study's own cases. Torques unknown: both drive torques
     /// and the brake torque 0 for the estimator on the slow ramp to the limit (the
     /// ReferenceVehicle's front-drive Ford Escort, whose driven wheel slips 6 % there), with and
-    /// without wheel speeds: today's defaults keep vx within 2 % (measured 0.22 % and 0.19 %,
+    /// without wheel speeds: today's defaults keep vx within 2 % (measured 0.19 % and 0.18 %,
     /// model A reporting its speed filter's; its own speed state 1.00 % and 0.19 %, and 4.28 %
     /// with wheel speeds before the wheels' unknown-torque noise). Standstill: after
     /// pulling away vx stays within 5 % (measured 3.36 %, the held reversing speed; 14.21 %
