@@ -427,35 +427,41 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
 /// reports its own speed. Returns the speed filter's status bits.
 fn step_reported_speed(runner: &mut RunnerA, sensors: &Sensors) -> i32 {
     let (measured, ax) = speed_measurements(&runner.parameters, sensors);
-    let state = runner.filter.state();
-    let sideslip = state[state_index::VY].atan2(state[state_index::VX]);
-    let yaw_rate = state[state_index::YAW_RATE];
     let measured = measured.filter(|&speed| speed >= runner.min_speed);
-    // As reported: the covariance with the rear stiffness's consider term (σ |αR| vx, αR of
-    // 000: 5.22), both with the Luenberger observer's innovation scaling.
-    let rear = runner.parameters.cog_to_rear_axle;
-    let rear_slip = ((rear * yaw_rate - state[state_index::VY]) / state[state_index::VX]).atan();
-    let consider = stiffness_consider(&runner.parameters, rear_slip) * state[state_index::VX];
-    let variance = (runner.filter.covariance()[(state_index::VY, state_index::VY)]
-        + consider * consider)
-        * runner.covariance_scale();
-    let gate = runner.speed_gate();
-    let lateral = (yaw_rate, runner.extra.value * sideslip.tan(), variance);
-    let bits = runner.extra.step(
-        &SpeedSample::at(
-            &runner.parameters,
-            measured.unwrap_or(f64::NAN),
-            ax,
-            lateral,
-            runner.min_speed,
-        ),
-        gate,
+    let sample = SpeedSample::at(
+        &runner.parameters,
+        measured.unwrap_or(f64::NAN),
+        ax,
+        lateral_motion(runner),
+        runner.min_speed,
     );
+    let gate = runner.speed_gate();
+    let bits = runner.extra.step(&sample, gate);
     if !runner.extra.filtering() {
-        runner.extra = SpeedFilter::measured(state[state_index::VX]);
+        runner.extra = SpeedFilter::measured(runner.filter.state()[state_index::VX]);
     }
     // A missing `vx_meas` the filter's own `vx` row already reports.
     bits & !status::ROW_SKIPPED
+}
+
+/// The yaw rate, lateral velocity and its variance of model A's estimate for the speed filter
+/// ([`SpeedSample`]): `vy = vx tan β` at the filter's speed, its variance as reported, with the
+/// rear stiffness's consider term `σ |αR| vx` (`αR` of 000: 5.22) and the Luenberger observer's
+/// innovation scaling.
+fn lateral_motion(runner: &RunnerA) -> (f64, f64, f64) {
+    let state = runner.filter.state();
+    let (vx, vy, yaw_rate) = (
+        state[state_index::VX],
+        state[state_index::VY],
+        state[state_index::YAW_RATE],
+    );
+    let rear_slip = ((runner.parameters.cog_to_rear_axle * yaw_rate - vy) / vx).atan();
+    let consider = stiffness_consider(&runner.parameters, rear_slip) * vx;
+    let variance = (runner.filter.covariance()[(state_index::VY, state_index::VY)]
+        + consider * consider)
+        * runner.covariance_scale();
+    let sideslip = vy.atan2(vx);
+    (yaw_rate, runner.extra.value * sideslip.tan(), variance)
 }
 
 /// `values` at the reported speed `vx` (std `vx_std`): `vy = vx tan β` with the filter's β,

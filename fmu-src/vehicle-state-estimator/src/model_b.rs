@@ -142,30 +142,11 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         // as model A takes it, with use_speed_measurements; missing, the loads of free rolling
         // (seed 001's model). With it the speed is filtered by the kinematics (speed_filter).
         let (_, ax) = speed_measurements(&runner.parameters, sensors);
-        let state = runner.filter.state();
-        let (sideslip, yaw_rate) = (state[state_index::SIDESLIP], state[state_index::YAW_RATE]);
-        let covariance = runner.filter.covariance();
+        let lateral = lateral_motion(runner);
         let gate = runner.speed_gate();
+        let sample = SpeedSample::at(&runner.parameters, speed, ax, lateral, runner.min_speed);
         let passed = &mut runner.extra;
-        let filtered = passed.speed.value;
-        let cos = sideslip.cos();
-        // vy = vx tan β, var(vy) = (vx / cos²β)² var(β) to first order (001: eq 4), var(β) as
-        // reported: with the rear stiffness's consider term, tan αR = lR r / vx − tan β (000:
-        // 5.22).
-        let v = &runner.parameters;
-        let rear_slip = (v.cog_to_rear_axle * yaw_rate / filtered - sideslip.tan()).atan();
-        let consider = stiffness_consider(v, rear_slip);
-        let sideslip_variance =
-            covariance[(state_index::SIDESLIP, state_index::SIDESLIP)] + consider * consider;
-        let lateral = (
-            yaw_rate,
-            filtered * sideslip.tan(),
-            (filtered / (cos * cos)).powi(2) * sideslip_variance,
-        );
-        bits |= passed.speed.step(
-            &SpeedSample::at(v, speed, ax, lateral, runner.min_speed),
-            gate,
-        );
+        bits |= passed.speed.step(&sample, gate);
         let speed = passed.speed.value;
         Ok(Sample {
             measurement: SVector::from([sensors.ay, sensors.yaw_rate]),
@@ -277,4 +258,26 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         passed.omega_rear = reader.f64("rear wheel speed")?;
         Ok(())
     }
+}
+
+/// The yaw rate, lateral velocity and its variance of model B's estimate at the speed it runs
+/// at, for the speed filter ([`SpeedSample`]): `vy = vx tan β`, `var(vy) = (vx / cos²β)²
+/// var(β)` to first order (001: eq 4), `var(β)` as reported, with the rear stiffness's consider
+/// term of `tan αR = lR r / vx − tan β` (000: 5.22).
+fn lateral_motion(runner: &RunnerB) -> (f64, f64, f64) {
+    let v = &runner.parameters;
+    let state = runner.filter.state();
+    let (sideslip, yaw_rate) = (state[state_index::SIDESLIP], state[state_index::YAW_RATE]);
+    let speed = runner.extra.speed.value;
+    let rear_slip = (v.cog_to_rear_axle * yaw_rate / speed - sideslip.tan()).atan();
+    let consider = stiffness_consider(v, rear_slip);
+    let sideslip_variance = runner.filter.covariance()
+        [(state_index::SIDESLIP, state_index::SIDESLIP)]
+        + consider * consider;
+    let cos = sideslip.cos();
+    (
+        yaw_rate,
+        speed * sideslip.tan(),
+        (speed / (cos * cos)).powi(2) * sideslip_variance,
+    )
 }
