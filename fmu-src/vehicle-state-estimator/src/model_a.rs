@@ -446,8 +446,8 @@ fn step_reported_speed(runner: &mut RunnerA, sensors: &Sensors) -> i32 {
 
 /// The yaw rate, lateral velocity and its variance of model A's estimate for the speed filter
 /// ([`SpeedSample`]): `vy = vx tan β` at the filter's speed, its variance as reported, with the
-/// rear stiffness's consider term `σ |αR| vx` (`αR` of 000: 5.22) and the Luenberger observer's
-/// innovation scaling.
+/// rear stiffness's consider term `σ |αR| vx` (`αR` the model's kinematic slip, 000: 5.22) and
+/// the Luenberger observer's innovation scaling.
 fn lateral_motion(runner: &RunnerA) -> (f64, f64, f64) {
     let state = runner.filter.state();
     let (vx, vy, yaw_rate) = (
@@ -455,7 +455,10 @@ fn lateral_motion(runner: &RunnerA) -> (f64, f64, f64) {
         state[state_index::VY],
         state[state_index::YAW_RATE],
     );
-    let rear_slip = ((runner.parameters.cog_to_rear_axle * yaw_rate - vy) / vx).atan();
+    let body = state.data.0[0];
+    let driver = runner.input.fixed_rows::<INPUT_DIM>(0).into_owned().data.0[0];
+    let [_, rear] = runner.model.vehicle().kinematic_slip(&body, &driver);
+    let rear_slip = rear.tan_slip_angle.atan();
     let consider = stiffness_consider(&runner.parameters, rear_slip) * vx;
     let variance = (runner.filter.covariance()[(state_index::VY, state_index::VY)]
         + consider * consider)

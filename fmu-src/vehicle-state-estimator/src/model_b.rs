@@ -261,23 +261,23 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
 }
 
 /// The yaw rate, lateral velocity and its variance of model B's estimate at the speed it runs
-/// at, for the speed filter ([`SpeedSample`]): `vy = vx tan β`, `var(vy) = (vx / cos²β)²
-/// var(β)` to first order (001: eq 4), `var(β)` as reported, with the rear stiffness's consider
-/// term of `tan αR = lR r / vx − tan β` (000: 5.22).
+/// at, for the speed filter ([`SpeedSample`]): `vy = vx tan β` and the rear slip angle from the
+/// model's outputs (001: eqs 4-5), `var(vy) = (vx / cos²β)² var(β)` to first order, `var(β)`
+/// as reported, with the rear stiffness's consider term.
 fn lateral_motion(runner: &RunnerB) -> (f64, f64, f64) {
-    let v = &runner.parameters;
     let state = runner.filter.state();
     let (sideslip, yaw_rate) = (state[state_index::SIDESLIP], state[state_index::YAW_RATE]);
     let speed = runner.extra.speed.value;
-    let rear_slip = (v.cog_to_rear_axle * yaw_rate / speed - sideslip.tan()).atan();
-    let consider = stiffness_consider(v, rear_slip);
+    let input = SVector::<f64, INPUT_DIM>::from([runner.input[0], speed, 0.0]);
+    let derived = runner.model.vehicle().outputs(state, &input);
+    let consider = stiffness_consider(&runner.parameters, derived.slip_angle_rear);
     let sideslip_variance = runner.filter.covariance()
         [(state_index::SIDESLIP, state_index::SIDESLIP)]
         + consider * consider;
     let cos = sideslip.cos();
     (
         yaw_rate,
-        speed * sideslip.tan(),
+        derived.lateral_velocity,
         (speed / (cos * cos)).powi(2) * sideslip_variance,
     )
 }

@@ -724,7 +724,7 @@ where
     }
 
     /// The gate's threshold and re-admission samples (`gate_measurements`), for a model's
-    /// own tests of a measurement outside the filter (model B's speed).
+    /// own tests of a measurement outside the filter (the speed filter of models A and B).
     pub(crate) fn speed_gate(&self) -> Option<SpeedGate> {
         self.gate.map(|gate| SpeedGate {
             threshold: gate.threshold,
@@ -1187,6 +1187,12 @@ where
     }
 }
 
+/// The rear stiffness's consider term of the sideslip, `σ |αR|` (see [`with_stiffness_consider`]),
+/// rad; `rear_slip_angle` αR in rad.
+pub(crate) fn stiffness_consider(v: &Variables, rear_slip_angle: f64) -> f64 {
+    v.cornering_stiffness_uncertainty * rear_slip_angle.abs()
+}
+
 /// Model A's sideslip rests on its rear tyre law: in a steady corner the yaw rate and `ay` fix
 /// the rear axle's force `Fyr`, and the sideslip follows from the rear slip angle
 /// `αR = Fyr / CαR` (000: 5.16-5.22, 5.70), so a relative error `ε` of the rear cornering
@@ -1217,12 +1223,6 @@ where
 ///
 /// `covariance_scale` multiplies the term's variance as it does the covariance's
 /// ([`OutputSample::covariance_scale`]).
-/// The rear stiffness's consider term of the sideslip, `σ |αR|` (see [`with_stiffness_consider`]),
-/// rad; `rear_slip_angle` αR in rad.
-pub(crate) fn stiffness_consider(v: &Variables, rear_slip_angle: f64) -> f64 {
-    v.cornering_stiffness_uncertainty * rear_slip_angle.abs()
-}
-
 pub(crate) fn with_stiffness_consider(
     mut values: RealOutputs,
     v: &Variables,
