@@ -68,6 +68,8 @@ pub struct ParticleFilterConfig {
     pub policy: ResamplingPolicy,
     /// Seed of the ChaCha random stream (initial draw, process noise, resampling).
     pub seed: u64,
+    /// Where the particles are drawn from ([`Proposal`]; the seed's bootstrap by default).
+    pub proposal: Proposal,
 }
 
 impl Default for ParticleFilterConfig {
@@ -77,6 +79,7 @@ impl Default for ParticleFilterConfig {
             scheme: ResamplingScheme::Stratified,
             policy: ResamplingPolicy::EveryStep,
             seed: 0,
+            proposal: Proposal::Bootstrap,
         }
     }
 }
@@ -102,6 +105,21 @@ pub enum ParticleFilterError {
     },
     #[error("the snapshot's ancestor index {0} is not a particle index")]
     SnapshotAncestor(usize),
+}
+
+/// The linearised optimal proposal draws from a Gaussian conditioned on the process noise, which
+/// must therefore be positive definite.
+fn check_proposal<const N: usize>(
+    proposal: Proposal,
+    process_noise: &SMatrix<f64, N, N>,
+) -> Result<(), ParticleFilterError> {
+    if proposal == Proposal::LinearisedOptimal && process_noise.cholesky().is_none() {
+        return Err(ParticleFilterError::NotPositiveSemiDefinite(
+            "process noise (must be positive definite for the linearised optimal proposal)",
+            0.0,
+        ));
+    }
+    Ok(())
 }
 
 /// Everything of a [`ParticleFilter`] that changes while it runs: with the same model, settings
@@ -366,6 +384,7 @@ where
         let process_noise_root = covariance_square_root(&model.process_noise(), "process noise")?;
         let measurement_noise = model.measurement_noise();
         let process_noise = model.process_noise();
+        check_proposal(config.proposal, &process_noise)?;
         let count = config.particle_count;
         let mut filter = Self {
             model,
@@ -380,7 +399,7 @@ where
             predicted_measurements: vec![SVector::zeros(); count],
             predicted_means: vec![initial_state; count],
             noise_pending: false,
-            proposal: Proposal::Bootstrap,
+            proposal: config.proposal,
             process_noise,
             process_noise_root,
             measurement_noise,
@@ -429,13 +448,9 @@ where
     /// Chooses the proposal (default: the seed's bootstrap). The linearised optimal proposal
     /// needs a positive definite process noise.
     pub fn with_proposal(mut self, proposal: Proposal) -> Result<Self, ParticleFilterError> {
-        if proposal == Proposal::LinearisedOptimal && self.process_noise.cholesky().is_none() {
-            return Err(ParticleFilterError::NotPositiveSemiDefinite(
-                "process noise (must be positive definite for the linearised optimal proposal)",
-                0.0,
-            ));
-        }
+        check_proposal(proposal, &self.process_noise)?;
         self.proposal = proposal;
+        self.config.proposal = proposal;
         Ok(self)
     }
 

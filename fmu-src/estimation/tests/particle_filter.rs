@@ -144,6 +144,7 @@ fn particle_filter_agrees_with_the_exact_kalman_filter_within_monte_carlo_error(
                 scheme,
                 policy: ResamplingPolicy::EveryStep,
                 seed: 100 + r as u64,
+                proposal: Proposal::Bootstrap,
             };
             let mut filter =
                 ParticleFilter::new(model, config, prior_mean, prior_covariance).unwrap();
@@ -234,14 +235,23 @@ fn particle_filter_with_the_linearised_optimal_proposal_agrees_with_kalman_and_k
             scheme: ResamplingScheme::Systematic,
             policy: ResamplingPolicy::EveryStep,
             seed: 300 + r as u64,
+            proposal: Proposal::Bootstrap,
         };
         let bootstrap = ParticleFilter::new(model, config, prior_mean, prior_covariance).unwrap();
         bootstrap_ess += run_against_reference(bootstrap, &run, &reference).0 / runs as f64;
-        let optimal = ParticleFilter::new(model, config, prior_mean, prior_covariance)
+        // The proposal as a setting (the FMU's way), and set afterwards: the same filter.
+        let optimal_config = ParticleFilterConfig {
+            proposal: Proposal::LinearisedOptimal,
+            ..config
+        };
+        let optimal =
+            ParticleFilter::new(model, optimal_config, prior_mean, prior_covariance).unwrap();
+        assert_eq!(optimal.proposal(), Proposal::LinearisedOptimal);
+        let switched = ParticleFilter::new(model, config, prior_mean, prior_covariance)
             .unwrap()
             .with_proposal(Proposal::LinearisedOptimal)
             .unwrap();
-        assert_eq!(optimal.proposal(), Proposal::LinearisedOptimal);
+        assert_eq!(switched.config(), optimal.config());
         let (ess, run_errors, run_variances) = run_against_reference(optimal, &run, &reference);
         optimal_ess += ess / runs as f64;
         for (total, variance) in variances.iter_mut().zip(run_variances) {
@@ -565,6 +575,7 @@ fn restored_snapshot_continues_bit_identically() {
             scheme: ResamplingScheme::Stratified,
             policy: ResamplingPolicy::EffectiveSampleSizeBelow(0.5),
             seed: 77,
+            proposal: Proposal::Bootstrap,
         };
         let build = || {
             ParticleFilter::new(model, config, prior_mean, prior_covariance)

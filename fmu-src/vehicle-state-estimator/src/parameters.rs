@@ -4,13 +4,14 @@
 
 use estimation::adaptive::{AdaptationConfig, MAX_WINDOW};
 use estimation::kalman::{SettingsError, SigmaPoints};
-use estimation::particle::{ParticleFilterConfig, ResamplingPolicy, ResamplingScheme};
+use estimation::particle::{ParticleFilterConfig, Proposal, ResamplingPolicy, ResamplingScheme};
 use estimation::registry::EstimatorChoice;
 use vehicle_models::parameters::ParameterSource;
 use vehicle_models::Integrator;
 
 use crate::model_description::{
-    EstimatorKind, EstimatorModel, Integrator as IntegratorItem, ParticleResampling, Variables,
+    EstimatorKind, EstimatorModel, Integrator as IntegratorItem, ParticleProposal,
+    ParticleResampling, Variables,
 };
 
 pub use vehicle_models::parameters::positive;
@@ -47,7 +48,7 @@ pub fn scaled_sigma_points(v: &Variables) -> SigmaPoints {
     SigmaPoints::scaled(v.ukf_alpha, v.ukf_beta, v.ukf_kappa)
 }
 
-/// The particle filter's configuration (resampling every step, 003: §2.2.4).
+/// The particle filter's configuration (resampling every step, 003: §2.2.4; `particle_proposal`).
 pub fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, SettingsError> {
     let scheme =
         match ParticleResampling::from_parameter("particle_resampling", v.particle_resampling)
@@ -72,11 +73,18 @@ pub fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, SettingsEr
             v.seed
         ))
     })?;
+    let proposal = match ParticleProposal::from_parameter("particle_proposal", v.particle_proposal)
+        .map_err(SettingsError)?
+    {
+        ParticleProposal::Bootstrap => Proposal::Bootstrap,
+        ParticleProposal::LinearisedOptimal => Proposal::LinearisedOptimal,
+    };
     Ok(ParticleFilterConfig {
         particle_count,
         scheme,
         policy: ResamplingPolicy::EveryStep,
         seed,
+        proposal,
     })
 }
 

@@ -646,24 +646,32 @@ fn cornering_stiffness_scales_act_on_model_a() {
 }
 
 /// The particle filter's FMU state is compact: per particle its 5 states, log weight and weight
-/// (f64) and its ancestor (u32), nothing else while no proposal draw is pending (60 bytes per
-/// particle on model A).
+/// (f64) and its ancestor (u32), 60 bytes per particle on model A with the bootstrap proposal;
+/// the linearised optimal proposal keeps each particle's prediction (5 f64 more) while its draw
+/// waits for the next sample's measurement, as it does between doSteps.
 #[test]
 fn particle_filter_states_take_60_bytes_per_particle() {
-    let serialized_size = |particles: i32| {
-        let mut s = slave();
-        s.set_integer(vr::ESTIMATOR, EstimatorKind::ParticleFilter as i32);
-        s.set_integer(vr::PARTICLE_COUNT, particles);
-        assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
-        let mut truth = Truth::new(3);
-        trace(&mut s, &mut truth, 0, 20);
-        let (status, mut state) = s.get_state();
-        assert_eq!(status, Fmi2Status::Ok);
-        let bytes = s.serialize(&state).expect("serialize");
-        s.free_state(&mut state);
-        bytes.len()
-    };
-    assert_eq!(serialized_size(200) - serialized_size(100), 100 * 60);
+    for (proposal, bytes) in [(1, 60), (2, 100)] {
+        let serialized_size = |particles: i32| {
+            let mut s = slave();
+            s.set_integer(vr::ESTIMATOR, EstimatorKind::ParticleFilter as i32);
+            s.set_integer(vr::PARTICLE_COUNT, particles);
+            s.set_integer(vr::PARTICLE_PROPOSAL, proposal);
+            assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+            let mut truth = Truth::new(3);
+            trace(&mut s, &mut truth, 0, 20);
+            let (status, mut state) = s.get_state();
+            assert_eq!(status, Fmi2Status::Ok);
+            let serialized = s.serialize(&state).expect("serialize");
+            s.free_state(&mut state);
+            serialized.len()
+        };
+        assert_eq!(
+            serialized_size(200) - serialized_size(100),
+            100 * bytes,
+            "particle_proposal {proposal}"
+        );
+    }
 }
 
 #[test]

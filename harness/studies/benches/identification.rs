@@ -24,7 +24,8 @@ fn e_step_model_c_n50_t500(bencher: Bencher, proposal: &str) {
     } else {
         Proposal::LinearisedOptimal
     };
-    let config = Seed003Config::default();
+    let mut config = Seed003Config::default();
+    config.filter.proposal = proposal;
     let simulated = simulate(&config, 1).unwrap();
     let theta = diagonal_covariance(&config.measurement_noise_std);
     let model = RearAxleModel::seed_vehicle(config.sample_time).unwrap();
@@ -34,7 +35,6 @@ fn e_step_model_c_n50_t500(bencher: Bencher, proposal: &str) {
             &model,
             &simulated.run,
             config.filter,
-            proposal,
             simulated.run.measurements[0],
             theta,
             &mut workspace,

@@ -839,7 +839,7 @@ fn seed003_method(doc: &mut Document, outcome: &Outcome) {
         2,
         "Seed 003: EM identification of model C (§3.2, in simulation)",
     );
-    let proposal = match config.proposal {
+    let proposal = match config.filter.proposal {
         Proposal::Bootstrap => "the bootstrap proposal (the seed's)".to_string(),
         Proposal::LinearisedOptimal => {
             "the linearised optimal proposal instead of the seed's bootstrap (with 50 particles and Ξ far wider than Θ the bootstrap's effective sample size is about 1)".to_string()

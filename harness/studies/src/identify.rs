@@ -563,7 +563,7 @@ impl IdentificationSection {
             config.filter.seed = seed;
         }
         if let Some(proposal) = self.proposal {
-            config.proposal = match proposal {
+            config.filter.proposal = match proposal {
                 ProposalName::LinearisedOptimal => Proposal::LinearisedOptimal,
                 ProposalName::Bootstrap => Proposal::Bootstrap,
             };

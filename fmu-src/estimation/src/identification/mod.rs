@@ -33,7 +33,7 @@ use crate::kalman::{ExtendedKalmanFilter, InitialEstimate};
 use crate::model::StateSpaceModel;
 use crate::particle::{
     filter_run, masked_covariance, used_rows, ParticleFilter, ParticleFilterConfig,
-    ParticleFilterError, ParticleHistory, Proposal, RecordedRun,
+    ParticleFilterError, ParticleHistory, RecordedRun,
 };
 use crate::smoother::{smooth, SmoothedRun, SmootherError, SmootherWorkspace};
 use crate::Estimator;
@@ -97,11 +97,10 @@ pub enum EmSchedule {
 /// Settings of the EM identification.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EmConfig<const N: usize> {
-    /// The particle filter of the E-step (particle count, resampling, seed).
+    /// The particle filter of the E-step (particle count, resampling, seed, proposal: the seed
+    /// uses the bootstrap proposal, 003: 2.58; the seed-003 reproduction, `harness::seed003` in
+    /// the studies crate, defaults to the linearised optimal one).
     pub filter: ParticleFilterConfig,
-    /// Its proposal. The seed uses the bootstrap proposal (003: 2.58); the seed-003 reproduction
-    /// (`harness::seed003` in the studies crate) defaults to the linearised optimal one.
-    pub proposal: Proposal,
     /// Prior of the initial state.
     pub initial_state: SVector<f64, N>,
     pub initial_covariance: SMatrix<f64, N, N>,
@@ -167,7 +166,6 @@ pub fn expectation_step<Model, const N: usize, const M: usize, const U: usize>(
     model: &Model,
     run: &RecordedRun<M, U>,
     filter: ParticleFilterConfig,
-    proposal: Proposal,
     initial_state: SVector<f64, N>,
     initial_covariance: SMatrix<f64, N, N>,
     workspace: &mut SmootherWorkspace<N>,
@@ -176,8 +174,7 @@ where
     Model: StateSpaceModel<N, M, U> + Clone + Sync,
 {
     let mut particle_filter =
-        ParticleFilter::new(model.clone(), filter, initial_state, initial_covariance)?
-            .with_proposal(proposal)?;
+        ParticleFilter::new(model.clone(), filter, initial_state, initial_covariance)?;
     let history = filter_run(&mut particle_filter, run);
     let smoothed = smooth(model, &history, run, true, workspace)?;
     Ok((history, smoothed))
@@ -550,7 +547,6 @@ where
                 &current,
                 run,
                 filter,
-                config.proposal,
                 config.initial_state,
                 config.initial_covariance,
                 &mut workspace,

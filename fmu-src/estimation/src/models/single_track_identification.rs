@@ -31,7 +31,7 @@ use crate::identification::{
 };
 use crate::kalman::SettingsError;
 use crate::models::single_track::SingleTrackEstimationModel;
-use crate::particle::{ParticleFilterConfig, Proposal, RecordedRun};
+use crate::particle::{ParticleFilterConfig, RecordedRun};
 use crate::StateSpaceModel;
 
 /// Names of the entries of `p`, as the VehicleStateEstimator parameters are called.
@@ -209,9 +209,8 @@ pub struct CorneringIdentificationConfig {
     /// Standard deviations of the prior around the initial state derived from the first
     /// complete measurement row (see [`initial_state_from_measurement`]).
     pub initial_std: [f64; STATE_DIM],
-    /// The E-step's particle filter (count, resampling, seed: common random numbers).
+    /// The E-step's particle filter (count, resampling, seed: common random numbers; proposal).
     pub filter: ParticleFilterConfig,
-    pub proposal: Proposal,
     /// Stop when a SQUAREM cycle changes no scale by more than this fraction. The particle
     /// E-step makes the EM path jitter by about 0.3 % per cycle with 100 particles (common
     /// random numbers fix the map, not its roughness), so a tighter tolerance only waits for a
@@ -289,7 +288,6 @@ pub fn identify_scales_from_arrays<T: TyreModel>(
     let initial_std = SVector::from(config.initial_std);
     let em = EmConfig {
         filter: config.filter,
-        proposal: config.proposal,
         initial_state: initial_state_from_measurement(vehicle, first),
         initial_covariance: SMatrix::from_diagonal(&initial_std.component_mul(&initial_std)),
         tolerance: config.tolerance,
