@@ -11,7 +11,7 @@ use vehicle_models::manoeuvre::SeedManoeuvre;
 use vehicle_models::single_track::measurement_index::{
     LATERAL_ACCELERATION, YAW_RATE as YAW_RATE_ROW,
 };
-use vehicle_models::single_track::state_index::{VX, VY, YAW_RATE};
+use vehicle_models::single_track::state_index::{OMEGA_FRONT, OMEGA_REAR, VX, VY, YAW_RATE};
 
 fn observer(
     model: SingleTrackEstimationModel,
@@ -121,4 +121,37 @@ fn observer_tracks_model_a_in_the_linear_range_and_converges_from_a_wrong_start(
     let yaw_rate_vy = rmse(&reference, &yaw_rate_based, VY, 1.0, 13.0);
     println!("moderate ramp, Luenberger with (vy, r) through the yaw rate: vy RMSE {yaw_rate_vy:.3e} m/s");
     assert!(yaw_rate_vy > 10.0 * vy);
+}
+
+/// The default design starts at any speed the FMU may start at, from walking pace (where model
+/// A's discretised lateral dynamics are themselves unstable) to 80 m/s, and its error map is no
+/// slower than its slowest placed pole there.
+#[test]
+fn the_default_design_starts_from_walking_pace_to_80_metres_per_second() {
+    for t in [1e-3, 1e-2, 2e-2] {
+        let model = SingleTrackEstimationModel::seed_000(t).unwrap();
+        let design = model.default_observer_design();
+        let slowest = design.poles().iter().fold(0.0f64, |m, z| m.max(z.norm()));
+        let (mut operating, input) = seed_operating_point();
+        let radius = model.vehicle().vehicle.chassis.front_wheel_radius;
+        for speed in [0.3, 1.0, 2.0, 5.0, 20.0, 40.0, 80.0] {
+            operating[VX] = speed;
+            operating[OMEGA_FRONT] = speed / radius;
+            operating[OMEGA_REAR] = speed / radius;
+            let o = LuenbergerObserver::new(
+                model.clone(),
+                &operating,
+                &input,
+                &design,
+                &seed_initial_estimate(),
+            )
+            .unwrap_or_else(|e| panic!("T = {t}, {speed} m/s: {}", e.0));
+            let eigenvalues = eigenvalues(&o.error_dynamics());
+            let largest = eigenvalues.iter().fold(0.0f64, |m, z| m.max(z.norm()));
+            assert!(
+                largest <= slowest * (1.0 + 1e-9),
+                "T = {t}, {speed} m/s: {eigenvalues:?}"
+            );
+        }
+    }
 }

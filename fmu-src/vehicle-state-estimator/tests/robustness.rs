@@ -289,7 +289,7 @@ fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
     ];
     let mut failures = Vec::new();
     for kind in kinds {
-        for speed in [3.0, 10.0, 30.0, 55.0] {
+        for speed in [1.5, 3.0, 10.0, 30.0, 55.0] {
             let mut s = estimator(kind);
             let records = run(&mut s, speed, 2.0, |_, _| {});
             assert_ne!(records[0].status & status::INITIALISING, 0);
