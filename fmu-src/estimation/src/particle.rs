@@ -107,8 +107,9 @@ pub enum ParticleFilterError {
     SnapshotAncestor(usize),
 }
 
-/// The linearised optimal proposal draws from a Gaussian conditioned on the process noise, which
-/// must therefore be positive definite.
+/// The linearised optimal proposal conditions each particle's Gaussian prediction, whose
+/// covariance is the process noise, on the measurement; it takes that covariance's Cholesky
+/// factor, so the process noise must be positive definite.
 fn check_proposal<const N: usize>(
     proposal: Proposal,
     process_noise: &SMatrix<f64, N, N>,
