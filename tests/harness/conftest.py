@@ -1,29 +1,10 @@
 """Fixtures of the harness tests: the packaged FMUs (a missing archive fails with the command that
-builds it) and the harness binary of the workspace's release build."""
-
-import os
-import pathlib
-import subprocess
-import tomllib
+builds it) and the harness binary of the workspace's release build. Plain helpers live in
+harness_support.py."""
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-
-# The seed-000 manoeuvre numbers, generated from the Rust crate harness/manoeuvres (src/seed000.rs).
-with open(ROOT / "harness" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
-    SEED000_MANOEUVRES = tomllib.load(_table_file)
-
-
-def target_directory() -> pathlib.Path:
-    target = os.environ.get("CARGO_TARGET_DIR")
-    return ((ROOT / target) if target else (ROOT / "target")).resolve()
-
-
-def fmu_directory() -> pathlib.Path:
-    if os.environ.get("FMU_DIR"):
-        return pathlib.Path(os.environ["FMU_DIR"]).resolve()
-    return target_directory() / "fmu"
+from harness_support import fmu_directory
 
 
 @pytest.fixture(scope="session")
@@ -43,12 +24,3 @@ def harness_binary(workspace_executables):
     binary = workspace_executables[("bin", "harness")]
     assert binary.is_file(), binary
     return binary
-
-
-def run_harness(binary, *arguments, timeout=900):
-    completed = subprocess.run([str(binary), *map(str, arguments)], cwd=ROOT, capture_output=True,
-                               text=True, timeout=timeout)
-    if completed.returncode != 0:
-        raise AssertionError(f"harness {' '.join(map(str, arguments))} failed:\n"
-                             f"{completed.stdout}\n{completed.stderr}")
-    return completed

@@ -15,7 +15,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import run_harness
+from harness_support import run_harness
 
 pytestmark = pytest.mark.starts_first
 

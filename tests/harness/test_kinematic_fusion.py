@@ -6,7 +6,7 @@ reporting a sideslip of zero on the slow ramps."""
 import subprocess
 import sys
 
-from conftest import ROOT
+from harness_support import ROOT
 
 
 def read_table(path):

@@ -10,7 +10,7 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from conftest import SEED000_MANOEUVRES, run_harness
+from harness_support import SEED000_MANOEUVRES, run_harness
 
 HERE = pathlib.Path(__file__).resolve().parent
 SCENARIO = HERE / "equivalence.toml"
