@@ -345,7 +345,6 @@ pub struct ParticleFilter<Model, const N: usize, const M: usize, const U: usize>
     /// `f(x_{t-1}^i, u)` while the noise draw waits for the measurement (optimal proposal).
     predicted_means: Vec<SVector<f64, N>>,
     noise_pending: bool,
-    proposal: Proposal,
     process_noise: SMatrix<f64, N, N>,
     process_noise_root: SMatrix<f64, N, N>,
     measurement_noise: SMatrix<f64, M, M>,
@@ -400,7 +399,6 @@ where
             predicted_measurements: vec![SVector::zeros(); count],
             predicted_means: vec![initial_state; count],
             noise_pending: false,
-            proposal: config.proposal,
             process_noise,
             process_noise_root,
             measurement_noise,
@@ -450,14 +448,13 @@ where
     /// needs a positive definite process noise.
     pub fn with_proposal(mut self, proposal: Proposal) -> Result<Self, ParticleFilterError> {
         check_proposal(proposal, &self.process_noise)?;
-        self.proposal = proposal;
         self.config.proposal = proposal;
         Ok(self)
     }
 
     /// The proposal in use.
     pub fn proposal(&self) -> Proposal {
-        self.proposal
+        self.config.proposal
     }
 
     /// Time update: `x_i ← f(x_i, u) + w_i`, `w_i ~ N(0, Q)` (003: §2.2.4, "Prädiktion").
@@ -468,7 +465,7 @@ where
     /// covariance their spread plus `Q`.
     pub fn propagate(&mut self, input: &SVector<f64, U>) -> Result<(), FilterIssue> {
         self.draw_pending_noise_from_prior();
-        match self.proposal {
+        match self.config.proposal {
             Proposal::Bootstrap => {
                 for (particle, log_weight) in
                     self.particles.iter_mut().zip(self.log_weights.iter_mut())
@@ -533,7 +530,7 @@ where
         used: &MeasurementMask<M>,
         noise_cholesky: &nalgebra::Cholesky<f64, nalgebra::Const<M>>,
     ) {
-        // Positive definite by the check in `with_proposal`; should that ever fail, fall back to
+        // Positive definite by `check_proposal`; should that ever fail, fall back to
         // the bootstrap draw and weight rather than panic inside a step.
         let Some(process_cholesky) = self.process_noise.cholesky() else {
             self.draw_pending_noise_from_prior();
