@@ -18,7 +18,6 @@ use vehicle_models::driver_input::INPUT_DIM;
 
 use crate::model_description::{EstimatorModel, RealOutputs, Variables};
 use crate::parameters::{self, positive};
-use crate::speed_filter::SpeedGate;
 use crate::state::{Sink, Source};
 use crate::status;
 
@@ -345,12 +344,7 @@ pub fn kinematic_sideslip(steering_angle: f64, v: &Variables) -> f64 {
 /// fail ([`InnovationWindow`]).
 #[derive(Clone, Copy, Debug)]
 struct Gate {
-    /// `gate_threshold`: 10.83 is the 99.9 % quantile of chi-square with one degree of freedom.
-    threshold: f64,
-    /// `readmit_time` in samples: a plausible row gated for this many samples in a row is a
-    /// real change (the filter lost the truth, e.g. started from a wrong speed without
-    /// `start_from_measurements`), and the filter is re-seeded from the measurements.
-    readmit_samples: u64,
+    test: ChiSquareGate,
     /// `INNOVATION_WINDOW_TIME` in samples, odd (see [`InnovationWindow`]).
     window: usize,
 }
@@ -359,7 +353,26 @@ impl Gate {
     /// The chi-square test of one row about the centre `centre` of its recent innovations (0
     /// for a row that is not a model-error row): `(nu − centre)² <= threshold · S`.
     fn admits(&self, innovation: f64, centre: f64, innovation_variance: f64) -> bool {
-        let offset = innovation - centre;
+        self.test.admits(innovation - centre, innovation_variance)
+    }
+}
+
+/// The chi-square test and re-admission rule of `gate_measurements`, shared by the filter's
+/// rows ([`Gate`]) and a model's own tests of a measurement outside the filter (the speed
+/// filter of models A and B, [`crate::speed_filter`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChiSquareGate {
+    /// `gate_threshold`: 10.83 is the 99.9 % quantile of chi-square with one degree of freedom.
+    pub threshold: f64,
+    /// `readmit_time` in samples: a plausible row gated for this many samples in a row is a
+    /// real change (the filter lost the truth, e.g. started from a wrong speed without
+    /// `start_from_measurements`), and the filter is re-seeded from the measurements.
+    pub readmit_samples: u64,
+}
+
+impl ChiSquareGate {
+    /// `offset² <= threshold · S` for an innovation `offset` of variance `S`.
+    pub fn admits(&self, offset: f64, innovation_variance: f64) -> bool {
         offset * offset <= self.threshold * innovation_variance
     }
 }
@@ -647,8 +660,10 @@ where
                 ));
             }
             Some(Gate {
-                threshold: positive("gate_threshold", v.gate_threshold)?,
-                readmit_samples: (readmit_time / sample_time).ceil().max(1.0) as u64,
+                test: ChiSquareGate {
+                    threshold: positive("gate_threshold", v.gate_threshold)?,
+                    readmit_samples: (readmit_time / sample_time).ceil().max(1.0) as u64,
+                },
                 window: innovation_window(sample_time),
             })
         } else {
@@ -723,13 +738,10 @@ where
         }
     }
 
-    /// The gate's threshold and re-admission samples (`gate_measurements`), for a model's
-    /// own tests of a measurement outside the filter (the speed filter of models A and B).
-    pub(crate) fn speed_gate(&self) -> Option<SpeedGate> {
-        self.gate.map(|gate| SpeedGate {
-            threshold: gate.threshold,
-            readmit_samples: gate.readmit_samples,
-        })
+    /// The gate's test (`gate_measurements`), for a model's own tests of a measurement outside
+    /// the filter (the speed filter of models A and B).
+    pub(crate) fn speed_gate(&self) -> Option<ChiSquareGate> {
+        self.gate.map(|gate| gate.test)
     }
 
     /// The factor on the covariance the estimator reports ([`OutputSample::covariance_scale`]).
@@ -964,7 +976,7 @@ where
             } else {
                 0
             };
-            readmit |= self.gated_samples[row] >= gate.readmit_samples;
+            readmit |= self.gated_samples[row] >= gate.test.readmit_samples;
         }
         if readmit {
             if let Some(mut initial) = Model::measured_start(self, sensors) {
@@ -1010,7 +1022,7 @@ where
             return plain();
         }
         let passed = plausible && gate.admits(value, centre, variance);
-        let reach = (gate.threshold * variance).sqrt();
+        let reach = (gate.test.threshold * variance).sqrt();
         if passed || !plausible || !reach.is_finite() {
             return Verdict::of(passed);
         }

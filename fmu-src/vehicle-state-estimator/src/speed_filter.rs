@@ -28,6 +28,7 @@
 use fmi_export::{StateError, StateReader, StateWriter};
 
 use crate::model_description::Variables;
+use crate::runner::ChiSquareGate;
 use crate::status;
 
 /// The correlation time of the lateral estimate's error, s: half the period of a sine with
@@ -61,13 +62,6 @@ pub struct SpeedFilter {
     pub ax_held: u64,
     /// Samples in a row without a measured speed.
     pub unmeasured: u64,
-}
-
-/// The gate of the measured speed: the FMU's `gate_threshold` and `readmit_time` in samples.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpeedGate {
-    pub threshold: f64,
-    pub readmit_samples: u64,
 }
 
 /// What one sample gives the filter.
@@ -188,7 +182,7 @@ impl SpeedFilter {
 
     /// One sample; returns its status bits (1 no measured speed, 128 gated, 256 restarted
     /// after a lock-out).
-    pub fn step(&mut self, sample: &SpeedSample, gate: Option<SpeedGate>) -> i32 {
+    pub fn step(&mut self, sample: &SpeedSample, gate: Option<ChiSquareGate>) -> i32 {
         let bits = self.update(sample, gate);
         if self.filtering() {
             let ahead = Self::predicted(self.value, self.ax, sample);
@@ -227,7 +221,7 @@ impl SpeedFilter {
     }
 
     /// The measurement update of one sample (after the prediction from the last one).
-    fn update(&mut self, sample: &SpeedSample, gate: Option<SpeedGate>) -> i32 {
+    fn update(&mut self, sample: &SpeedSample, gate: Option<ChiSquareGate>) -> i32 {
         let Some(ax) = self.acceleration(sample) else {
             *self = Self::measured(sample.measured);
             return 0;
@@ -251,7 +245,7 @@ impl SpeedFilter {
         let innovation = sample.measured - predicted;
         let innovation_variance = prior + sample.measurement_variance;
         if let Some(gate) = gate {
-            if innovation * innovation > gate.threshold * innovation_variance {
+            if !gate.admits(innovation, innovation_variance) {
                 self.rejected += 1;
                 if self.rejected >= gate.readmit_samples {
                     self.restart(sample);

@@ -11,13 +11,14 @@ use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
+use VehicleStateEstimator::runner::ChiSquareGate;
 use VehicleStateEstimator::speed_filter::{
-    SpeedFilter, SpeedGate, SpeedSample, HELD_AX_STD, HELD_AX_TIME, LATERAL_CORRELATION_TIME,
+    SpeedFilter, SpeedSample, HELD_AX_STD, HELD_AX_TIME, LATERAL_CORRELATION_TIME,
 };
 use VehicleStateEstimator::status;
 
 const T: f64 = 0.01;
-const GATE: SpeedGate = SpeedGate {
+const GATE: ChiSquareGate = ChiSquareGate {
     threshold: 10.83,
     readmit_samples: 50,
 };
@@ -38,7 +39,7 @@ fn sample(measured: f64, ax: Option<f64>) -> SpeedSample {
 
 /// A car braking at 4 m/s² from 25 m/s for 4 s; the speed sensor's noise 0.1 m/s. Returns
 /// the largest error of the filtered speed and of the measured one after the first second.
-fn braking(ax_known: bool, glitch_at: Option<usize>, gate: Option<SpeedGate>) -> (f64, f64) {
+fn braking(ax_known: bool, glitch_at: Option<usize>, gate: Option<ChiSquareGate>) -> (f64, f64) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let noise = Normal::new(0.0, 0.1).unwrap();
     let mut filter = SpeedFilter::measured(25.0);
