@@ -31,7 +31,11 @@
 //! coupling. Model A's default design observes `vy` through the lateral acceleration, `r` through
 //! the yaw rate and (vx, ωF, ωR) through the front wheel speed
 //! ([`crate::models::single_track::SingleTrackEstimationModel::default_observer_design`]). A
-//! single block with all states is the seed's single-output design.
+//! single block with all states is the seed's single-output design. States no output observes
+//! as a block of their own may be left without feedback ([`ObserverDesign::open_loop`]) where
+//! their own dynamics are stable: model B's `ay`, which its model computes from the tyre forces
+//! ([`crate::models::two_track::TwoTrackEstimationModel::default_observer_design`]), and the
+//! grip model's grip factors and transient slip angles.
 //!
 //! Numerics: with a short sample time `A ≈ I`, so the rows `cᵀAʲ` of the observability matrix are
 //! nearly equal. Ackermann is applied instead to `Ã = (A - I)/h` with poles `(zᵢ - 1)/h`
@@ -65,10 +69,17 @@ pub struct DesignBlock {
     pub poles: Vec<Complex<f64>>,
 }
 
-/// How the observer gain is placed: the blocks must cover every state exactly once.
+/// How the observer gain is placed: the blocks and the open-loop states together must cover
+/// every state exactly once.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObserverDesign {
     pub blocks: Vec<DesignBlock>,
+    /// States that get no output feedback (gain rows zero): states whose own dynamics are
+    /// already faster than the design or stable and slow on purpose, and that no output makes
+    /// observable as a block of their own, such as a state the model computes algebraically from
+    /// the others (model B's `ay`). The design is accepted only where their open-loop part of
+    /// `A` is stable (see [`blockwise_observer_gain`]).
+    pub open_loop: Vec<usize>,
 }
 
 impl ObserverDesign {
@@ -80,6 +91,7 @@ impl ObserverDesign {
                 output,
                 poles,
             }],
+            open_loop: Vec::new(),
         }
     }
 
@@ -211,15 +223,29 @@ fn blockwise_observer_gain<const N: usize, const M: usize, const U: usize>(
     let gain = place_gain(linear, design, false)?;
     let error_map =
         (SMatrix::<f64, N, N>::identity() - gain * linear.output_matrix) * linear.transition;
+    let placed = design.poles().iter().fold(0.0f64, |m, z| m.max(z.norm()));
+    // The fed-back states' part of the error map (all of it without open-loop states): no
+    // slower than the slowest placed pole. A relative margin for the eigenvalue routine's
+    // rounding: where the blocks happen to decouple, the radius is that pole itself.
+    let fed_back = sub_radius(&error_map, |s| !design.open_loop.contains(&s));
+    if fed_back > placed * (1.0 + STABILITY_MARGIN) {
+        return Err(SettingsError(format!(
+            "observer design: the error dynamics of the block-wise gain are not stable at this operating point (spectral radius {fed_back})"
+        )));
+    }
+    if design.open_loop.is_empty() {
+        return Ok(gain);
+    }
+    // With states left open loop (stable, place_gain checked), the whole error map no slower
+    // than they are on their own (the design cannot make it faster) or than the placed poles.
+    let open_loop = sub_radius(&linear.transition, |s| design.open_loop.contains(&s));
     let radius = spectral_radius(&error_map);
-    let slowest = design.poles().iter().fold(0.0f64, |m, z| m.max(z.norm()));
-    // A relative margin for the eigenvalue routine's rounding: where the blocks happen to
-    // decouple, the radius is the slowest placed pole itself.
-    if radius <= slowest * (1.0 + STABILITY_MARGIN) {
+    if radius <= placed.max(open_loop) * (1.0 + STABILITY_MARGIN) {
         Ok(gain)
     } else {
         Err(SettingsError(format!(
-            "observer design: the error dynamics of the block-wise gain are not stable at this operating point (spectral radius {radius})"
+            "observer design: with the states {:?} without feedback (on their own spectral radius {open_loop}) the error dynamics are not stable at this operating point (spectral radius {radius})",
+            design.open_loop
         )))
     }
 }
@@ -239,7 +265,7 @@ fn starting_gain<const N: usize, const M: usize, const U: usize>(
     })
 }
 
-/// Relative rounding margin of [`scheduled_observer_gain`]'s stability tests.
+/// Relative rounding margin of [`scheduled_observer_gain`]'s open-loop stability test.
 const STABILITY_MARGIN: f64 = 1e-9;
 
 /// How many error time constants a design is kept at least before the observer is re-scheduled:
@@ -256,6 +282,20 @@ fn dwell_samples(design: &ObserverDesign) -> u64 {
     let slowest = design.poles().iter().fold(0.0f64, |m, z| m.max(z.norm()));
     let time_constant = -1.0 / slowest.ln();
     (DWELL_TIME_CONSTANTS * time_constant).ceil().max(1.0) as u64
+}
+
+/// The spectral radius of the square part of `matrix` on the states `keep` selects (0 for none).
+fn sub_radius<const N: usize>(matrix: &SMatrix<f64, N, N>, keep: impl Fn(usize) -> bool) -> f64 {
+    let states: Vec<usize> = (0..N).filter(|&s| keep(s)).collect();
+    if states.is_empty() {
+        return 0.0;
+    }
+    DMatrix::from_fn(states.len(), states.len(), |i, j| {
+        matrix[(states[i], states[j])]
+    })
+    .complex_eigenvalues()
+    .iter()
+    .fold(0.0f64, |largest, z| largest.max(z.norm()))
 }
 
 /// The largest modulus of the eigenvalues of `matrix`.
@@ -277,6 +317,13 @@ fn place_gain<const N: usize, const M: usize, const U: usize>(
     let a = &linear.transition;
     let ca = linear.output_matrix * a;
     check_design::<N, M>(design)?;
+    let open_loop = sub_radius(a, |s| design.open_loop.contains(&s));
+    if open_loop >= 1.0 {
+        return Err(SettingsError(format!(
+            "observer design: the states without feedback {:?} are not stable at this operating point (spectral radius {open_loop})",
+            design.open_loop
+        )));
+    }
     if decoupled {
         check_decoupled(a, &ca, design)?;
     }
@@ -336,6 +383,14 @@ fn check_design<const N: usize, const M: usize>(
                 "observer poles must lie inside the unit circle (discrete time), got {pole}"
             )));
         }
+    }
+    for &s in &design.open_loop {
+        if s >= N || covered[s] {
+            return Err(SettingsError(format!(
+                "observer design: open-loop state index {s} is out of range or also in a block (the model has {N} states)"
+            )));
+        }
+        covered[s] = true;
     }
     if let Some(missing) = covered.iter().position(|&c| !c) {
         return Err(SettingsError(format!(

@@ -129,6 +129,7 @@ fn block_design_places_every_eigenvalue_of_the_error_dynamics() {
                 poles: longitudinal.to_vec(),
             },
         ],
+        open_loop: Vec::new(),
     };
     let observer = LuenbergerObserver::new(
         block_model(),
@@ -182,6 +183,7 @@ fn single_output_design_on_the_coupled_system() {
                 poles: poles[2..].to_vec(),
             },
         ],
+        open_loop: Vec::new(),
     };
     let refused = LuenbergerObserver::new(
         model.clone(),
@@ -233,6 +235,7 @@ fn the_estimation_error_follows_the_placed_error_dynamics() {
                 poles: poles[2..].to_vec(),
             },
         ],
+        open_loop: Vec::new(),
     };
     let mut observer = LuenbergerObserver::new(
         model.clone(),
@@ -259,4 +262,58 @@ fn the_estimation_error_follows_the_placed_error_dynamics() {
         );
     }
     assert!(expected_error.amax() < 1e-6);
+}
+
+/// States left without feedback (`ObserverDesign::open_loop`): their gain rows are zero, the
+/// error dynamics keep their own eigenvalues beside the placed ones, and the design is refused
+/// where they are unstable or where a state is both in a block and open loop.
+#[test]
+fn open_loop_states_keep_their_own_dynamics() {
+    let t = 0.01;
+    let lateral = discrete_poles([Complex::new(-20.0, 5.0), Complex::new(-20.0, -5.0)], t);
+    let design = ObserverDesign {
+        blocks: vec![DesignBlock {
+            states: vec![0, 1],
+            output: 0,
+            poles: lateral.to_vec(),
+        }],
+        open_loop: vec![2, 3],
+    };
+    let build = |model: LinearModel<4, 2, 1>, design: &ObserverDesign| {
+        LuenbergerObserver::new(
+            model,
+            &SVector::zeros(),
+            &Vector1::zeros(),
+            design,
+            &initial(),
+        )
+    };
+    // block_model's second subsystem has a slowly growing mode (1.004); damp it
+    let mut stable = block_model();
+    stable.a[(2, 2)] = 1.0 - 5.0 * t;
+    let observer = build(stable.clone(), &design).unwrap();
+    assert_eq!(observer.gain().fixed_rows::<2>(2).amax(), 0.0);
+    let eigenvalues: Vec<Complex<f64>> =
+        DMatrix::from_iterator(4, 4, observer.error_dynamics().iter().copied())
+            .complex_eigenvalues()
+            .iter()
+            .copied()
+            .collect();
+    let a = stable.a;
+    let own: Vec<Complex<f64>> = DMatrix::from_fn(2, 2, |i, j| a[(i + 2, j + 2)])
+        .complex_eigenvalues()
+        .iter()
+        .copied()
+        .collect();
+    assert_same_eigenvalues(eigenvalues, [lateral.to_vec(), own].concat(), 1e-10);
+
+    let err = build(block_model(), &design).unwrap_err();
+    assert!(err.to_string().contains("without feedback"), "{err}");
+
+    let overlapping = ObserverDesign {
+        open_loop: vec![1, 2, 3],
+        ..design
+    };
+    let err = build(stable, &overlapping).unwrap_err();
+    assert!(err.to_string().contains("also in a block"), "{err}");
 }

@@ -142,6 +142,7 @@ impl<T: TyreModel> SingleTrackEstimationModel<T> {
                     poles: vec![z(-30.0), z(-250.0), z(-400.0)],
                 },
             ],
+            open_loop: Vec::new(),
         }
     }
 }
