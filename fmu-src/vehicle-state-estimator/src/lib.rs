@@ -45,8 +45,9 @@
 //! longitudinal load transfer; else 0) and `y = [ay_meas, yaw_rate_meas]` (001: eqs 6-11,
 //! `TwoTrackEstimationModel`), the same car with Magic Formula tyres matched to the HSRI
 //! parameters. LKF (seed 001's linear single-track comparison filter about straight driving at
-//! `lkf_vx`), EKF, both UKFs and the particle filter run on it; the Luenberger observer has no
-//! design for it (seed 002 covers model A only) and is refused at initialisation. The speed input
+//! `lkf_vx`), EKF, both UKFs, the particle filter and the Luenberger observer run on it (the
+//! observer's design, `β` through `ay` and `r` through the gyro, is ours: seed 002 covers model A
+//! only). The speed input
 //! is `vx_meas`, else the mean of the wheels' rolling speeds `r ω` (per-axle radii); without either above
 //! `min_speed` the filter holds (bit 32). Outputs: vx_est = the speed input, vy_est =
 //! vx·tan(sideslip), wheel speeds passed through, stds as the XML states.

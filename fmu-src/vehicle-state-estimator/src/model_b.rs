@@ -87,7 +87,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     }
 
     /// The LKF is the linear single-track comparison filter of seed 001 about straight driving
-    /// at `lkf_vx`; no Luenberger design exists for model B.
+    /// at `lkf_vx`, where the Luenberger observer starts too (`default_observer_design`).
     fn registry_settings(&self, v: &Variables) -> EstimatorSettings<STATE_DIM, INPUT_DIM> {
         self.estimator_settings(
             v.lkf_vx,

@@ -23,7 +23,7 @@ use vehicle_models::HsriTyre;
 
 use crate::model_a::{self, ModelA};
 use crate::model_description::{RealOutputs, Variables};
-use crate::parameters::positive;
+use crate::parameters::{self, positive};
 use crate::runner::{EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors};
 
 /// Model 3 as the filters see it.
@@ -141,10 +141,17 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         SingleTrackGripModel::new(ModelA::from_parameters(v)?, prior(v)?)
             .and_then(|model| model.with_relaxation_length(v.tyre_relaxation_length))
             // zero torques are unknown ones where the wheels get their extra noise for it
-            // (ModelA's extra_process_noise), and with the same switches
+            // (ModelA's extra_process_noise), and with the same switches; not for the Luenberger
+            // observer, which keeps seed 000's wheels as on model A (its design observes
+            // (vx, ωF, ωR) through the front wheel speed, and wheels that keep their slip
+            // whatever the speed would leave them unobservable)
             .map(|model| {
+                let luenberger = matches!(
+                    parameters::estimator_choice(v),
+                    Ok((_, EstimatorChoice::Luenberger))
+                );
                 model.with_unknown_torques(
-                    v.use_speed_measurements && v.unknown_torque_slip_std > 0.0,
+                    v.use_speed_measurements && v.unknown_torque_slip_std > 0.0 && !luenberger,
                 )
             })
             .map_err(|error| format!("estimator set-up: {}", error.0))

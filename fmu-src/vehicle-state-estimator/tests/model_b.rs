@@ -281,17 +281,16 @@ fn model_b_outputs_follow_the_descriptions() {
     assert!(s.reals(&ESTIMATES).iter().all(|v| v.is_finite()));
 }
 
+/// The Luenberger observer on model B (the design of `TwoTrackEstimationModel::
+/// default_observer_design`: `β` through `ay`, `r` through the yaw rate, `ay` without feedback),
+/// started about straight driving at `lkf_vx`, tracks the step on the filter's own model as the
+/// Kalman filters do (measured: 2.0e-4 rad against the EKF's 3.4e-4).
 #[test]
-fn luenberger_with_model_b_is_refused_at_initialisation() {
-    let mut s = slave(EstimatorKind::Luenberger as i32);
-    assert_eq!(s.initialize(0.0), Fmi2Status::Error);
-    let line = s.log.last().expect("a log line");
-    assert_eq!(line.format, "%s");
-    assert!(
-        line.message.contains("estimator = 6") && line.message.contains("model = 2"),
-        "{}",
-        line.message
-    );
+fn the_luenberger_observer_on_model_b_tracks_the_sideslip_of_the_two_track_vehicle() {
+    let observer = sideslip_rmse_scheduled(EstimatorKind::Luenberger as i32, 1.0);
+    let ekf = sideslip_rmse(EstimatorKind::Ekf as i32);
+    println!("sideslip RMSE: Luenberger {observer}, EKF {ekf}");
+    assert!(observer < 1e-3, "Luenberger sideslip RMSE {observer} rad");
 }
 
 #[test]
@@ -302,6 +301,7 @@ fn model_b_states_continue_bit_identically() {
         EstimatorKind::Ukf as i32,
         EstimatorKind::UkfScaled as i32,
         EstimatorKind::ParticleFilter as i32,
+        EstimatorKind::Luenberger as i32,
     ] {
         let mut s = slave(estimator);
         assert_eq!(s.initialize(0.0), Fmi2Status::Ok);

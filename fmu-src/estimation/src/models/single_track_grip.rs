@@ -62,6 +62,7 @@ use super::single_track::{
     REAR_DRIVE_INPUT,
 };
 use crate::kalman::{InitialEstimate, SettingsError};
+use crate::luenberger::ObserverDesign;
 use crate::registry::EstimatorSettings;
 use crate::StateSpaceModel;
 
@@ -222,9 +223,14 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     }
 
     /// The registry's settings from the anchored model's (see
-    /// [`SpeedAnchoredModel::estimator_settings`]): the operating point at grip 1. The
-    /// Luenberger observer has no design here: at its operating point (straight driving) no
-    /// lateral force acts, so the grip factors are unobservable and no pole can be placed.
+    /// [`SpeedAnchoredModel::estimator_settings`]): the operating point at grip 1, and model
+    /// A's observer design with the grip factors and the transient slip angles left without
+    /// feedback ([`ObserverDesign::open_loop`]). At the observer's operating point (straight
+    /// driving) no lateral force acts, so no output observes the grip factors and no pole can be
+    /// placed for them: the observer lets each relax to 1 by its Gauss-Markov step
+    /// (`a = exp(−T/τ)`, stable) and the transient slip angles follow the kinematic ones by the
+    /// tyre lag (stable at any speed above standstill), so it is model A's observer with the
+    /// tyres' lag.
     pub fn extend_settings(
         &self,
         anchored: EstimatorSettings<STATE_DIM, ANCHORED_INPUT_DIM>,
@@ -234,10 +240,13 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
                 .operating_point
                 .map(|(state, input)| (extend_state(&state), input)),
             scaled_sigma_points: anchored.scaled_sigma_points,
-            observer_design: Err(SettingsError(String::from(
-                "the Luenberger observer has no design for the grip model: at its straight-driving \
-                 operating point no lateral force acts, so the grip factors are unobservable",
-            ))),
+            observer_design: anchored.observer_design.map(|design| ObserverDesign {
+                open_loop: (design.open_loop.into_iter())
+                    .chain(GRIP_FACTORS)
+                    .chain([TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR])
+                    .collect(),
+                ..design
+            }),
             particles: anchored.particles,
         }
     }
@@ -735,10 +744,23 @@ mod tests {
             SigmaPoints::Symmetric,
             Ok(ParticleFilterConfig::default()),
         );
-        assert!(model
+        let design = model
             .extend_settings(anchored_settings)
             .observer_design
-            .is_err());
+            .unwrap();
+        assert_eq!(
+            design.blocks,
+            plain.inner().default_observer_design().blocks
+        );
+        assert_eq!(
+            design.open_loop,
+            [
+                GRIP_FRONT,
+                GRIP_REAR,
+                TRANSIENT_SLIP_FRONT,
+                TRANSIENT_SLIP_REAR
+            ]
+        );
     }
 
     /// With a relaxation length the transient slip angles close `T |Vcx| / σ` of their gap to
@@ -890,10 +912,12 @@ mod tests {
         assert!(with_grip < 2.0 && with_grip > 0.5 * true_tyres, "{report}");
     }
 
-    /// Every estimator of the registry but the Luenberger observer runs on the grip model and
-    /// stays finite; the Luenberger observer is refused with a reason.
+    /// Every estimator of the registry runs on the grip model and stays finite (the Luenberger
+    /// observer linearised with the force balance's `vx`, as the FMU runs it: its design
+    /// observes `(vx, ωF, ωR)` through the front wheel speed, which the kinematic `vx` row would
+    /// decouple).
     #[test]
-    fn the_registry_builds_every_estimator_but_luenberger() {
+    fn the_registry_builds_every_estimator() {
         let model = grip_model();
         let truth = truth(300);
         let x5 = SVector::<f64, STATE_DIM>::from([20.0, 0.0, 0.0, 20.0 / 0.3, 20.0 / 0.3]);
@@ -901,19 +925,14 @@ mod tests {
             x5,
             SVector::from([0.25, 0.01, 1e-4, 1.0, 1.0]),
         ));
-        let settings = model.extend_settings(model.anchored().estimator_settings(
-            (x5, SVector::zeros()),
-            true,
-            SigmaPoints::scaled(0.5, 2.0, 0.0),
-            Ok(ParticleFilterConfig::default()),
-        ));
         for &choice in EstimatorChoice::ALL {
-            let built = registry::build(model.clone(), choice, &settings, &start);
-            if choice == EstimatorChoice::Luenberger {
-                assert!(built.unwrap_err().0.contains("grip model"));
-                continue;
-            }
-            let mut filter = built.unwrap();
+            let settings = model.extend_settings(model.anchored().estimator_settings(
+                (x5, SVector::zeros()),
+                choice != EstimatorChoice::Luenberger,
+                SigmaPoints::scaled(0.5, 2.0, 0.0),
+                Ok(ParticleFilterConfig::default()),
+            ));
+            let mut filter = registry::build(model.clone(), choice, &settings, &start).unwrap();
             for (y, u) in truth.measurements.iter().zip(&truth.inputs) {
                 let _ = filter.update(y, u, &[true; ANCHORED_MEASUREMENT_DIM]);
                 let _ = filter.predict(u);

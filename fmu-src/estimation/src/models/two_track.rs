@@ -29,6 +29,7 @@ use vehicle_models::two_track_lateral::{input_index, INPUT_DIM, MEASUREMENT_DIM,
 use vehicle_models::{Integrator, MagicFormulaTyre, TwoTrackLateralModel, TyreModel};
 
 use crate::kalman::{SettingsError, SigmaPoints};
+use crate::luenberger::{DesignBlock, ObserverDesign};
 use crate::particle::ParticleFilterConfig;
 use crate::registry::{EstimatorSettings, OperatingPoint};
 use crate::StateSpaceModel;
@@ -159,10 +160,40 @@ pub fn linear_comparison_point(
 }
 
 impl<T: TyreModel> TwoTrackEstimationModel<T> {
+    /// The observer design for model B (our decision; seed 002 designs the observer for the
+    /// single-track model only, see [`crate::luenberger`]): `β` observed through the lateral
+    /// acceleration and `r` through the yaw rate, as model A's design splits its lateral states
+    /// (the gyro keeps the yaw rate where `ay` no longer depends on the sideslip, at the tyres'
+    /// limit), both with model A's lateral pole `-40 1/s` (continuous time, mapped by
+    /// `z = exp(s T)`). The `ay` state gets no feedback of its own: the model computes it from
+    /// the tyre forces of the sample (001: eq 1), so its error follows those of `β` and `r`
+    /// within the sample and no output observes it apart from them (a block `(β, ay)` through
+    /// `ay` has a singular observability matrix).
+    pub fn default_observer_design(&self) -> ObserverDesign {
+        use nalgebra::Complex;
+        use vehicle_models::two_track_lateral::{measurement_index, state_index};
+        let z = |re: f64| (Complex::new(re, 0.0) * self.sample_time).exp();
+        ObserverDesign {
+            blocks: vec![
+                DesignBlock {
+                    states: vec![state_index::SIDESLIP],
+                    output: measurement_index::LATERAL_ACCELERATION,
+                    poles: vec![z(-40.0)],
+                },
+                DesignBlock {
+                    states: vec![state_index::YAW_RATE],
+                    output: measurement_index::YAW_RATE,
+                    poles: vec![z(-50.0)],
+                },
+            ],
+            open_loop: vec![state_index::LATERAL_ACCELERATION],
+        }
+    }
+
     /// The registry's settings for the 3-state model B: the LKF is the linear single-track
     /// comparison filter of seed 001 about straight driving at `operating_speed`
-    /// ([`linear_comparison_point`]); no Luenberger design is offered (seed 002 designs the
-    /// observer for the single-track model only).
+    /// ([`linear_comparison_point`]), where the Luenberger observer starts too
+    /// ([`Self::default_observer_design`]).
     pub fn estimator_settings(
         &self,
         operating_speed: f64,
@@ -172,10 +203,7 @@ impl<T: TyreModel> TwoTrackEstimationModel<T> {
         EstimatorSettings {
             operating_point: linear_comparison_point(operating_speed),
             scaled_sigma_points,
-            observer_design: Err(SettingsError(String::from(
-                "the Luenberger observer has no design for the 3-state two-track model of seed \
-                 001: seed 002 designs it for the single-track model only",
-            ))),
+            observer_design: Ok(self.default_observer_design()),
             particles,
         }
     }
@@ -338,13 +366,51 @@ mod tests {
             crate::registry::build(model.clone(), choice, &settings, &initial).map(|_| ())
         };
         use crate::registry::EstimatorChoice;
-        assert!(build(EstimatorChoice::Luenberger, 18.0)
-            .unwrap_err()
-            .to_string()
-            .contains("no design"));
+        assert!(build(EstimatorChoice::Luenberger, 18.0).is_ok());
         assert!(build(EstimatorChoice::Lkf, 0.0)
             .unwrap_err()
             .to_string()
             .contains("operating speed"));
+    }
+
+    /// Model B's observer design about straight driving at 65 km/h: the fed-back part of the
+    /// error map `(I − L C) A` (`β`, `r`) has the placed poles up to the coupling
+    /// `dβ/dt = ay/vx − r` (within 2 % of `exp(−40 T)` and `exp(−50 T)`, the slower one not
+    /// slower), `ay` gets no gain, and the whole map is stable.
+    #[test]
+    fn the_observer_design_places_the_lateral_poles_and_leaves_ay_open_loop() {
+        use crate::kalman::LinearisedModel;
+        use crate::luenberger::scheduled_observer_gain;
+        use vehicle_models::two_track_lateral::state_index;
+        let model = TwoTrackEstimationModel::seed_001(0.01).unwrap();
+        let (state, input) = seed_001_operating_point(SEED_001_SPEED);
+        let linear = LinearisedModel::about(&model, &state, &input).unwrap();
+        let design = model.default_observer_design();
+        let gain = scheduled_observer_gain(&linear, &design).unwrap();
+        assert_eq!(gain.row(state_index::LATERAL_ACCELERATION).amax(), 0.0);
+        let error_map = (SMatrix::<f64, STATE_DIM, STATE_DIM>::identity()
+            - gain * linear.output_matrix)
+            * linear.transition;
+        let lateral = [state_index::SIDESLIP, state_index::YAW_RATE];
+        let part = nalgebra::DMatrix::from_fn(2, 2, |i, j| error_map[(lateral[i], lateral[j])]);
+        let mut moduli: Vec<f64> = part
+            .complex_eigenvalues()
+            .iter()
+            .map(|z| z.norm())
+            .collect();
+        moduli.sort_by(f64::total_cmp);
+        let placed = [(-50.0f64 * 0.01).exp(), (-40.0f64 * 0.01).exp()];
+        for (modulus, pole) in moduli.iter().zip(placed) {
+            assert!(
+                (modulus / pole - 1.0).abs() < 0.02,
+                "{moduli:?} against {placed:?}"
+            );
+        }
+        assert!(moduli[1] <= placed[1] * (1.0 + 1e-9), "{moduli:?}");
+        let whole = nalgebra::DMatrix::from_column_slice(3, 3, error_map.as_slice())
+            .complex_eigenvalues()
+            .iter()
+            .fold(0.0f64, |m, z| m.max(z.norm()));
+        assert!(whole < 1.0, "{whole}");
     }
 }
