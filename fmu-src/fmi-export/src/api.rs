@@ -5,6 +5,7 @@
 //! Allowed states per function (FMI 2.0.4, section 4.2.4, table of the Co-Simulation state
 //! machine; StepInProgress/StepCanceled never occur here):
 
+use std::any::TypeId;
 use std::cell::Cell;
 use std::ffi::{c_char, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -12,6 +13,7 @@ use std::sync::Once;
 
 use crate::ffi::*;
 use crate::instance::{c_string, log_message, Instance, MachineState};
+use crate::live;
 use crate::variables::{Causality, ValueType, Variability, VariableInfo, VariableStore};
 use crate::{CoSimulationModel, InstantiationContext, StateReader, StateWriter, StepOutcome};
 
@@ -92,19 +94,21 @@ fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
 /// logging and the transition to Error on fmi2Error.
 ///
 /// # Safety
-/// `c` is null or an instance created by [`instantiate`] for `M` and not yet freed.
+/// No call on the same instance runs concurrently (FMI 2.0.4, 2.1.5). Any `c` is checked
+/// against the live instances ([`crate::live`]).
 unsafe fn with_instance<M: CoSimulationModel>(
     c: Fmi2Component,
     function: &str,
     allowed: u8,
     body: impl FnOnce(&mut Instance<M>) -> Outcome,
 ) -> Fmi2Status {
-    if c.is_null() {
-        // No instance, hence no logger to report through.
+    // Null, freed or not ours: no instance, hence no logger to report through (crate::live).
+    let Some(address) = live::lookup(c, TypeId::of::<M>()) else {
         return Fmi2Status::Error;
-    }
-    // SAFETY: the caller guarantees that a non-null `c` is a live instance of M.
-    let instance = unsafe { &mut *(c as *mut Instance<M>) };
+    };
+    // SAFETY: `live` lists only instances of M from `instantiate` that are not freed yet; the
+    // standard forbids concurrent calls on one instance.
+    let instance = unsafe { &mut *(address as *mut Instance<M>) };
     let result = guarded(|| {
         if instance.state as u8 & allowed == 0 {
             return Outcome::Error(format!(
@@ -235,7 +239,7 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
             "fmi2Instantiate: instance of {} created",
             M::MODEL_IDENTIFIER
         ));
-        Box::into_raw(instance) as Fmi2Component
+        live::register(Box::into_raw(instance) as usize, TypeId::of::<M>())
     });
     result.unwrap_or_else(|message| {
         let label = c_string("");
@@ -253,13 +257,16 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
 /// `fmi2FreeInstance`.
 ///
 /// # Safety
-/// `c` is null or a live instance of `M`, not used afterwards.
+/// No other call on the same instance runs concurrently. Any `c` is checked against the live
+/// instances ([`crate::live`]): a freed or foreign one is ignored.
 pub unsafe fn free_instance<M: CoSimulationModel>(c: Fmi2Component) {
-    if c.is_null() {
+    // Null, freed already or not ours: nothing to free (crate::live).
+    let Some(address) = live::unregister(c, TypeId::of::<M>()) else {
         return;
-    }
-    // SAFETY: created by Box::into_raw in `instantiate`.
-    let instance = unsafe { Box::from_raw(c as *mut Instance<M>) };
+    };
+    // SAFETY: created by Box::into_raw in `instantiate`, and unlisted just now, so this is the
+    // only owner.
+    let instance = unsafe { Box::from_raw(address as *mut Instance<M>) };
     let _ = guarded(move || {
         instance.log_event("fmi2FreeInstance");
         drop(instance);

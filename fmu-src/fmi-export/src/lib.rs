@@ -37,6 +37,10 @@
 //!   does not continue the last step (relative tolerance [`TIME_TOLERANCE`]: masters send
 //!   0.009999999999999998 for 0.01), a step beyond a defined stopTime, setting a fixed parameter
 //!   after initialisation or an output at any time.
+//! - **Stale components.** The `fmi2Component` a master holds is a handle listed with its
+//!   instance ([`live`]): a call with one that is freed already or was never an instance of this
+//!   library answers `fmi2Error` (unlogged: the logger belongs to the instance), and
+//!   `fmi2FreeInstance` ignores it. FMI++ 2.1 frees in `terminate()` and again in its destructor.
 //! - **Logging.** Through the master's logger, always as `logger(env, name, status, category,
 //!   "%s", message)`; categories logEvents, logStatusWarning, logStatusDiscard, logStatusError,
 //!   logStatusFatal, logAll.
@@ -59,6 +63,7 @@ pub mod ffi;
 #[cfg(feature = "testing")]
 pub mod fuzzing;
 mod instance;
+pub mod live;
 mod state;
 #[cfg(feature = "testing")]
 pub mod testing;

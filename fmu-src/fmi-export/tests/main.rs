@@ -4,6 +4,7 @@
 
 mod call_sequences;
 mod setters_and_logging;
+mod stale_components;
 mod state_frames;
 mod toy;
 mod work_per_call;

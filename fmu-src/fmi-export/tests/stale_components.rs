@@ -1,0 +1,73 @@
+//! Calls with a component that is no live instance: freed already, or never one. The standard
+//! leaves them undefined (FMI 2.0.4, 2.1.5); a master makes them anyway. FMI++ 2.1's
+//! `FMUCoSimulation::terminate()` calls fmi2Terminate and fmi2FreeInstance and keeps the pointer,
+//! and its destructor calls both again: with our FMUs that aborted the process (a length read
+//! from the freed instance). Each such call answers fmi2Error, fmi2FreeInstance ignores it, and
+//! an instance created in between is not touched (`fmi_export::live`).
+
+use crate::toy;
+
+use fmi_export::ffi::{Fmi2Component, Fmi2Status, FMI2_TRUE};
+use toy::vr;
+
+#[test]
+fn a_freed_component_answers_error_and_its_second_free_is_ignored() {
+    let mut first = toy::slave();
+    assert_eq!(first.initialize(0.0), Fmi2Status::Ok);
+    assert_eq!(first.do_step(0.0, 0.1), Fmi2Status::Ok);
+    let (api, stale) = (first.api, first.component);
+    // FMI++'s terminate(): both calls, the pointer kept.
+    assert_eq!(first.terminate(), Fmi2Status::Ok);
+    // SAFETY: the component is live here; freed once by this call.
+    unsafe { (api.free_instance)(stale) };
+    // The next object is constructed before the old one's destructor runs.
+    let mut second = toy::slave();
+    assert_ne!(
+        second.component, stale,
+        "a freed component's address is not reused at once"
+    );
+    // The destructor: both calls again, and any other call with the stale component.
+    let mut value = 0.0;
+    // SAFETY: fmi-export checks the component before using it; the pointers are valid.
+    unsafe {
+        assert_eq!((api.terminate)(stale), Fmi2Status::Error);
+        assert_eq!(
+            (api.get_real)(stale, &vr::Y, 1, &mut value),
+            Fmi2Status::Error
+        );
+        assert_eq!((api.set_real)(stale, &vr::U, 1, &1.0), Fmi2Status::Error);
+        assert_eq!((api.do_step)(stale, 0.1, 0.1, FMI2_TRUE), Fmi2Status::Error);
+        assert_eq!((api.reset)(stale), Fmi2Status::Error);
+        (api.free_instance)(stale);
+    }
+    assert_eq!(value, 0.0);
+    // The second instance is untouched: it runs, and nothing was logged to it but its own.
+    assert_eq!(second.initialize(0.0), Fmi2Status::Ok);
+    assert_eq!(second.set_real(vr::U, 1.0), Fmi2Status::Ok);
+    assert_eq!(second.do_step(0.0, 0.1), Fmi2Status::Ok);
+    assert!(second
+        .log
+        .lines()
+        .iter()
+        .all(|line| line.status == Fmi2Status::Ok));
+    // Dropping `first` frees its component a third time: ignored as well.
+    drop(first);
+    assert_eq!(second.do_step(0.1, 0.1), Fmi2Status::Ok);
+}
+
+#[test]
+fn a_component_that_was_never_an_instance_answers_error_and_is_not_written() {
+    let api = fmi_export::fmi2_api_of!(crate::toy);
+    let mut memory = [0u8; 256];
+    let foreign = memory.as_mut_ptr() as Fmi2Component;
+    // SAFETY: fmi-export checks the component before using it.
+    unsafe {
+        assert_eq!((api.terminate)(foreign), Fmi2Status::Error);
+        assert_eq!(
+            (api.do_step)(foreign, 0.0, 0.1, FMI2_TRUE),
+            Fmi2Status::Error
+        );
+        (api.free_instance)(foreign);
+    }
+    assert!(memory.iter().all(|&byte| byte == 0));
+}
