@@ -2,6 +2,7 @@
 # Installs, where missing, what building and testing need on a fresh machine. Idempotent and quiet
 # when there is nothing to do; both README commands call it first.
 #  - libclang: the `fmi` crate (the harness's FMI importer) runs bindgen at build time.
+#  - swig and Boost (Debian): building FMI++'s Python package, the third importer of the tests.
 #  - .venv: the pinned Python packages of tests/requirements.txt (fmpy, filterpy, pytest, ...),
 #    and of packaging/requirements-zig.txt (zig and cargo-zigbuild, for the Linux libraries that
 #    load on glibc 2.17 and newer), installed by uv (packaging/requirements-uv.txt), with pip as
@@ -62,3 +63,24 @@ install_requirements "$root/tests/requirements.txt" "$venv/.requirements"
 "$venv/bin/python" -c 'import site, sys; open(site.getsitepackages()[0] + "/vse_campaign.pth", "w").write(sys.argv[1] + "\n")' "$root/harness/campaign"
 
 install_requirements "$root/packaging/requirements-zig.txt" "$venv/.requirements-zig"
+
+# FMI++ (fmipp), built from its pinned source by packaging/fmipp.sh (SUNDIALS left out).
+fmipp_stamp="$venv/.requirements-fmipp"
+if ! cmp -s "$root/packaging/requirements-fmipp.txt" "$fmipp_stamp" ||
+    ! cmp -s "$root/packaging/fmipp.sh" "$fmipp_stamp.sh"; then
+    missing=()
+    command -v swig >/dev/null || missing+=(swig)
+    [ -e /usr/include/boost/version.hpp ] || missing+=(libboost-dev)
+    compgen -G '/usr/lib/*/libboost_filesystem.so' >/dev/null || missing+=(libboost-filesystem-dev)
+    if [ ${#missing[@]} -gt 0 ]; then
+        echo "setup: installing ${missing[*]} (to build FMI++ for tests/fmipp)" >&2
+        sudo_cmd=""
+        [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
+        $sudo_cmd apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
+    fi
+    echo "setup: building FMI++ (fmipp) into $venv" >&2
+    bash "$root/packaging/fmipp.sh" "$venv"
+    cp "$root/packaging/requirements-fmipp.txt" "$fmipp_stamp"
+    cp "$root/packaging/fmipp.sh" "$fmipp_stamp.sh"
+fi

@@ -224,3 +224,18 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
     for signal in ("yaw_rate", "ay", "omega_front", "omega_rear"):
         parameters[f"measurement_noise_std_{signal}"] = vehicle.start(f"noise_std_{signal}_meas")
     return parameters
+
+
+def assert_bit_identical(rows, plain, names, importer):
+    """Every column of `rows` (from `importer`) equals the plain fmpy loop's bit for bit; the
+    run turned the car and the estimator followed its yaw rate."""
+    assert rows.shape == plain.shape == (len(rows), len(names))
+    for column, name in enumerate(names):
+        differing = np.flatnonzero(rows[:, column].view(np.int64) != plain[:, column].view(np.int64))
+        assert differing.size == 0, \
+            f"{name} differs first at step {differing[0]}: {rows[differing[0], column]!r} " \
+            f"({importer}) vs {plain[differing[0], column]!r} (fmpy)"
+    column = names.index
+    yaw_rate = rows[:, column(f"{VEHICLE}.yaw_rate")]
+    assert yaw_rate[-1] > 0.3
+    assert rmse(rows[-500:, column(f"{ESTIMATOR}.yaw_rate_est")], yaw_rate[-500:]) < 0.01

@@ -1,22 +1,10 @@
-"""Fixtures of the libcosim tests: the packaged archives are found, and required, exactly as the fmpy
-tests do it (tests/fmpy/conftest.py, re-exported here), so a missing archive fails with the
-command that builds it."""
+"""Fixtures of the libcosim tests: the fmpy tests' (tests/fmpy/fixture_export.py)."""
 
-import importlib.util
 import pathlib
 import sys
 
-FMPY_TESTS = pathlib.Path(__file__).resolve().parents[1] / "fmpy"
-sys.path.insert(0, str(FMPY_TESTS))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "fmpy"))
 
-_spec = importlib.util.spec_from_file_location("fmpy_test_fixtures", FMPY_TESTS / "conftest.py")
-_fixtures = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_fixtures)
+from fixture_export import export_fmpy_fixtures  # noqa: E402 (after the path it is found on)
 
-vehicle_fmu = _fixtures.vehicle_fmu
-estimator_fmu = _fixtures.estimator_fmu
-ssp_file = _fixtures.ssp_file
-vehicle = _fixtures.vehicle
-estimator = _fixtures.estimator
-vehicle_dir = _fixtures.vehicle_dir
-estimator_dir = _fixtures.estimator_dir
+export_fmpy_fixtures(globals())
