@@ -1047,10 +1047,38 @@ impl<M: CoSimulationModel> Snapshot<M> {
     }
 }
 
+/// A new FMU state holding `snapshot`: a handle listed in [`crate::live`] like a component, so
+/// that a freed or foreign state is refused rather than read.
+fn new_state<M: CoSimulationModel>(snapshot: Snapshot<M>) -> Fmi2FmuState {
+    live::register(
+        Box::into_raw(Box::new(snapshot)) as usize,
+        TypeId::of::<Snapshot<M>>(),
+    ) as Fmi2FmuState
+}
+
+/// The snapshot of `state` if it is a live FMU state of this FMU, else the error outcome for
+/// `function`.
+///
+/// # Safety
+/// No other call uses the same state concurrently.
+unsafe fn live_state<'a, M: CoSimulationModel>(
+    state: Fmi2FmuState,
+    function: &str,
+) -> Result<&'a mut Snapshot<M>, Outcome> {
+    match live::lookup(state as Fmi2Component, TypeId::of::<Snapshot<M>>()) {
+        // SAFETY: listed, so a Box<Snapshot<M>> from `new_state` that is not freed yet.
+        Some(address) => Ok(unsafe { &mut *(address as *mut Snapshot<M>) }),
+        None => Err(Outcome::Error(format!(
+            "{function}: FMUstate is not an FMU state of this FMU (freed already, or from \
+             elsewhere)"
+        ))),
+    }
+}
+
 /// `fmi2GetFMUstate`: a copy of the whole instance state; overwrites `*state` if non-null.
 ///
 /// # Safety
-/// `state` points to null or to an FMU state of this FMU.
+/// `state` is null or writable. A non-null `*state` is checked against the live FMU states.
 pub unsafe fn get_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: *mut Fmi2FmuState,
@@ -1065,10 +1093,12 @@ pub unsafe fn get_fmu_state<M: CoSimulationModel>(
             instance.model.refresh_outputs();
             let snapshot = Snapshot::of(instance);
             if (*state).is_null() {
-                *state = Box::into_raw(Box::new(snapshot)) as Fmi2FmuState;
+                *state = new_state(snapshot);
             } else {
-                // SAFETY: a non-null *state is an FMU state from this FMU (caller contract).
-                *(*state as *mut Snapshot<M>) = snapshot;
+                match live_state::<M>(*state, "fmi2GetFMUstate") {
+                    Ok(stored) => *stored = snapshot,
+                    Err(outcome) => return outcome,
+                }
             }
             Outcome::Ok
         })
@@ -1079,7 +1109,7 @@ pub unsafe fn get_fmu_state<M: CoSimulationModel>(
 /// state-machine state, so this also recovers from Error).
 ///
 /// # Safety
-/// `state` is null or an FMU state of this FMU.
+/// Any `state` is checked against the live FMU states.
 pub unsafe fn set_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -1089,10 +1119,13 @@ pub unsafe fn set_fmu_state<M: CoSimulationModel>(
             if state.is_null() {
                 return Outcome::Error(String::from("fmi2SetFMUstate: FMUstate is NULL"));
             }
-            // SAFETY: non-null FMU state of this FMU.
-            let snapshot = &*(state as *const Snapshot<M>);
-            snapshot.restore(instance);
-            Outcome::Ok
+            match live_state::<M>(state, "fmi2SetFMUstate") {
+                Ok(snapshot) => {
+                    snapshot.restore(instance);
+                    Outcome::Ok
+                }
+                Err(outcome) => outcome,
+            }
         })
     }
 }
@@ -1100,7 +1133,7 @@ pub unsafe fn set_fmu_state<M: CoSimulationModel>(
 /// `fmi2FreeFMUstate`.
 ///
 /// # Safety
-/// `state` is null or points to null or to an FMU state of this FMU.
+/// `state` is null or writable; a non-null `*state` is checked against the live FMU states.
 pub unsafe fn free_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: *mut Fmi2FmuState,
@@ -1110,11 +1143,20 @@ pub unsafe fn free_fmu_state<M: CoSimulationModel>(
             if state.is_null() {
                 return Outcome::Error(String::from("fmi2FreeFMUstate: FMUstate is NULL"));
             }
-            if !(*state).is_null() {
-                // SAFETY: created by Box::into_raw in get/deserialize.
-                drop(Box::from_raw(*state as *mut Snapshot<M>));
-                *state = std::ptr::null_mut();
+            if (*state).is_null() {
+                return Outcome::Ok;
             }
+            let Some(address) =
+                live::unregister(*state as Fmi2Component, TypeId::of::<Snapshot<M>>())
+            else {
+                return Outcome::Error(String::from(
+                    "fmi2FreeFMUstate: FMUstate is not an FMU state of this FMU (freed already, \
+                     or from elsewhere)",
+                ));
+            };
+            // SAFETY: created by Box::into_raw in `new_state`, unlisted just now.
+            drop(Box::from_raw(address as *mut Snapshot<M>));
+            *state = std::ptr::null_mut();
             Outcome::Ok
         })
     }
@@ -1123,7 +1165,7 @@ pub unsafe fn free_fmu_state<M: CoSimulationModel>(
 /// `fmi2SerializedFMUstateSize`.
 ///
 /// # Safety
-/// `state` is null or an FMU state of this FMU; `size` is null or writable.
+/// `size` is null or writable; any `state` is checked against the live FMU states.
 pub unsafe fn serialized_fmu_state_size<M: CoSimulationModel>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -1136,7 +1178,10 @@ pub unsafe fn serialized_fmu_state_size<M: CoSimulationModel>(
                     "fmi2SerializedFMUstateSize: FMUstate or size is NULL",
                 ));
             }
-            let snapshot = &*(state as *const Snapshot<M>);
+            let snapshot = match live_state::<M>(state, "fmi2SerializedFMUstateSize") {
+                Ok(snapshot) => snapshot,
+                Err(outcome) => return outcome,
+            };
             match snapshot.serialize() {
                 Ok(bytes) => {
                     *size = bytes.len();
@@ -1151,7 +1196,7 @@ pub unsafe fn serialized_fmu_state_size<M: CoSimulationModel>(
 /// `fmi2SerializeFMUstate`: `size` must be what fmi2SerializedFMUstateSize returned.
 ///
 /// # Safety
-/// `bytes` has room for `size` bytes.
+/// `bytes` has room for `size` bytes; any `state` is checked against the live FMU states.
 pub unsafe fn serialize_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: Fmi2FmuState,
@@ -1165,7 +1210,10 @@ pub unsafe fn serialize_fmu_state<M: CoSimulationModel>(
                     "fmi2SerializeFMUstate: FMUstate or serializedState is NULL",
                 ));
             }
-            let snapshot = &*(state as *const Snapshot<M>);
+            let snapshot = match live_state::<M>(state, "fmi2SerializeFMUstate") {
+                Ok(snapshot) => snapshot,
+                Err(outcome) => return outcome,
+            };
             let serialized = match snapshot.serialize() {
                 Ok(bytes) => bytes,
                 Err(message) => return Outcome::Error(format!("fmi2SerializeFMUstate: {message}")),
@@ -1202,7 +1250,7 @@ pub unsafe fn deserialize_fmu_state<M: CoSimulationModel>(
             let slice = std::slice::from_raw_parts(bytes as *const u8, size);
             match Snapshot::<M>::deserialize(slice, &instance.context) {
                 Ok(snapshot) => {
-                    *state = Box::into_raw(Box::new(snapshot)) as Fmi2FmuState;
+                    *state = new_state(snapshot);
                     Outcome::Ok
                 }
                 Err(message) => Outcome::Error(format!("fmi2DeSerializeFMUstate: {message}")),

@@ -41,6 +41,7 @@
 //!   instance ([`live`]): a call with one that is freed already or was never an instance of this
 //!   library answers `fmi2Error` (unlogged: the logger belongs to the instance), and
 //!   `fmi2FreeInstance` ignores it. FMI++ 2.1 frees in `terminate()` and again in its destructor.
+//!   FMU states likewise: a freed or foreign one answers `fmi2Error` with a log line.
 //! - **Logging.** Through the master's logger, always as `logger(env, name, status, category,
 //!   "%s", message)`; categories logEvents, logStatusWarning, logStatusDiscard, logStatusError,
 //!   logStatusFatal, logAll.

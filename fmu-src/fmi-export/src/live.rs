@@ -1,4 +1,5 @@
-//! Which `fmi2Component` values are live instances of this library.
+//! Which `fmi2Component` and `fmi2FMUstate` values are live instances and FMU states of this
+//! library.
 //!
 //! The standard leaves a call with a freed or foreign component undefined (FMI 2.0.4, 2.1.5:
 //! the component is only valid between `fmi2Instantiate` and `fmi2FreeInstance`), and a master
@@ -12,7 +13,9 @@
 //! allocation whose address is unique while it is allocated, listed here with its instance.
 //! Every call looks its component up first; one that is not listed (freed, never ours, of
 //! another model in the same process) answers `fmi2Error`, and `fmi2FreeInstance` ignores it.
-//! Nothing can be logged for it: the logger belongs to the instance.
+//! Nothing can be logged for it: the logger belongs to the instance. FMU states are handles of
+//! the same list, told apart by their type: a freed or foreign state answers `fmi2Error` with a
+//! log line of the instance it was passed to.
 //!
 //! A freed handle is kept in a quarantine of the last [`QUARANTINE`] freed handles before its
 //! memory is released, so that an instance created right after a free (FMI++'s pattern: the

@@ -648,6 +648,11 @@ impl FmuState {
     pub fn is_null(&self) -> bool {
         self.raw.is_null()
     }
+
+    /// The pointer as the master holds it (for tests of stale states).
+    pub fn raw(&self) -> Fmi2FmuState {
+        self.raw
+    }
 }
 
 impl Drop for Slave {

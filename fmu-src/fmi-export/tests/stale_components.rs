@@ -71,3 +71,55 @@ fn a_component_that_was_never_an_instance_answers_error_and_is_not_written() {
     }
     assert!(memory.iter().all(|&byte| byte == 0));
 }
+
+/// FMU states are handles of the same list: a freed state (fmpy's `freeFMUstate` called twice,
+/// or a copy kept after fmi2FreeFMUstate set the master's pointer to NULL), or a component
+/// passed as a state, answers fmi2Error with a log line instead of being read or freed again.
+#[test]
+fn a_freed_or_foreign_fmu_state_answers_error_with_a_message() {
+    let mut s = toy::slave();
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+    let (status, mut state) = s.get_state();
+    assert_eq!(status, Fmi2Status::Ok);
+    let (api, component) = (s.api, s.component);
+    let mut copy = state_pointer(&state);
+    assert_eq!(s.free_state(&mut state), Fmi2Status::Ok);
+    assert!(state.is_null());
+    let mut size = 0usize;
+    // SAFETY: fmi-export checks the state before using it; the other pointers are valid.
+    unsafe {
+        assert_eq!((api.set_fmu_state)(component, copy), Fmi2Status::Error);
+        assert_eq!(s.reset(), Fmi2Status::Ok);
+        assert_eq!(
+            (api.serialized_fmu_state_size)(component, copy, &mut size),
+            Fmi2Status::Error
+        );
+        assert_eq!(s.reset(), Fmi2Status::Ok);
+        assert_eq!(
+            (api.free_fmu_state)(component, &mut copy),
+            Fmi2Status::Error
+        );
+        assert_eq!(s.reset(), Fmi2Status::Ok);
+        let mut foreign = component as fmi_export::ffi::Fmi2FmuState;
+        assert_eq!((api.set_fmu_state)(component, foreign), Fmi2Status::Error);
+        assert_eq!(s.reset(), Fmi2Status::Ok);
+        assert_eq!(
+            (api.free_fmu_state)(component, &mut foreign),
+            Fmi2Status::Error
+        );
+    }
+    assert!(s
+        .log
+        .lines()
+        .iter()
+        .any(|line| line.message.contains("not an FMU state of this FMU")));
+    // The instance itself is intact.
+    assert_eq!(s.reset(), Fmi2Status::Ok);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+    assert_eq!(s.do_step(0.0, 0.1), Fmi2Status::Ok);
+}
+
+/// The raw pointer of a state, as a master keeps it.
+fn state_pointer(state: &fmi_export::testing::FmuState) -> fmi_export::ffi::Fmi2FmuState {
+    state.raw()
+}
