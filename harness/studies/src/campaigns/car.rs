@@ -69,10 +69,29 @@ pub fn estimator_values(car_file: &Path) -> Result<Vec<(String, f64)>> {
         value("cog_to_front_axle")?,
         value("cog_to_rear_axle")?,
     );
-    let per_wheel = mass * GRAVITY / (2.0 * (front + rear));
-    values.push(("wheel_load_front".into(), per_wheel * rear));
-    values.push(("wheel_load_rear".into(), per_wheel * front));
+    values.extend(static_wheel_loads(mass, front, rear));
     Ok(values)
+}
+
+/// The static load of one wheel per axle, `wheel_load_front` Fz_F = m g lR / (2 (lF + lR)) and
+/// `wheel_load_rear` Fz_R = m g lF / (2 (lF + lR)) (model A's constant wheel loads, 000: after
+/// table 5.2), under the names both FMUs give them.
+fn static_wheel_loads(mass: f64, front: f64, rear: f64) -> [(String, f64); 2] {
+    let per_wheel = mass * GRAVITY / (2.0 * (front + rear));
+    [
+        ("wheel_load_front".into(), per_wheel * rear),
+        ("wheel_load_rear".into(), per_wheel * front),
+    ]
+}
+
+/// The static wheel loads of the car of `car_file` ([`estimator_values`]' own), for a
+/// ReferenceVehicle model that takes them as parameters (models 1 and 2: the car files set the
+/// full vehicle's parameters, which computes its loads itself, and would leave the seed car's).
+pub fn static_wheel_load_values(car_file: &Path) -> Result<Vec<(String, f64)>> {
+    Ok(estimator_values(car_file)?
+        .into_iter()
+        .filter(|(name, _)| name.starts_with("wheel_load_"))
+        .collect())
 }
 
 /// [`estimator_values`] as parameter overrides of every instance in `instances`, those the

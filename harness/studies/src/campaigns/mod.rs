@@ -49,10 +49,52 @@ const MAX_AMPLITUDE_DEG: f64 = 270.0;
 pub struct CampaignFile {
     pub base: String,
     pub cars: Vec<String>,
+    /// The ReferenceVehicle models every car runs on, in order; the base scenario's (the car
+    /// file's full vehicle) when not given.
+    #[serde(default = "ReferenceModel::car_files_own")]
+    pub reference_models: Vec<ReferenceModel>,
     #[serde(rename = "manoeuvre")]
     pub manoeuvres: Vec<CampaignManoeuvre>,
     #[serde(skip)]
     pub dir: PathBuf,
+}
+
+/// A ReferenceVehicle model the cars run on: `model` is its `model` parameter's value; `label`
+/// names it in the tables and file names (none for the car files' own full vehicle).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceModel {
+    pub model: i64,
+    #[serde(default)]
+    pub label: Option<String>,
+}
+
+impl ReferenceModel {
+    /// The ReferenceVehicle's full vehicle, the model the car files select.
+    const FULL_VEHICLE: i64 = 3;
+
+    fn car_files_own() -> Vec<Self> {
+        vec![Self {
+            model: Self::FULL_VEHICLE,
+            label: None,
+        }]
+    }
+
+    /// The car's name in the tables on this model: the file's stem, with the label.
+    fn car_label(&self, car_file: &Path) -> String {
+        match &self.label {
+            Some(label) => format!("{} ({label})", car_name(car_file)),
+            None => car_name(car_file),
+        }
+    }
+
+    /// The run's name part: the file's stem, with the label.
+    fn file_label(&self, car_file: &Path) -> String {
+        match &self.label {
+            Some(label) => format!("{}_{}", car_name(car_file), label.replace(' ', "_")),
+            None => car_name(car_file),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -75,6 +117,12 @@ impl CampaignFile {
         let mut file: CampaignFile =
             toml::from_str(&text).with_context(|| format!("campaign file {}", path.display()))?;
         file.dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        if file.reference_models.is_empty() {
+            bail!(
+                "campaign file {}: reference_models is empty; expected at least one ReferenceVehicle model",
+                path.display()
+            );
+        }
         for (i, m) in file.manoeuvres.iter().enumerate() {
             if let Some(source) = &m.amplitude_from {
                 let earlier = file.manoeuvres[..i].iter().any(|e| &e.name == source);
@@ -221,9 +269,25 @@ impl Campaign {
         env: &Environment,
         estimator_fmu: &LoadedFmu,
     ) -> Result<(RunOutput, Vec<Row>)> {
-        let name = car_name(car_file);
+        let reference = &self.file.reference_models[0];
+        self.run_one_on(reference, car_file, m, section, env, estimator_fmu)
+    }
+
+    /// [`Self::run_one`] on the ReferenceVehicle model `reference`: its `model` parameter, and
+    /// for a model other than the full vehicle the car's static wheel loads
+    /// ([`car::static_wheel_load_values`]).
+    pub fn run_one_on(
+        &self,
+        reference: &ReferenceModel,
+        car_file: &Path,
+        m: &CampaignManoeuvre,
+        section: ManoeuvreSection,
+        env: &Environment,
+        estimator_fmu: &LoadedFmu,
+    ) -> Result<(RunOutput, Vec<Row>)> {
+        let name = reference.car_label(car_file);
         let mut scenario = self.base.clone();
-        scenario.name = format!("campaign_{}_{name}", m.name);
+        scenario.name = format!("campaign_{}_{}", m.name, reference.file_label(car_file));
         scenario.manoeuvre = Some(section);
         let vehicle = scenario
             .fmus
@@ -236,6 +300,16 @@ impl Campaign {
                 )
             })?;
         vehicle.parameter_files = vec![car_file.to_string_lossy().into_owned()];
+        if reference.model != ReferenceModel::FULL_VEHICLE {
+            vehicle
+                .parameters
+                .insert("model".into(), toml::Value::Integer(reference.model));
+            for (parameter, value) in car::static_wheel_load_values(car_file)? {
+                vehicle
+                    .parameters
+                    .insert(parameter, toml::Value::Float(value));
+            }
+        }
         scenario.validate()?;
         let overrides = car::estimator_overrides(car_file, &self.estimators, estimator_fmu)?;
         let output = run_scenario(scenario, env, &overrides, false, |_| {})
@@ -316,17 +390,23 @@ pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport
             .collect(),
         seconds: 0.0,
     };
-    for car_entry in &campaign.file.cars {
-        let car_file = campaign.file.dir.join(car_entry);
+    let file = &campaign.file;
+    let runs = file.reference_models.iter().flat_map(|reference| {
+        file.cars
+            .iter()
+            .map(move |car| (reference, file.dir.join(car)))
+    });
+    for (reference, car_file) in runs {
         let mut angles_at_03g: HashMap<String, f64> = HashMap::new();
         for m in &campaign.file.manoeuvres {
             let (section, amplitude) = manoeuvre_section(m, &angles_at_03g)?;
             if let Some(amplitude) = amplitude {
                 report
                     .amplitudes
-                    .push((car_name(&car_file), amplitude.to_degrees()));
+                    .push((reference.car_label(&car_file), amplitude.to_degrees()));
             }
-            let (output, rows) = campaign.run_one(&car_file, m, section, env, &estimator_fmu)?;
+            let (output, rows) =
+                campaign.run_one_on(reference, &car_file, m, section, env, &estimator_fmu)?;
             let is_source = campaign
                 .file
                 .manoeuvres
@@ -337,9 +417,12 @@ pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport
             }
             report.rows.extend(rows);
             if plots {
-                report
-                    .plots
-                    .push(draw(&output, &m.title, &car_name(&car_file), &env.out_dir)?);
+                report.plots.push(draw(
+                    &output,
+                    &m.title,
+                    &reference.car_label(&car_file),
+                    &env.out_dir,
+                )?);
             }
         }
     }
@@ -694,11 +777,14 @@ impl CampaignReport {
         doc.paragraph(format!(
             "Issue 13's campaigns and issue 17 point 5's table: the truth is the ReferenceVehicle's full vehicle \
              (model 3: roll, load transfer, combined-slip MF 5.2 tyres with relaxation) with a real car's parameter \
-             file and series-production sensor noise at 10 ms; every estimator kind on models A and B, and the EKF \
+             file and series-production sensor noise at 10 ms, and (issue 12 point 6's \"both reference models\") \
+             the same car on its model 1 (single track with the seed's HSRI tyres, the car marked `(model 1)`) and \
+             model 2 (two track with load transfer and Magic Formula tyres matched to them, `(model 2)`), both with \
+             the car's static wheel loads; every estimator kind on models A and B, and the EKF \
              and UKF on model A with grip states (A+grip), at the FMU's defaults, told only the car's mass, yaw \
              inertia, axle distances, wheel radii and inertias, brake split and static wheel loads (issue 12 point \
-             6), and not the torques. Cars, manoeuvres and the base scenario: `harness/scenarios/campaigns/`. \
-             {} runs of {} estimators in {:.1} s.",
+             6), and not the torques. Cars, reference models, manoeuvres and the base scenario: \
+             `harness/scenarios/campaigns/`. {} runs of {} estimators in {:.1} s.",
             self.runs().len(),
             self.runs().first().map_or(0, |r| r.len()),
             self.seconds
@@ -822,6 +908,47 @@ mod tests {
             speed_share_inside: 1.0,
             diverged: false,
         }
+    }
+
+    /// `reference_models`: the car files' full vehicle when not given; an empty list is
+    /// refused with the file and the field named; labels mark the car in tables and file names.
+    #[test]
+    fn reference_models_default_to_the_full_vehicle_and_label_the_car() {
+        let dir = std::env::temp_dir().join(format!("campaign_file_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("campaigns.toml");
+        let text = |models: &str| {
+            format!(
+                "base = \"base.toml\"\ncars = [\"car.ssv\"]\n{models}\n[[manoeuvre]]\nname = \"m\"\n\
+                 title = \"t\"\nsection = {{ library = \"seed001_step_steer_40deg\" }}\n"
+            )
+        };
+        std::fs::write(&path, text("")).unwrap();
+        let file = CampaignFile::from_file(&path).unwrap();
+        assert_eq!(file.reference_models, ReferenceModel::car_files_own());
+        std::fs::write(&path, text("reference_models = []")).unwrap();
+        let error = format!("{:#}", CampaignFile::from_file(&path).unwrap_err());
+        assert!(
+            error.contains("reference_models") && error.contains(&path.display().to_string()),
+            "{error}"
+        );
+        std::fs::write(
+            &path,
+            text("reference_models = [{ model = 1, label = \"model 1\" }]"),
+        )
+        .unwrap();
+        let file = CampaignFile::from_file(&path).unwrap();
+        let car = Path::new("cars/ford_escort.ssv");
+        assert_eq!(
+            file.reference_models[0].car_label(car),
+            "ford_escort (model 1)"
+        );
+        assert_eq!(
+            file.reference_models[0].file_label(car),
+            "ford_escort_model_1"
+        );
+        assert_eq!(file.reference_models[0].model, 1);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
