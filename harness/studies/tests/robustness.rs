@@ -86,7 +86,14 @@ fn campaign_rows(car: &str, manoeuvre: &str) -> Vec<Row> {
         .manoeuvre(manoeuvre)
         .unwrap_or_else(|e| panic!("the shipped campaigns: {e}"));
     let (_, rows) = campaign
-        .run_one(&car, manoeuvre, manoeuvre.section.clone(), &env, &fmu)
+        .run_one(
+            campaign.first_reference(),
+            &car,
+            manoeuvre,
+            manoeuvre.section.clone(),
+            &env,
+            &fmu,
+        )
         .unwrap_or_else(|e| panic!("{} on {} runs: {e}", manoeuvre.name, car.display()));
     assert_eq!(rows.len(), campaign.estimators.len());
     assert!(rows.iter().all(|r| !r.diverged), "{rows:#?}");

@@ -259,24 +259,16 @@ impl Campaign {
         )
     }
 
-    /// Manoeuvre `m` (with its [manoeuvre] `section`) on the car of `car_file` through the
-    /// master: the run and one [`Row`] per estimator.
-    pub fn run_one(
-        &self,
-        car_file: &Path,
-        m: &CampaignManoeuvre,
-        section: ManoeuvreSection,
-        env: &Environment,
-        estimator_fmu: &LoadedFmu,
-    ) -> Result<(RunOutput, Vec<Row>)> {
-        let reference = &self.file.reference_models[0];
-        self.run_one_on(reference, car_file, m, section, env, estimator_fmu)
+    /// The campaign's first reference model (the car files' full vehicle in the shipped one).
+    pub fn first_reference(&self) -> &ReferenceModel {
+        &self.file.reference_models[0]
     }
 
-    /// [`Self::run_one`] on the ReferenceVehicle model `reference`: its `model` parameter, and
-    /// for a model other than the full vehicle the car's static wheel loads
-    /// ([`car::static_wheel_load_values`]).
-    pub fn run_one_on(
+    /// Manoeuvre `m` (with its [manoeuvre] `section`) on the car of `car_file` on the
+    /// ReferenceVehicle model `reference` through the master: the run and one [`Row`] per
+    /// estimator. For a model other than the full vehicle the vehicle gets that `model` and the
+    /// car's static wheel loads ([`car::static_wheel_load_values`]).
+    pub fn run_one(
         &self,
         reference: &ReferenceModel,
         car_file: &Path,
@@ -350,6 +342,7 @@ impl Campaign {
         if let Some(source) = &m.amplitude_from {
             let earlier = self.manoeuvre(source)?;
             let (output, _) = self.run_one(
+                self.first_reference(),
                 car_file,
                 earlier,
                 earlier.section.clone(),
@@ -359,7 +352,16 @@ impl Campaign {
             angles_at_03g.insert(source.clone(), angle_at_03g(&output.result, "vehicle.ay")?);
         }
         let (section, _) = manoeuvre_section(m, &angles_at_03g)?;
-        Ok(self.run_one(car_file, m, section, env, estimator_fmu)?.1)
+        Ok(self
+            .run_one(
+                self.first_reference(),
+                car_file,
+                m,
+                section,
+                env,
+                estimator_fmu,
+            )?
+            .1)
     }
 }
 
@@ -406,7 +408,7 @@ pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport
                     .push((reference.car_label(&car_file), amplitude.to_degrees()));
             }
             let (output, rows) =
-                campaign.run_one_on(reference, &car_file, m, section, env, &estimator_fmu)?;
+                campaign.run_one(reference, &car_file, m, section, env, &estimator_fmu)?;
             let is_source = campaign
                 .file
                 .manoeuvres
