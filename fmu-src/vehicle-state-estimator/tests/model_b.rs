@@ -1,7 +1,7 @@
 //! The VehicleStateEstimator with `model = 2` (the 3-state seed-001 form) through its C ABI, fed
 //! by a model-B reference vehicle (two-track, Magic Formula) with ESP-like sensor noise generated
-//! here: the Kalman estimators track the sideslip, the outputs follow the XML descriptions,
-//! unsupported combinations are refused at initialisation, FMU states continue bit-identically.
+//! here: the Kalman estimators and the Luenberger observer track the sideslip, the outputs
+//! follow the XML descriptions, FMU states continue bit-identically.
 
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
