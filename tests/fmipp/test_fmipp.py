@@ -27,21 +27,6 @@ STEPS = 2500
 TIME_RESOLUTION = 1e-9
 
 
-def steering(t):
-    """The seed-000 steering ramp started at 0 and held at the high-ay angle (as the libcosim
-    test): the comparison covers a transient, not a steady state."""
-    return min(support.STEER_RAMP_RATE * t, support.HIGH_RAMP_ANGLE)
-
-
-def sensor_connections(vehicle, estimator):
-    return [name for name in vehicle.names("output") if name in estimator.names("input")]
-
-
-def compared_outputs(interface):
-    return [v for v in interface.description.modelVariables
-            if v.causality == "output" and v.type in ("Real", "Integer")]
-
-
 def test_fmipp_terminate_and_its_destructor_free_twice_and_the_process_survives(
         vehicle_fmu, estimator_fmu, tmp_path):
     runner = pathlib.Path(__file__).with_name("fmipp_terminate_runner.py")
@@ -72,7 +57,7 @@ class FmippSlave:
 
     def outputs(self):
         row = []
-        for variable in compared_outputs(self.interface):
+        for variable in support.compared_outputs(self.interface):
             if variable.type == "Real":
                 row.append(self.fmu.getRealValue(variable.name))
             else:
@@ -84,10 +69,10 @@ class FmippSlave:
 def fmipp_run(vehicle, estimator, vehicle_fmu, estimator_fmu, directory):
     car = FmippSlave(vehicle, vehicle_fmu, directory, "car")
     filt = FmippSlave(estimator, estimator_fmu, directory, "filter")
-    sensors = sensor_connections(vehicle, estimator)
+    sensors = support.sensor_connections(vehicle, estimator)
     rows, t = [], 0.0
     for _ in range(STEPS):
-        angle = steering(t)
+        angle = support.equivalence_steering(t)
         car.set("steering_angle", angle)
         car.step(t)
         filt.set("steering_angle", angle)
@@ -97,13 +82,6 @@ def fmipp_run(vehicle, estimator, vehicle_fmu, estimator_fmu, directory):
         rows.append(car.outputs() + filt.outputs())
         t += STEP  # FMI++'s own clock (FMUCoSimulation::doStep: time_ += communicationStepSize)
     return np.array(rows)
-
-
-def read_outputs(slave):
-    outputs = compared_outputs(slave.interface)
-    reals = [x.valueReference for x in outputs if x.type == "Real"]
-    integers = [x.valueReference for x in outputs if x.type == "Integer"]
-    return list(slave.fmu.getReal(reals)) + [float(i) for i in slave.fmu.getInteger(integers)]
 
 
 def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
@@ -116,16 +94,16 @@ def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
         slave.fmu.enterInitializationMode()
         slave.fmu.exitInitializationMode()
         slave.initialised = True
-    sensors = sensor_connections(vehicle, estimator)
+    sensors = support.sensor_connections(vehicle, estimator)
     rows, t = [], 0.0
     for _ in range(STEPS):
-        angle = steering(t)
+        angle = support.equivalence_steering(t)
         car.set({"steering_angle": angle})
         car.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=STEP)
         filt.set({"steering_angle": angle})
         filt.set(dict(zip(sensors, car.fmu.getReal(car.real_references(sensors)))))
         filt.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=STEP)
-        rows.append(read_outputs(car) + read_outputs(filt))
+        rows.append(support.read_outputs(car) + support.read_outputs(filt))
         t += STEP
     for slave in (car, filt):
         slave.free()
@@ -136,7 +114,6 @@ def test_fmipp_and_an_fmpy_loop_give_bit_identical_outputs(
         vehicle, estimator, vehicle_fmu, estimator_fmu, vehicle_dir, estimator_dir, tmp_path):
     cosim = fmipp_run(vehicle, estimator, vehicle_fmu, estimator_fmu, tmp_path)
     plain = fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir)
-    names = [f"{support.VEHICLE}.{x.name}" for x in compared_outputs(vehicle)] + \
-        [f"{support.ESTIMATOR}.{x.name}" for x in compared_outputs(estimator)]
+    names = support.compared_output_names(vehicle, estimator)
     assert len(cosim) == STEPS
     support.assert_bit_identical(cosim, plain, names, "FMI++")

@@ -226,6 +226,40 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
     return parameters
 
 
+# The coupled run the importer tests (tests/libcosim, tests/fmipp) compare with a plain fmpy loop.
+
+def equivalence_steering(t):
+    """The seed-000 steering ramp started at 0 and held at the high-ay angle: the car turns harder
+    for 1.7 s, so the comparison covers a transient, not a steady state."""
+    return min(STEER_RAMP_RATE * t, HIGH_RAMP_ANGLE)
+
+
+def compared_outputs(interface):
+    """Every Real and Integer output, in model-description order."""
+    return [v for v in interface.description.modelVariables
+            if v.causality == "output" and v.type in ("Real", "Integer")]
+
+
+def compared_output_names(vehicle, estimator):
+    """The columns of a comparison row: both FMUs' compared outputs, qualified."""
+    return [f"{VEHICLE}.{x.name}" for x in compared_outputs(vehicle)] + \
+        [f"{ESTIMATOR}.{x.name}" for x in compared_outputs(estimator)]
+
+
+def sensor_connections(vehicle, estimator):
+    """The reference's outputs that are estimator inputs of the same name."""
+    return [name for name in vehicle.names("output") if name in estimator.names("input")]
+
+
+def read_outputs(slave):
+    """The compared outputs of a `Slave`, Integers as floats."""
+    outputs = compared_outputs(slave.interface)
+    reals = [x.valueReference for x in outputs if x.type == "Real"]
+    integers = [x.valueReference for x in outputs if x.type == "Integer"]
+    values = slave.fmu.getReal(reals) if reals else []
+    return list(values) + [float(i) for i in (slave.fmu.getInteger(integers) if integers else [])]
+
+
 def assert_bit_identical(rows, plain, names, importer):
     """Every column of `rows` (from `importer`) equals the plain fmpy loop's bit for bit; the
     run turned the car and the estimator followed its yaw rate."""

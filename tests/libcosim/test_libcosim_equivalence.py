@@ -34,24 +34,9 @@ STEP_NS = 1_000_000
 STEPS = 2500
 
 
-def steering(t):
-    """The seed-000 steering ramp started at 0 and held at the high-ay angle: the car turns harder
-    for 1.7 s, so the comparison covers a transient, not a steady state."""
-    return min(support.STEER_RAMP_RATE * t, support.HIGH_RAMP_ANGLE)
-
-
 def seconds(nanoseconds):
     # libcosim's to_double_time_point: a double division of the integer nanosecond count.
     return nanoseconds / 1e9
-
-
-def compared_outputs(interface):
-    return [v for v in interface.description.modelVariables
-            if v.causality == "output" and v.type in ("Real", "Integer")]
-
-
-def sensor_connections(vehicle, estimator):
-    return [name for name in vehicle.names("output") if name in estimator.names("input")]
 
 
 def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
@@ -64,7 +49,7 @@ def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
         index[name] = execution.add_local_slave(CosimLocalSlave(str(path), name))
         assert index[name] >= 0, f"libcosim could not load {path}"
     v, e = index[support.VEHICLE], index[support.ESTIMATOR]
-    for name in sensor_connections(vehicle, estimator):
+    for name in support.sensor_connections(vehicle, estimator):
         status = execution.connect_real_variables(v, vehicle.vr(name), e, estimator.vr(name))
         assert status == CosimConstants.success, f"libcosim could not connect {name}"
     observer = CosimObserver.create_last_value()
@@ -73,14 +58,14 @@ def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
     assert execution.add_manipulator(driver)
     rows = []
     for n in range(STEPS):
-        angle = steering(seconds(n * STEP_NS))
+        angle = support.equivalence_steering(seconds(n * STEP_NS))
         for slave, interface in ((v, vehicle), (e, estimator)):
             assert driver.slave_real_values(slave, [interface.vr("steering_angle")], [angle])
         assert execution.step(), execution.status()
         assert execution.status().current_time == (n + 1) * STEP_NS
         row = []
         for slave, interface in ((v, vehicle), (e, estimator)):
-            outputs = compared_outputs(interface)
+            outputs = support.compared_outputs(interface)
             reals = [x.valueReference for x in outputs if x.type == "Real"]
             integers = [x.valueReference for x in outputs if x.type == "Integer"]
             row += observer.last_real_values(slave, reals)
@@ -89,19 +74,11 @@ def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
     return np.array(rows)
 
 
-def read_outputs(slave):
-    outputs = compared_outputs(slave.interface)
-    reals = [x.valueReference for x in outputs if x.type == "Real"]
-    integers = [x.valueReference for x in outputs if x.type == "Integer"]
-    values = slave.fmu.getReal(reals) if reals else []
-    return list(values) + [float(i) for i in (slave.fmu.getInteger(integers) if integers else [])]
-
-
 def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
     """The same system as plain fmpy calls in libcosim's order (module docstring)."""
     car = support.Slave(vehicle, vehicle_dir, support.VEHICLE)
     filt = support.Slave(estimator, estimator_dir, support.ESTIMATOR)
-    sensors = sensor_connections(vehicle, estimator)
+    sensors = support.sensor_connections(vehicle, estimator)
 
     def transfer():
         filt.set(dict(zip(sensors, car.fmu.getReal(car.real_references(sensors)))))
@@ -117,12 +94,12 @@ def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
     transfer()
     rows = []
     for n in range(STEPS):
-        angle = steering(seconds(n * STEP_NS))
+        angle = support.equivalence_steering(seconds(n * STEP_NS))
         for slave in (car, filt):
             slave.set({"steering_angle": angle})
             slave.fmu.doStep(currentCommunicationPoint=seconds(n * STEP_NS),
                              communicationStepSize=seconds(STEP_NS))
-        rows.append(read_outputs(car) + read_outputs(filt))
+        rows.append(support.read_outputs(car) + support.read_outputs(filt))
         transfer()
     for slave in (car, filt):
         slave.free()
@@ -148,7 +125,6 @@ def test_libcosim_and_an_fmpy_loop_give_bit_identical_outputs(
         vehicle, estimator, vehicle_fmu, estimator_fmu, vehicle_dir, estimator_dir):
     cosim = libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu)
     plain = fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir)
-    names = [f"{support.VEHICLE}.{x.name}" for x in compared_outputs(vehicle)] + \
-        [f"{support.ESTIMATOR}.{x.name}" for x in compared_outputs(estimator)]
+    names = support.compared_output_names(vehicle, estimator)
     assert len(cosim) == STEPS
     support.assert_bit_identical(cosim, plain, names, "libcosim")

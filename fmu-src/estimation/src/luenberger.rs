@@ -50,7 +50,8 @@ use nalgebra::{Complex, DMatrix, DVector, SMatrix, SVector};
 
 use crate::kalman::linearised::{restored_linearisation, save_operating_point};
 use crate::kalman::{
-    finite_or_restore, joseph_update, InitialEstimate, LinearisedModel, SettingsError,
+    discrete_poles, finite_or_restore, joseph_update, InitialEstimate, LinearisedModel,
+    SettingsError,
 };
 use crate::linalg::{check_covariance, symmetrize};
 use crate::running::Restored;
@@ -67,6 +68,27 @@ pub struct DesignBlock {
     pub output: usize,
     /// Desired discrete poles, one per state of the block; complex ones in conjugate pairs.
     pub poles: Vec<Complex<f64>>,
+}
+
+impl DesignBlock {
+    /// A block with real continuous-time poles `continuous` (1/s), mapped to discrete ones for
+    /// `sample_time` by [`discrete_poles`].
+    pub fn real_poles(
+        states: Vec<usize>,
+        output: usize,
+        continuous: &[f64],
+        sample_time: f64,
+    ) -> Self {
+        let poles = continuous
+            .iter()
+            .map(|&pole| discrete_poles([Complex::new(pole, 0.0)], sample_time)[0])
+            .collect();
+        Self {
+            states,
+            output,
+            poles,
+        }
+    }
 }
 
 /// How the observer gain is placed: the blocks and the open-loop states together must cover
@@ -187,7 +209,7 @@ pub fn observer_gain<const N: usize, const M: usize, const U: usize>(
     linear: &LinearisedModel<N, M, U>,
     design: &ObserverDesign,
 ) -> Result<SMatrix<f64, N, M>, SettingsError> {
-    place_gain(linear, design, true)
+    place_gain(linear, design, true).map(|(gain, _)| gain)
 }
 
 /// The gain of `design` on a linearisation whose blocks may be coupled, as gain scheduling
@@ -220,7 +242,7 @@ fn blockwise_observer_gain<const N: usize, const M: usize, const U: usize>(
     linear: &LinearisedModel<N, M, U>,
     design: &ObserverDesign,
 ) -> Result<SMatrix<f64, N, M>, SettingsError> {
-    let gain = place_gain(linear, design, false)?;
+    let (gain, open_loop) = place_gain(linear, design, false)?;
     let error_map =
         (SMatrix::<f64, N, N>::identity() - gain * linear.output_matrix) * linear.transition;
     let placed = design.poles().iter().fold(0.0f64, |m, z| m.max(z.norm()));
@@ -238,7 +260,6 @@ fn blockwise_observer_gain<const N: usize, const M: usize, const U: usize>(
     }
     // With states left open loop (stable, place_gain checked), the whole error map no slower
     // than they are on their own (the design cannot make it faster) or than the placed poles.
-    let open_loop = sub_radius(&linear.transition, |s| design.open_loop.contains(&s));
     let radius = spectral_radius(&error_map);
     if radius <= placed.max(open_loop) * (1.0 + STABILITY_MARGIN) {
         Ok(gain)
@@ -284,7 +305,8 @@ fn dwell_samples(design: &ObserverDesign) -> u64 {
     (DWELL_TIME_CONSTANTS * time_constant).ceil().max(1.0) as u64
 }
 
-/// The spectral radius of the square part of `matrix` on the states `keep` selects (0 for none).
+/// The spectral radius of the square part of `matrix` on the states `keep` selects (0 for none),
+/// as a dynamic matrix: the eigenvalue routine needs dimension bounds a const N lacks.
 fn sub_radius<const N: usize>(matrix: &SMatrix<f64, N, N>, keep: impl Fn(usize) -> bool) -> f64 {
     let states: Vec<usize> = (0..N).filter(|&s| keep(s)).collect();
     if states.is_empty() {
@@ -300,20 +322,17 @@ fn sub_radius<const N: usize>(matrix: &SMatrix<f64, N, N>, keep: impl Fn(usize) 
 
 /// The largest modulus of the eigenvalues of `matrix`.
 fn spectral_radius<const N: usize>(matrix: &SMatrix<f64, N, N>) -> f64 {
-    // As a dynamic matrix: the eigenvalue routine needs dimension bounds a const N lacks.
-    DMatrix::from_column_slice(N, N, matrix.as_slice())
-        .complex_eigenvalues()
-        .iter()
-        .fold(0.0f64, |largest, z| largest.max(z.norm()))
+    sub_radius(matrix, |_| true)
 }
 
 /// Places the gain of `design` block by block; with `decoupled`, refuses blocks that are
-/// coupled in the linear model.
+/// coupled in the linear model. Also returns the spectral radius of the open-loop states' part
+/// of `A` (0 without them), which must be below 1.
 fn place_gain<const N: usize, const M: usize, const U: usize>(
     linear: &LinearisedModel<N, M, U>,
     design: &ObserverDesign,
     decoupled: bool,
-) -> Result<SMatrix<f64, N, M>, SettingsError> {
+) -> Result<(SMatrix<f64, N, M>, f64), SettingsError> {
     let a = &linear.transition;
     let ca = linear.output_matrix * a;
     check_design::<N, M>(design)?;
@@ -343,7 +362,7 @@ fn place_gain<const N: usize, const M: usize, const U: usize>(
             gain[(s, block.output)] = h * block_gain[i];
         }
     }
-    Ok(gain)
+    Ok((gain, open_loop))
 }
 
 /// Every block's output and poles are valid and the blocks cover every state exactly once.

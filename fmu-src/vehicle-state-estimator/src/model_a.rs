@@ -11,7 +11,7 @@ use estimation::models::single_track::{
     AX_INPUT, AX_VALID_INPUT, VX_ROW,
 };
 use estimation::models::unknown_torques;
-use estimation::registry::{EstimatorChoice, EstimatorSettings};
+use estimation::registry::EstimatorSettings;
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::{index as input_index, INPUT_DIM};
@@ -172,13 +172,9 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         // The LKF predicts vx by the kinematics when the speed is measured. The Luenberger
         // observer keeps seed 000's linearisation: its design observes (vx, ωF, ωR) through the
         // front wheel speed alone, which the kinematic vx row would decouple (ωR unobservable).
-        let luenberger = matches!(
-            parameters::estimator_choice(v),
-            Ok((_, EstimatorChoice::Luenberger))
-        );
         self.estimator_settings(
             (operating_state, SVector::zeros()),
-            v.use_speed_measurements && !luenberger,
+            v.use_speed_measurements && !parameters::runs_luenberger(v),
             parameters::scaled_sigma_points(v),
             parameters::particle_config(v),
         )

@@ -146,12 +146,10 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             // (vx, ωF, ωR) through the front wheel speed, and wheels that keep their slip
             // whatever the speed would leave them unobservable)
             .map(|model| {
-                let luenberger = matches!(
-                    parameters::estimator_choice(v),
-                    Ok((_, EstimatorChoice::Luenberger))
-                );
                 model.with_unknown_torques(
-                    v.use_speed_measurements && v.unknown_torque_slip_std > 0.0 && !luenberger,
+                    v.use_speed_measurements
+                        && v.unknown_torque_slip_std > 0.0
+                        && !parameters::runs_luenberger(v),
                 )
             })
             .map_err(|error| format!("estimator set-up: {}", error.0))

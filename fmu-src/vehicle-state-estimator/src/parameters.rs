@@ -33,6 +33,12 @@ pub fn estimator_choice(v: &Variables) -> Result<(EstimatorKind, EstimatorChoice
     Ok((kind, choice))
 }
 
+/// Whether the `estimator` parameter selects the Luenberger observer, which keeps seed 000's
+/// wheels and linearisation on the single-track models (see `model_a` and `model_grip`).
+pub fn runs_luenberger(v: &Variables) -> bool {
+    matches!(estimator_choice(v), Ok((_, EstimatorChoice::Luenberger)))
+}
+
 /// The discretisation of the estimator's model.
 pub fn integrator(v: &Variables) -> Result<Integrator, String> {
     Ok(

@@ -117,30 +117,32 @@ impl<T: TyreModel> SingleTrackEstimationModel<T> {
     /// about -10 1/s, wheel spin about -110 and -370 1/s, the free-rolling speed mode neutral),
     /// in the spirit of seed 002's "observer poles a multiple of the system's eigenvalues".
     pub fn default_observer_design(&self) -> ObserverDesign {
-        use nalgebra::Complex;
         use vehicle_models::single_track::measurement_index;
-        let z = |re: f64| (Complex::new(re, 0.0) * self.sample_time).exp();
+        let t = self.sample_time;
         ObserverDesign {
             blocks: vec![
-                DesignBlock {
-                    states: vec![state_index::VY],
-                    output: measurement_index::LATERAL_ACCELERATION,
-                    poles: vec![z(-40.0)],
-                },
-                DesignBlock {
-                    states: vec![state_index::YAW_RATE],
-                    output: measurement_index::YAW_RATE,
-                    poles: vec![z(-40.0)],
-                },
-                DesignBlock {
-                    states: vec![
+                DesignBlock::real_poles(
+                    vec![state_index::VY],
+                    measurement_index::LATERAL_ACCELERATION,
+                    &[-40.0],
+                    t,
+                ),
+                DesignBlock::real_poles(
+                    vec![state_index::YAW_RATE],
+                    measurement_index::YAW_RATE,
+                    &[-40.0],
+                    t,
+                ),
+                DesignBlock::real_poles(
+                    vec![
                         state_index::VX,
                         state_index::OMEGA_FRONT,
                         state_index::OMEGA_REAR,
                     ],
-                    output: measurement_index::OMEGA_FRONT,
-                    poles: vec![z(-30.0), z(-250.0), z(-400.0)],
-                },
+                    measurement_index::OMEGA_FRONT,
+                    &[-30.0, -250.0, -400.0],
+                    t,
+                ),
             ],
             open_loop: Vec::new(),
         }
