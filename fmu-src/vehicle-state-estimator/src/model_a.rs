@@ -79,6 +79,12 @@ pub(crate) fn speed_measurements(v: &Variables, sensors: &Sensors) -> (Option<f6
     (vx, ax)
 }
 
+impl ReportsFilteredSpeed<STATE_DIM> for ModelA {
+    fn single_track(&self) -> &SingleTrackModel<HsriTyre> {
+        self.vehicle()
+    }
+}
+
 impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelA {
     type Extra = SpeedFilter;
 
@@ -189,12 +195,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         runner: &mut RunnerA,
         sensors: &Sensors,
     ) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32> {
-        let mut sample = anchored_sample(runner, sensors);
-        match &mut sample {
-            Ok(sample) => sample.bits |= step_reported_speed(runner, sensors),
-            Err(_) => runner.extra = SpeedFilter::measured(runner.extra.value),
-        }
-        sample
+        reported_speed_sample(runner, sensors)
     }
 
     /// `|ay| <= 1.5 g`, wheel speeds up to 1000 rad/s, `|vx| <= 100 m/s`, and no row of an
@@ -375,11 +376,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     /// The filter's outputs, with the reported speed's while it filters
     /// ([`step_reported_speed`]).
     fn outputs(&self, sample: &OutputSample<STATE_DIM, SpeedFilter>, _: &Variables) -> RealOutputs {
-        let values = estimate_outputs(self, sample);
-        match sample.extra.std() {
-            Some(std) => at_reported_speed(values, sample.extra.ahead, std),
-            None => values,
-        }
+        at_reported_speed(estimate_outputs(self, sample), &sample.extra)
     }
 
     /// `d/dt atan(w / vx)` of the rear axle's lateral velocity `w = vy − lR r` (000: 5.22), from
@@ -407,6 +404,32 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     }
 }
 
+/// A model built on model A that reports the speed of [`step_reported_speed`]: model A, and the
+/// grip model of `model_grip`.
+pub(crate) trait ReportsFilteredSpeed<const N: usize>:
+    EstimationModel<N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM, Extra = SpeedFilter>
+{
+    /// The model's single-track vehicle (model A's, whose first five states the model shares).
+    fn single_track(&self) -> &SingleTrackModel<HsriTyre>;
+}
+
+/// Model A's sample ([`anchored_sample`]) and one step of its reported speed
+/// ([`step_reported_speed`]); while the filter holds, the speed filter restarts at its value.
+pub(crate) fn reported_speed_sample<Model, const N: usize>(
+    runner: &mut Runner<Model, N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+    sensors: &Sensors,
+) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32>
+where
+    Model: ReportsFilteredSpeed<N>,
+{
+    let mut sample = anchored_sample(runner, sensors);
+    match &mut sample {
+        Ok(sample) => sample.bits |= step_reported_speed(runner, sensors),
+        Err(_) => runner.extra = SpeedFilter::measured(runner.extra.value),
+    }
+    sample
+}
+
 /// Model A's reported speed (issue 12 point 1). Model A's own `vx` is a state of its force
 /// balance, and with the torques unknown it is where the model's error of the tyre forces goes:
 /// braked or spinning wheels whose slip the HSRI combined slip reads as lost side force pull it
@@ -421,7 +444,13 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
 /// seeds' `use_speed_measurements = false`, no measured speed to start from, `ax` or `vx_meas`
 /// missing for longer than [`crate::speed_filter::HELD_AX_TIME`]) the filter stops and model A
 /// reports its own speed. Returns the speed filter's status bits.
-fn step_reported_speed(runner: &mut RunnerA, sensors: &Sensors) -> i32 {
+fn step_reported_speed<Model, const N: usize>(
+    runner: &mut Runner<Model, N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+    sensors: &Sensors,
+) -> i32
+where
+    Model: ReportsFilteredSpeed<N>,
+{
     let (measured, ax) = speed_measurements(&runner.parameters, sensors);
     let measured = measured.filter(|&speed| speed >= runner.min_speed);
     let sample = SpeedSample::at(
@@ -444,18 +473,28 @@ fn step_reported_speed(runner: &mut RunnerA, sensors: &Sensors) -> i32 {
 /// ([`SpeedSample`]): `vy = vx tan β` at the filter's speed, its variance as reported, with the
 /// rear stiffness's consider term `σ |αR| vx` (`αR` the model's kinematic slip, 000: 5.22) and
 /// the Luenberger observer's innovation scaling.
-fn lateral_motion(runner: &RunnerA) -> (f64, f64, f64) {
+fn lateral_motion<Model, const N: usize>(
+    runner: &Runner<Model, N, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>,
+) -> (f64, f64, f64)
+where
+    Model: ReportsFilteredSpeed<N>,
+{
     let state = runner.filter.state();
     let (vx, vy, yaw_rate) = (
         state[state_index::VX],
         state[state_index::VY],
         state[state_index::YAW_RATE],
     );
-    let body = state.data.0[0];
+    let body: [f64; STATE_DIM] = std::array::from_fn(|i| state[i]);
     let driver = runner.input.fixed_rows::<INPUT_DIM>(0).into_owned().data.0[0];
-    let [_, rear] = runner.model.vehicle().kinematic_slip(&body, &driver);
+    let [_, rear] = runner.model.single_track().kinematic_slip(&body, &driver);
     let rear_slip = rear.tan_slip_angle.atan();
-    let consider = stiffness_consider(&runner.parameters, rear_slip) * vx;
+    // Not where the filter's covariance carries the tyres' scale (its runner adds no such term).
+    let consider = if Model::estimates_tyre_scale(runner.choice()) {
+        0.0
+    } else {
+        stiffness_consider(&runner.parameters, rear_slip) * vx
+    };
     let variance = (runner.filter.covariance()[(state_index::VY, state_index::VY)]
         + consider * consider)
         * runner.covariance_scale();
@@ -463,9 +502,14 @@ fn lateral_motion(runner: &RunnerA) -> (f64, f64, f64) {
     (yaw_rate, runner.extra.value * sideslip.tan(), variance)
 }
 
-/// `values` at the reported speed `vx` (std `vx_std`): `vy = vx tan β` with the filter's β,
-/// its std propagated to first order from both.
-fn at_reported_speed(mut values: RealOutputs, vx: f64, vx_std: f64) -> RealOutputs {
+/// `values` at the speed filter's reported speed while it filters (its one-step prediction,
+/// std from its variance): `vy = vx tan β` with the filter's β, its std propagated to first
+/// order from both. Unchanged while it does not filter.
+pub(crate) fn at_reported_speed(mut values: RealOutputs, speed: &SpeedFilter) -> RealOutputs {
+    let Some(vx_std) = speed.std() else {
+        return values;
+    };
+    let vx = speed.ahead;
     let (tan, cos) = (values.sideslip_est.tan(), values.sideslip_est.cos());
     values.vx_est = vx;
     values.vx_std = vx_std;

@@ -1,7 +1,7 @@
 //! Model 3: model A with per-axle lateral grip states (`SingleTrackGripModel` of the estimation
 //! crate, issue 17 points 3 and 4) as the FMU runs it. Everything the grip states do not change
 //! is model A's ([`crate::model_a`]): the car and noise parameters, the sensors' rows and the
-//! speed anchor, the plausibility limits, the start from the measurements, the wheels' extra
+//! speed anchor, the reported speed (`model_a::step_reported_speed`), the plausibility limits, the start from the measurements, the wheels' extra
 //! process noise and the derived outputs. The grip factors start at 1 with `grip_std`, also when
 //! the filter is re-seeded (the re-seed says the estimate was lost, its grip with it), and the
 //! tyres' transient slip angles (`tyre_relaxation_length`) at straight running; `ay_est` is
@@ -19,12 +19,13 @@ use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{STATE_DIM, WHEELS_PER_AXLE};
-use vehicle_models::HsriTyre;
+use vehicle_models::{HsriTyre, SingleTrackModel};
 
-use crate::model_a::{self, ModelA};
+use crate::model_a::{self, ModelA, ReportsFilteredSpeed};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive};
 use crate::runner::{EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors};
+use crate::speed_filter::SpeedFilter;
 
 /// Model 3 as the filters see it.
 pub type ModelGrip = SingleTrackGripModel<HsriTyre>;
@@ -122,8 +123,15 @@ fn sliding_axles(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [
     })
 }
 
+impl ReportsFilteredSpeed<GRIP_STATE_DIM> for ModelGrip {
+    fn single_track(&self) -> &SingleTrackModel<HsriTyre> {
+        self.vehicle()
+    }
+}
+
 impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelGrip {
-    type Extra = ();
+    /// Model A's reported speed.
+    type Extra = SpeedFilter;
 
     /// The grip states carry the axles' force scale, and with it the stiffness uncertainty, in
     /// the covariance of the EKF and both UKFs. Not in the LKF's (one linearisation, at straight
@@ -166,13 +174,15 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         self.extend_settings(self.anchored().registry_settings(v))
     }
 
-    fn start_extra(_: &Variables, _: f64) -> Self::Extra {}
+    fn start_extra(v: &Variables, min_speed: f64) -> SpeedFilter {
+        ModelA::start_extra(v, min_speed)
+    }
 
     fn sample(
         runner: &mut RunnerGrip,
         sensors: &Sensors,
     ) -> Result<Sample<ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>, i32> {
-        model_a::anchored_sample(runner, sensors)
+        model_a::reported_speed_sample(runner, sensors)
     }
 
     fn plausible(
@@ -268,11 +278,16 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
 
-    /// Model A's outputs from the first five states and their covariance; `ay_est` with the
+    /// Model A's outputs from the first five states and their covariance, at model A's reported
+    /// speed; `ay_est` with the
     /// estimated grip factors and transient slip angles (the slip-angle outputs stay the
     /// kinematic ones of model A). The runner adds the rear stiffness's consider term only for
     /// the LKF and the particle filter ([`Self::estimates_tyre_scale`]).
-    fn outputs(&self, sample: &OutputSample<GRIP_STATE_DIM, ()>, _: &Variables) -> RealOutputs {
+    fn outputs(
+        &self,
+        sample: &OutputSample<GRIP_STATE_DIM, SpeedFilter>,
+        _: &Variables,
+    ) -> RealOutputs {
         let body_sample = body_estimate(&InitialEstimate {
             state: sample.state,
             covariance: sample.covariance,
@@ -299,12 +314,14 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 Some(self.lateral_states_of(&sample.state)),
             )
             .lateral_acceleration;
-        values
+        model_a::at_reported_speed(values, &sample.extra)
     }
 
-    fn write_extra(_: &(), _: &mut StateWriter) {}
+    fn write_extra(speed: &SpeedFilter, writer: &mut StateWriter) {
+        ModelA::write_extra(speed, writer);
+    }
 
-    fn read_extra(_: &mut (), _: &mut StateReader<'_>) -> Result<(), StateError> {
-        Ok(())
+    fn read_extra(speed: &mut SpeedFilter, reader: &mut StateReader<'_>) -> Result<(), StateError> {
+        ModelA::read_extra(speed, reader)
     }
 }

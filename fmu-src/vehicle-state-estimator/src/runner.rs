@@ -744,6 +744,11 @@ where
         self.gate.map(|gate| gate.test)
     }
 
+    /// The estimator that runs.
+    pub(crate) fn choice(&self) -> EstimatorChoice {
+        self.choice
+    }
+
     /// The factor on the covariance the estimator reports ([`OutputSample::covariance_scale`]).
     pub(crate) fn covariance_scale(&self) -> f64 {
         self.observer_scaling.as_ref().map_or(1.0, |s| s.scale())

@@ -782,8 +782,8 @@ impl CampaignReport {
              file and series-production sensor noise at 10 ms, and (issue 12 point 6's \"both reference models\") \
              the same car on its model 1 (single track with the seed's HSRI tyres, the car marked `(model 1)`) and \
              model 2 (two track with load transfer and Magic Formula tyres matched to them, `(model 2)`), both with \
-             the car's static wheel loads; every estimator kind on models A and B, and the EKF \
-             and UKF on model A with grip states (A+grip), at the FMU's defaults, told only the car's mass, yaw \
+             the car's static wheel loads; every estimator kind on models A and B and on model A \
+             with grip states (A+grip), at the FMU's defaults, told only the car's mass, yaw \
              inertia, axle distances, wheel radii and inertias, brake split and static wheel loads (issue 12 point \
              6), and not the torques. Cars, reference models, manoeuvres and the base scenario: \
              `harness/scenarios/campaigns/`. {} runs of {} estimators in {:.1} s.",
