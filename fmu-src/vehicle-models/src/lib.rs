@@ -22,6 +22,12 @@
 //!   automatic differentiation ([`scalar::Dual`]) of the very same code;
 //! - no heap allocation in any step.
 
+/// Gravitational acceleration of every model, m/s²: the seeds' value (003: §3.2), also the
+/// full vehicle's and the one the static wheel loads are computed with, in the models and by the
+/// harness for the estimators. Standard gravity, 9.80665 m/s², is a unit (the FMVSS 126 0.3 g
+/// criterion, signals recorded in g): `manoeuvres::STANDARD_GRAVITY`.
+pub const GRAVITY: f64 = 9.81;
+
 pub mod checks;
 pub mod driver_input;
 pub mod full_vehicle;

@@ -107,7 +107,7 @@ impl Default for RearAxleParams {
             cog_to_front_axle: 1.014,
             wheelbase: 2.69,
             cog_height: 0.5,
-            gravity: 9.81,
+            gravity: crate::GRAVITY,
             low_speed_guard: 1.0,
         }
     }

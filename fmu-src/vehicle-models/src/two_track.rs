@@ -664,7 +664,8 @@ mod wheel_load_tests {
             mass: 700.0,
             ..Chassis::default()
         };
-        (chassis.front_wheel_load, chassis.rear_wheel_load) = chassis.static_wheel_loads(9.81);
+        (chassis.front_wheel_load, chassis.rear_wheel_load) =
+            chassis.static_wheel_loads(crate::GRAVITY);
         TwoTrackParams {
             chassis,
             cog_height: 0.7,

@@ -334,7 +334,7 @@ fn gravity_pulls_along_a_graded_or_banked_road() {
     let p = FullVehicleParams::default();
     let wheel_inertia = 2.0 * (p.wheels.inertia_front + p.wheels.inertia_rear);
     let effective_mass = p.body.mass + wheel_inertia / p.wheels.radius.powi(2);
-    let expected = 9.81 * grade.sin() * p.body.mass / effective_mass;
+    let expected = vehicle_models::GRAVITY * grade.sin() * p.body.mass / effective_mass;
     let mut vehicle = FullVehicle::rolling(p, 15.0);
     let uphill = FullVehicleInput {
         road_grade_angle: grade,

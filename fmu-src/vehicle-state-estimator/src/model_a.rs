@@ -16,7 +16,7 @@ use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::{index as input_index, INPUT_DIM};
 use vehicle_models::single_track::{measurement_index, state_index, SingleTrackParams, STATE_DIM};
-use vehicle_models::{HsriTyre, SingleTrackModel};
+use vehicle_models::{HsriTyre, SingleTrackModel, GRAVITY};
 
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
@@ -61,9 +61,6 @@ pub(crate) const KINEMATIC_SPEED: f64 = 5.0;
 /// The road-wheel angle of full lock, rad: 45°, the declared range of `steering_angle` (issue 12
 /// point 5, parking manoeuvres).
 const FULL_LOCK: f64 = std::f64::consts::FRAC_PI_4;
-
-/// Standard gravity, m/s².
-const GRAVITY: f64 = 9.81;
 
 /// Above this |vx_meas| is a glitch, m/s (360 km/h).
 pub const MAX_PLAUSIBLE_SPEED: f64 = 100.0;

@@ -15,11 +15,10 @@ use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use vehicle_models::single_track::{state_index, Chassis, SingleTrackParams, SingleTrackState};
-use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri};
+use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri, GRAVITY};
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, GUID};
 
 const STEP: f64 = 0.01;
-const GRAVITY: f64 = 9.81;
 const START_SPEED: f64 = 15.0;
 /// Drive torque on the rear axle, N·m: about 1 m/s² of acceleration for this car.
 const REAR_TORQUE: f64 = 400.0;

@@ -16,12 +16,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use vehicle_models::single_track::{Chassis, SingleTrackParams, SingleTrackState};
-use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri};
+use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri, GRAVITY};
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
 
 pub(crate) const STEP: f64 = 0.01;
-const GRAVITY: f64 = 9.81;
 
 /// The Ford Escort's model-A parameters (see the module documentation).
 fn escort() -> Chassis {

@@ -21,7 +21,8 @@ fn light_car_estimator() -> Slave {
         mass: 700.0,
         ..Chassis::default()
     };
-    (light.front_wheel_load, light.rear_wheel_load) = light.static_wheel_loads(9.81);
+    (light.front_wheel_load, light.rear_wheel_load) =
+        light.static_wheel_loads(vehicle_models::GRAVITY);
     car::set_car(&mut s, &light);
     let geometry = [
         (vr::SAMPLE_TIME, STEP),

@@ -26,8 +26,9 @@ use seed000::{
 pub const STEERING_RATIO: f64 = 14.97;
 const DEG: f64 = std::f64::consts::PI / 180.0;
 const KMH: f64 = 1.0 / 3.6;
-/// Standard gravity, for the FMVSS 126 0.3 g criterion.
-pub const GRAVITY: f64 = 9.80665;
+/// Standard gravity g, m/s² (3rd CGPM, 1901): the unit of the FMVSS 126 0.3 g criterion and of
+/// signals recorded in g. The models' gravitational acceleration is `vehicle_models::GRAVITY`.
+pub const STANDARD_GRAVITY: f64 = 9.80665;
 
 /// A signal a manoeuvre provides. Scenario `[[input]]` entries name these.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

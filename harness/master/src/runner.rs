@@ -11,7 +11,7 @@ use crate::plot;
 use crate::recording;
 use crate::scenario::{Scenario, VarRef};
 use crate::scoring::{self, RunScores};
-use manoeuvres::{Manoeuvre, GRAVITY};
+use manoeuvres::{Manoeuvre, STANDARD_GRAVITY};
 
 /// Where FMUs come from and where everything goes.
 #[derive(Debug, Clone)]
@@ -185,7 +185,7 @@ pub fn angle_at_03g(result: &RunResult, ay_column: &str) -> Result<f64> {
     let wheel = result
         .column("manoeuvre.steering_wheel_angle")
         .ok_or_else(|| anyhow!("slowly increasing steer run recorded no steering-wheel angle"))?;
-    let target = 0.3 * GRAVITY;
+    let target = 0.3 * STANDARD_GRAVITY;
     for k in 1..ay.len() {
         if ay[k].abs() >= target && ay[k - 1].abs() < target {
             let fraction = (target - ay[k - 1].abs()) / (ay[k].abs() - ay[k - 1].abs());

@@ -75,8 +75,7 @@ use crate::tyre::combined_slip::CombinedSlipTyre;
 use crate::tyre::TyreForce;
 use corner::{braked_wheel_speed, relaxed_deflection, tyre_force, wheel_velocity, TyreContact};
 
-/// Gravitational acceleration, m/s².
-pub const GRAVITY: f64 = 9.81;
+pub use crate::GRAVITY;
 /// Number of wheels.
 pub const WHEELS: usize = 4;
 /// Number of states.

@@ -12,7 +12,7 @@ use fmi_master::cosim::ParameterValue;
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::scenario::{Scenario, VarRef};
 use fmi_master::ssv::{read_parameter_file, SsvValue};
-use manoeuvres::GRAVITY;
+use vehicle_models::GRAVITY;
 
 /// Parameters copied unchanged from the car file to the estimator (both FMUs name them alike:
 /// 000 table 5.1's symbols).

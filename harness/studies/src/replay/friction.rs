@@ -38,9 +38,8 @@ use estimation::models::single_track_identification::SingleTrackHsri;
 use std::ops::Range;
 
 use vehicle_models::tyre::{TyreKinematics, TyreModel};
+use vehicle_models::GRAVITY;
 
-/// Standard gravity, m/s² (ISO 80000-3).
-const GRAVITY: f64 = 9.81;
 /// Share of the friction limit where the HSRI tyre begins to slide (`s_R = 0.5`).
 pub const SLIDING_SHARE: f64 = 0.5;
 /// Percentile of `|ay|` compared with the sliding threshold.
@@ -234,7 +233,7 @@ mod tests {
             .collect();
         let calm = reach(&linear, mu);
         assert!(!calm.identifiable(), "{calm:?}");
-        assert!((calm.sliding_ay - 0.5 * 9.81).abs() < 1e-12);
+        assert!((calm.sliding_ay - 0.5 * GRAVITY).abs() < 1e-12);
         assert!(reach(&limit, mu).identifiable());
         // One spike among 1000 samples does not decide.
         let mut spiked = linear.clone();

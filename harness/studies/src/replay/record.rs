@@ -15,6 +15,8 @@ use fmi_master::scenario::{Scenario, VarRef};
 use mf4_rs::blocks::common::DataType;
 use mf4_rs::writer::MdfWriter;
 
+use super::units::STANDARD_GRAVITY;
+
 /// The Ford Escort's steering ratio (fmu-src/reference-vehicle/cars/ford_escort.ssv).
 pub const STEERING_RATIO: f64 = 16.0;
 
@@ -48,7 +50,7 @@ fn log_columns() -> Vec<LogColumn> {
         column(
             "lateral_acceleration",
             "vehicle.ay_meas",
-            1.0 / 9.80665,
+            1.0 / STANDARD_GRAVITY,
             false,
         ),
         // The ESC sensor cluster's longitudinal accelerometer, positive forward: the example
@@ -57,7 +59,7 @@ fn log_columns() -> Vec<LogColumn> {
         column(
             "longitudinal_acceleration",
             "vehicle.ax_meas",
-            1.0 / 9.80665,
+            1.0 / STANDARD_GRAVITY,
             false,
         ),
         column("vehicle_speed", "vehicle.vx_meas", 3.6, false),

@@ -4,8 +4,7 @@
 //! definition (deg = π/180 rad, rpm = 2π/60 rad/s, km/h = 1/3.6 m/s, mph = 0.44704 m/s, standard
 //! gravity g = 9.80665 m/s², CGPM 1901).
 
-/// Standard gravity, m/s² (3rd CGPM, 1901).
-pub const STANDARD_GRAVITY: f64 = 9.80665;
+pub use manoeuvres::STANDARD_GRAVITY;
 
 /// The log units accepted for a variable of SI unit `si`, each with its factor to `si`. A
 /// wheel speed (rad/s) may also be logged as the wheel's circumferential speed (m/s, km/h):
