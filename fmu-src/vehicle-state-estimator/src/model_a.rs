@@ -319,6 +319,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         &self,
         state: &StateA,
         input: &InputVector,
+        _filter_input: &SVector<f64, ANCHORED_INPUT_DIM>,
         v: &Variables,
     ) -> Option<SMatrix<f64, STATE_DIM, STATE_DIM>> {
         if !v.use_speed_measurements {

@@ -209,12 +209,14 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// Extra process noise for the coming sample, added to the covariance just predicted
     /// (model A: the wheels' slip while the torques are unknown, `unknown_torque_slip_std`, and
     /// the wheels' sliding step at low speed); `state` is the predicted estimate, `input` the
-    /// sample's driver input. Estimators without a covariance (particle filter, Luenberger
-    /// observer) ignore it.
+    /// sample's driver input, `filter_input` the filter's input of the sample (with what the
+    /// sensors add, e.g. model A's measured `ax`). Estimators without a covariance (particle
+    /// filter, Luenberger observer) ignore it.
     fn extra_process_noise(
         &self,
         _state: &SVector<f64, N>,
         _input: &InputVector,
+        _filter_input: &SVector<f64, U>,
         _v: &Variables,
     ) -> Option<SMatrix<f64, N, N>> {
         None
@@ -864,10 +866,12 @@ where
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
         }
-        if let Some(extra) =
-            self.model
-                .extra_process_noise(self.filter.state(), &self.input, &self.parameters)
-        {
+        if let Some(extra) = self.model.extra_process_noise(
+            self.filter.state(),
+            &self.input,
+            &sample.input,
+            &self.parameters,
+        ) {
             self.filter.inflate_covariance(&extra);
         }
         bits | self.adapt(&report, correction.as_ref()) | self.scale_observer(&report)

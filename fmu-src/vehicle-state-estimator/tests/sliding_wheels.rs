@@ -4,8 +4,9 @@
 //! told, the model's combined slip then accounts for it) or its side force passes 80 % of its
 //! friction potential; not otherwise.
 
+use estimation::models::single_track::{ANCHORED_INPUT_DIM, AX_VALID_INPUT};
 use estimation::models::single_track_grip::{extend_state, GripState, GRIP_FACTORS};
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::index as input_index;
 use vehicle_models::single_track::state_index;
 use VehicleStateEstimator::model_description::Variables;
@@ -39,8 +40,12 @@ fn sliding_sideways(model: &ModelGrip, sideslip: f64) -> GripState {
 
 /// The extra process noise of the front and rear grip factors.
 fn grip_noise(model: &ModelGrip, state: &GripState, input: &InputVector) -> [f64; 2] {
+    // With `ax` measured (`ax_valid` 1), as the grip factors' noise does not depend on it.
+    let mut filter_input = SVector::<f64, ANCHORED_INPUT_DIM>::zeros();
+    filter_input.fixed_rows_mut::<4>(0).copy_from(input);
+    filter_input[AX_VALID_INPUT] = 1.0;
     let noise = model
-        .extra_process_noise(state, input, &Variables::default())
+        .extra_process_noise(state, input, &filter_input, &Variables::default())
         .unwrap_or_else(SMatrix::zeros);
     GRIP_FACTORS.map(|i| noise[(i, i)])
 }
