@@ -55,6 +55,35 @@ fn a_freed_component_answers_error_and_its_second_free_is_ignored() {
     assert_eq!(second.do_step(0.1, 0.1), Fmi2Status::Ok);
 }
 
+/// Handles are not reused (`fmi_export::live::HANDLE_COUNT` of them before the first comes
+/// back): after a thousand instances and FMU states created and freed, the first freed component
+/// still answers fmi2Error and none of the later ones was it. (The first form of the list kept a
+/// freed address for 64 frees only; the allocator then handed it out again, and a stale call
+/// reached the new instance.)
+#[test]
+fn a_freed_component_stays_stale_after_a_thousand_more_instances() {
+    let first = toy::slave();
+    let (api, stale) = (first.api, first.component);
+    drop(first);
+    for _ in 0..1000 {
+        let mut later = toy::slave();
+        assert_ne!(later.component, stale);
+        assert_eq!(later.initialize(0.0), Fmi2Status::Ok);
+        let (status, mut state) = later.get_state();
+        assert_eq!(status, Fmi2Status::Ok);
+        assert_ne!(state_pointer(&state) as Fmi2Component, stale);
+        assert_eq!(later.free_state(&mut state), Fmi2Status::Ok);
+    }
+    let live = toy::slave();
+    // SAFETY: fmi-export checks the component before using it.
+    unsafe {
+        assert_eq!((api.terminate)(stale), Fmi2Status::Error);
+        assert_eq!((api.do_step)(stale, 0.0, 0.1, FMI2_TRUE), Fmi2Status::Error);
+        (api.free_instance)(stale);
+    }
+    assert!(live.log.lines().is_empty());
+}
+
 #[test]
 fn a_component_that_was_never_an_instance_answers_error_and_is_not_written() {
     let api = fmi_export::fmi2_api_of!(crate::toy);
