@@ -194,7 +194,8 @@ def test_the_grip_model_holds_a_braked_corner_with_the_torques_unknown(
     result = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, kind, 25.0, 7.0,
                         braking_in_a_turn, estimator_extra=grip)
     model_a = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, kind, 25.0, 7.0,
-                         braking_in_a_turn)
+                         braking_in_a_turn, estimator_extra={
+                             "model": estimator.enumeration_value("model", "single_track_5_state")})
     error = result["sideslip_est"] - result["sideslip"]
     rmse = support.rmse(result["sideslip_est"], result["sideslip"])
     assert np.degrees(rmse) < 0.3

@@ -118,12 +118,15 @@ def test_driver_binding_sets_both_fmus_and_connections_carry_values(ssp_run, ssp
 
 
 def test_ssp_estimator_tracks_the_vehicle(ssp_run):
+    """The estimator at its defaults (the grip model, whose tyres lag by 0.5 m) on the
+    ReferenceVehicle at its defaults (the seed's single track, whose tyres do not lag): measured
+    vy RMSE 0.0105 m/s (model A, the default until 2026-12-05, stayed below 0.01)."""
     turning = ssp_run["time"] > 1.0
     for truth, estimate in (("vy", "vy_est"), ("yaw_rate", "yaw_rate_est")):
         error = support.rmse(column(ssp_run, support.ESTIMATOR, estimate)[turning],
                              column(ssp_run, support.VEHICLE, truth)[turning])
         print(f"SSP default estimator: {truth} RMSE {error:.3g}")
-        assert error < 1e-2
+        assert error < 2e-2
 
 
 def with_binding(ssp_file, component, source, path, resource=None):
@@ -163,7 +166,8 @@ def test_a_car_binding_is_applied(ssp_file, interfaces, tmp_path, vehicle):
                 for corner in ("front_left", "front_right", "rear_left", "rear_right"))
     assert loads == pytest.approx(mass * 9.81, rel=0.05)
     assert abs(mass - vehicle.start("mass")) > 100.0  # the default car is another one
-    # Model 3 rolls in the turn the bound steering angle starts; the default model A has no roll.
+    # Model 3 rolls in the turn the bound steering angle starts; the reference's default model 1
+    # has no roll.
     default = run(ssp_file, interfaces, 0.1)
     assert column(result, support.VEHICLE, "roll_angle")[-1] > 1e-3
     assert np.all(column(default, support.VEHICLE, "roll_angle") == 0.0)

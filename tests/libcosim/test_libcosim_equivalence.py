@@ -109,7 +109,8 @@ def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
 def test_libcosim_leaves_out_the_enumerations_so_the_documented_default_runs(estimator,
                                                                            estimator_fmu):
     """packaging/doc/VehicleStateEstimator.html tells libcosim users that they get the EKF on
-    model A: libcosim lists no Enumeration variable, and those are the XML's start values."""
+    the grip model (model 3): libcosim lists no Enumeration variable, and those are the XML's
+    start values."""
     log_output_level(CosimLogLevel.ERROR)
     execution = CosimExecution.from_step_size(STEP_NS)
     slave = execution.add_local_slave(CosimLocalSlave(str(estimator_fmu), support.ESTIMATOR))
@@ -118,7 +119,7 @@ def test_libcosim_leaves_out_the_enumerations_so_the_documented_default_runs(est
     assert enumerations >= {"estimator", "model"} and not enumerations & listed
     assert listed >= set(estimator.names("input")) | set(estimator.names("output"))
     assert estimator.start("estimator") == estimator.enumeration_value("estimator", "ekf")
-    assert estimator.start("model") == estimator.enumeration_value("model", "single_track_5_state")
+    assert estimator.start("model") == estimator.enumeration_value("model", "single_track_grip")
 
 
 def test_libcosim_and_an_fmpy_loop_give_bit_identical_outputs(

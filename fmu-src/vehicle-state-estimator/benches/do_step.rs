@@ -7,7 +7,9 @@
 //! CARGO_TARGET_DIR=target/bench cargo bench -p vehicle-state-estimator --bench do_step
 //! ```
 //!
-//! `model_b_*` are the same for model B (the 3-state seed-001 form) and its Kalman estimators.
+//! The unprefixed benchmarks are model A's (`model = 1`); `model_b_*` are the same for model B
+//! (the 3-state seed-001 form) and its Kalman estimators; `model_grip_fmi2_*` the FMI steps on
+//! the grip model (`model = 3`), the FMU's default.
 //! On a shared, loaded machine compare the `fastest` and `median` columns; the `mean` is
 //! dominated by preemptions.
 //!
@@ -164,6 +166,7 @@ fn model_a_struct(name: &str) -> Fmu {
         resource_location: None,
     });
     let v = fmu.variables_mut();
+    v.model = EstimatorModel::SingleTrack5State as i32;
     v.estimator = estimator(name);
     v.steering_angle = 0.05;
     v.yaw_rate_meas = MEASUREMENT[0];
@@ -175,12 +178,18 @@ fn model_a_struct(name: &str) -> Fmu {
 }
 
 fn slave_a(name: &str) -> Slave {
+    slave_on(EstimatorModel::SingleTrack5State, name)
+}
+
+/// The FMU on `model` (1 or 3, which share model A's sensors) in a left turn at 18 m/s.
+fn slave_on(model: EstimatorModel, name: &str) -> Slave {
     let mut slave = Slave::instantiate(
         fmi_export::fmi2_api_of!(VehicleStateEstimator),
         "bench",
         GUID,
     )
     .expect("instantiate");
+    slave.set_integer(vr::MODEL, model as i32);
     slave.set_integer(vr::ESTIMATOR, estimator(name));
     slave.set_real(vr::STEERING_ANGLE, 0.05);
     slave.set_reals(
@@ -194,6 +203,23 @@ fn slave_a(name: &str) -> Slave {
     );
     slave.initialize(0.0);
     slave
+}
+
+// ---- The grip model (the FMU's default) ----
+
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn model_grip_fmi2_do_step(bencher: Bencher, name: &str) {
+    let mut slave = slave_on(EstimatorModel::SingleTrackGrip, name);
+    bencher.bench_local(stepping(STEP, |t| slave.do_step(t, STEP)));
+}
+
+#[divan::bench(args = NAMES, sample_count = 300, sample_size = 20)]
+fn model_grip_fmi2_do_step_get_outputs(bencher: Bencher, name: &str) {
+    let mut slave = slave_on(EstimatorModel::SingleTrackGrip, name);
+    let mut outputs = Outputs::new();
+    bencher.bench_local(stepping(STEP, |t| {
+        do_step_and_get_outputs(&mut slave, &mut outputs, t)
+    }));
 }
 
 // ---- Model B ----

@@ -7,7 +7,7 @@
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
-use VehicleStateEstimator::model_description::{vr, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorModel, GUID};
 
 const SAMPLE_TIME: f64 = 0.01;
 const ADAPTING: i32 = 4096;
@@ -17,6 +17,11 @@ fn estimator(configure: impl Fn(&mut Slave)) -> Slave {
     let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "adaptive", GUID)
         .expect("instantiate");
     assert_eq!(s.set_real(vr::SAMPLE_TIME, SAMPLE_TIME), Fmi2Status::Ok);
+    // Model A, whose five states the tests name.
+    assert_eq!(
+        s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
+        Fmi2Status::Ok
+    );
     // Every row enters, so the unexplained motion reaches the innovations instead of the gate.
     assert_eq!(s.set_boolean(vr::GATE_MEASUREMENTS, false), Fmi2Status::Ok);
     // The filter's own covariance: without the rear stiffness's consider term, which the

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use vehicle_models::single_track::{SingleTrackState, MEASUREMENT_DIM, STATE_DIM};
 use vehicle_models::{DriverInputVector, Integrator, SingleTrackHsri};
-use VehicleStateEstimator::model_description::{vr, EstimatorKind, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 use VehicleStateEstimator::status;
 
 fn api() -> Fmi2Api {
@@ -27,9 +27,13 @@ fn slave() -> Slave {
     s
 }
 
-/// Seed 000's filter: its Q and R (SPEC §7, the truth's noise below), none of issue 12's
-/// robustness and the linear filters linearised once (no gain scheduling).
+/// Seed 000's filter: model A, its Q and R (SPEC §7, the truth's noise below), none of issue
+/// 12's robustness and the linear filters linearised once (no gain scheduling).
 fn seed_settings(s: &mut Slave) {
+    assert_eq!(
+        s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
+        Fmi2Status::Ok
+    );
     assert_eq!(s.set_real(vr::SCHEDULE_THRESHOLD, 0.0), Fmi2Status::Ok);
     for flag in [
         vr::USE_SPEED_MEASUREMENTS,

@@ -10,7 +10,7 @@ use crate::robustness::{estimator_with, Sensors, Truth, STEP};
 use fmi_export::ffi::Fmi2Status;
 use fmi_export::testing::Slave;
 use vehicle_models::DriverInputVector;
-use VehicleStateEstimator::model_description::{vr, EstimatorKind};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel};
 use VehicleStateEstimator::status;
 
 /// The estimator's front cornering stiffness against the car's: 15 % too soft, so that the
@@ -45,6 +45,9 @@ fn driver(t: f64) -> DriverInputVector {
 
 fn wrong_front_tyre(kind: i32) -> Slave {
     estimator_with(kind, |s| {
+        // Model A, whose yaw-rate row the figures above are of.
+        let model = s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32);
+        assert_eq!(model, Fmi2Status::Ok);
         let set = s.set_real(vr::CORNERING_STIFFNESS_SCALE_FRONT, WRONG_FRONT_STIFFNESS);
         assert_eq!(set, Fmi2Status::Ok);
     })

@@ -16,7 +16,7 @@ use fmi_export::fmi2_api_of;
 use fmi_export::testing::Slave;
 use vehicle_models::single_track::{state_index, Chassis, SingleTrackParams, SingleTrackState};
 use vehicle_models::{DriverInputVector, HsriTyre, Integrator, SingleTrackHsri, GRAVITY};
-use VehicleStateEstimator::model_description::{vr, EstimatorKind, GUID};
+use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel, GUID};
 
 const STEP: f64 = 0.01;
 const START_SPEED: f64 = 15.0;
@@ -44,10 +44,15 @@ fn bmw_320i() -> Chassis {
     }
 }
 
-/// An EKF told the car, starting from the true state, without wheel-speed or speed rows.
+/// An EKF on model A (the truth's own model) told the car, starting from the true state,
+/// without wheel-speed or speed rows.
 fn estimator(car: &Chassis) -> Slave {
     let mut s =
         Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "rear", GUID).expect("instantiate");
+    assert_eq!(
+        s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
+        Fmi2Status::Ok
+    );
     let rolling = START_SPEED / car.front_wheel_radius;
     car::set_car(&mut s, car);
     let parameters = [

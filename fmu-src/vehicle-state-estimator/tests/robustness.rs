@@ -106,9 +106,20 @@ fn api() -> Fmi2Api {
     fmi2_api_of!(VehicleStateEstimator)
 }
 
-/// An estimator with only the car's parameters set (issue 12, point 6), at 10 ms.
-fn estimator(kind: i32) -> Slave {
-    estimator_with(kind, |_| {})
+/// The models the robustness tests run on: the FMU's default, the grip model, and model A.
+const MODELS: [EstimatorModel; 2] = [
+    EstimatorModel::SingleTrackGrip,
+    EstimatorModel::SingleTrack5State,
+];
+
+/// An estimator on `model` with only the car's parameters set (issue 12, point 6), at 10 ms.
+fn estimator(model: EstimatorModel, kind: i32) -> Slave {
+    estimator_with(kind, on(model))
+}
+
+/// The setting of `model`, for [`estimator_with`].
+fn on(model: EstimatorModel) -> impl Fn(&mut Slave) {
+    move |s| assert_eq!(s.set_integer(vr::MODEL, model as i32), Fmi2Status::Ok)
 }
 
 /// [`estimator`] with more settings before initialisation.
@@ -189,9 +200,18 @@ const KALMAN_KINDS: [i32; 3] = [
 
 #[test]
 fn torques_unknown_the_speed_stays_within_two_percent_with_and_without_wheel_speeds() {
+    for model in MODELS {
+        println!("model {model:?}");
+        torques_unknown_the_speed_stays_within_two_percent_with_and_without_wheel_speeds_on(model);
+    }
+}
+
+fn torques_unknown_the_speed_stays_within_two_percent_with_and_without_wheel_speeds_on(
+    model: EstimatorModel,
+) {
     for kind in KALMAN_KINDS {
         for wheels in [true, false] {
-            let mut s = estimator(kind);
+            let mut s = estimator(model, kind);
             let records = run(&mut s, 20.0, 8.0, |_, sensors| {
                 if !wheels {
                     sensors[2] = f64::NAN;
@@ -321,6 +341,15 @@ fn torques_unknown_on_the_slow_ramp_the_grip_models_speed_stays_within_two_perce
 
 #[test]
 fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
+    for model in MODELS {
+        println!("model {model:?}");
+        every_estimator_starts_from_the_measured_speed_whatever_the_true_start_on(model);
+    }
+}
+
+fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start_on(
+    model: EstimatorModel,
+) {
     let kinds = [
         EstimatorKind::Lkf as i32,
         EstimatorKind::Ekf as i32,
@@ -332,7 +361,7 @@ fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
     let mut failures = Vec::new();
     for kind in kinds {
         for speed in [1.5, 3.0, 10.0, 30.0, 55.0] {
-            let mut s = estimator(kind);
+            let mut s = estimator(model, kind);
             let records = run(&mut s, speed, 2.0, |_, _| {});
             assert_ne!(records[0].status & status::INITIALISING, 0);
             let error = worst_speed_error(&records, 1.0);
@@ -354,8 +383,12 @@ fn every_estimator_starts_from_the_measured_speed_whatever_the_true_start() {
 
 /// The largest |vy| difference between a corrupted run and the same run without corruption,
 /// and the status bits of the corrupted run.
-fn largest_change(kind: i32, corrupt: impl FnMut(f64, &mut Sensors)) -> (f64, i32) {
-    largest_change_with(kind, |_| {}, 20.0, corrupt)
+fn largest_change(
+    model: EstimatorModel,
+    kind: i32,
+    corrupt: impl FnMut(f64, &mut Sensors),
+) -> (f64, i32) {
+    largest_change_with(kind, on(model), 20.0, corrupt)
 }
 
 /// [`largest_change`] on the estimator `settings` make and from `start_speed`.
@@ -388,11 +421,18 @@ fn largest_change_with(
 
 #[test]
 fn one_glitch_on_any_sensor_or_a_zero_row_is_gated() {
+    for model in MODELS {
+        println!("model {model:?}");
+        one_glitch_on_any_sensor_or_a_zero_row_is_gated_on(model);
+    }
+}
+
+fn one_glitch_on_any_sensor_or_a_zero_row_is_gated_on(model: EstimatorModel) {
     // vy's own noise: its standard deviation at the end of a clean run is about 0.05 m/s.
     let glitches: [(usize, f64); 4] = [(0, 3.0), (1, 100.0), (2, 1e4), (3, 1e4)];
     for kind in KALMAN_KINDS {
         for (row, value) in glitches {
-            let (change, bits) = largest_change(kind, |t, sensors| {
+            let (change, bits) = largest_change(model, kind, |t, sensors| {
                 if (t - 2.0).abs() < 1e-9 {
                     sensors[row] = value;
                 }
@@ -403,7 +443,7 @@ fn one_glitch_on_any_sensor_or_a_zero_row_is_gated() {
             );
             assert_ne!(bits & status::ROW_GATED, 0);
         }
-        let (change, bits) = largest_change(kind, |t, sensors| {
+        let (change, bits) = largest_change(model, kind, |t, sensors| {
             if (t - 2.0).abs() < 1e-9 {
                 *sensors = [0.0; 6];
             }
@@ -418,10 +458,19 @@ fn one_glitch_on_any_sensor_or_a_zero_row_is_gated() {
 
 #[test]
 fn after_half_a_second_without_a_sensor_the_estimate_is_back_within_a_second() {
+    for model in MODELS {
+        println!("model {model:?}");
+        after_half_a_second_without_a_sensor_the_estimate_is_back_within_a_second_on(model);
+    }
+}
+
+fn after_half_a_second_without_a_sensor_the_estimate_is_back_within_a_second_on(
+    model: EstimatorModel,
+) {
     for kind in KALMAN_KINDS {
         for row in 0..6 {
-            let clean = run(&mut estimator(kind), 20.0, 4.0, |_, _| {});
-            let outage = run(&mut estimator(kind), 20.0, 4.0, |t, sensors| {
+            let clean = run(&mut estimator(model, kind), 20.0, 4.0, |_, _| {});
+            let outage = run(&mut estimator(model, kind), 20.0, 4.0, |t, sensors| {
                 if (1.5..2.0).contains(&t) {
                     sensors[row] = f64::NAN;
                 }
@@ -495,6 +544,15 @@ fn a_sensor_at_half_the_rate_is_readmitted_too() {
 
 #[test]
 fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
+    for model in MODELS {
+        println!("model {model:?}");
+        braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again_on(model);
+    }
+}
+
+fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again_on(
+    model: EstimatorModel,
+) {
     // Sensors of a car that decelerates from 10 m/s to a stop in 5 s, stands 10 s, pulls away
     // to 5 m/s in 5 s and then reverses at -1 m/s (speed sensors only: the estimator has no
     // torques, and model A is not simulated through standstill).
@@ -506,7 +564,7 @@ fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
         t if t < 22.0 => 5.0 - 3.0 * (t - 20.0),
         _ => -1.0,
     };
-    let mut s = estimator(EstimatorKind::Ekf as i32);
+    let mut s = estimator(model, EstimatorKind::Ekf as i32);
     let mut picked_up = false;
     for k in 0..2400 {
         let t = k as f64 * STEP;
@@ -544,7 +602,14 @@ fn braking_to_a_stop_standing_and_pulling_away_stay_sane_and_pick_up_again() {
 
 #[test]
 fn the_fmu_waits_for_a_measured_speed_before_it_starts() {
-    let mut s = estimator(EstimatorKind::Ekf as i32);
+    for model in MODELS {
+        println!("model {model:?}");
+        the_fmu_waits_for_a_measured_speed_before_it_starts_on(model);
+    }
+}
+
+fn the_fmu_waits_for_a_measured_speed_before_it_starts_on(model: EstimatorModel) {
+    let mut s = estimator(model, EstimatorKind::Ekf as i32);
     // The all-zero row a master sends before its first values.
     s.set_reals(&SENSORS, &[0.0; 6]);
     assert_eq!(s.do_step(0.0, STEP), Fmi2Status::Ok);
@@ -602,6 +667,17 @@ fn model_b_gates_glitches_and_starts_from_the_measurements_too() {
 
 #[test]
 fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_away_reseeds() {
+    for model in MODELS {
+        println!("model {model:?}");
+        standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_away_reseeds_on(
+            model,
+        );
+    }
+}
+
+fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_away_reseeds_on(
+    model: EstimatorModel,
+) {
     // Sensors of a car that brakes from 3 m/s to a stop, stands 3 s, reverses to -2 m/s, holds
     // it, and drives forward through standstill to 4 m/s (issue 12, point 4). While held, vx_est
     // is the measured speed of this sample (the filter's outputs are one sample ahead), so it
@@ -615,7 +691,7 @@ fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_awa
         t if t < 16.0 => -2.0 + (t - 10.0),
         _ => 4.0,
     };
-    let mut s = estimator(EstimatorKind::Ekf as i32);
+    let mut s = estimator(model, EstimatorKind::Ekf as i32);
     let (mut stood, mut reversed, mut pulled_away) = (false, false, false);
     for k in 0..1800 {
         let t = k as f64 * STEP;
@@ -649,6 +725,15 @@ fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_awa
 
 #[test]
 fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seeding() {
+    for model in MODELS {
+        println!("model {model:?}");
+        pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seeding_on(model);
+    }
+}
+
+fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seeding_on(
+    model: EstimatorModel,
+) {
     // Issue 12 point 4, pulling away with the drive torque told (600 N·m on the front axle from
     // 1.2 m/s, series sensor noise): the estimate follows within vx_meas's noise (0.1 m/s) and
     // is never re-seeded. In the study (the ReferenceVehicle's Escort, whose tyres are not the
@@ -658,7 +743,7 @@ fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seed
     // standstill case by harness::robustness's test. On this truth, whose tyre is the
     // estimator's own, the wheels stay in the tyre's linear range and do not cycle even without
     // that rule: this test guards the pull-away itself, not the rule.
-    let mut s = estimator(EstimatorKind::Ekf as i32);
+    let mut s = estimator(model, EstimatorKind::Ekf as i32);
     let mut truth = Truth::new(1.2, 5);
     let input = DriverInputVector::new(0.0, 600.0, 0.0);
     assert_eq!(s.set_real(vr::DRIVE_TORQUE, 600.0), Fmi2Status::Ok);
@@ -694,10 +779,19 @@ fn pulling_away_with_the_drive_torque_known_the_estimate_follows_without_re_seed
 /// noise keep both sane.
 #[test]
 fn a_parking_steer_at_walking_pace_gives_the_rear_axles_kinematic_sideslip() {
+    for model in MODELS {
+        println!("model {model:?}");
+        a_parking_steer_at_walking_pace_gives_the_rear_axles_kinematic_sideslip_on(model);
+    }
+}
+
+fn a_parking_steer_at_walking_pace_gives_the_rear_axles_kinematic_sideslip_on(
+    model: EstimatorModel,
+) {
     let (speed, yaw_rate, steer) = (3.0, 1.0, std::f64::consts::FRAC_PI_4);
     let car = escort();
     let expected = (car.cog_to_rear_axle * yaw_rate / speed).atan();
-    let mut s = estimator(EstimatorKind::Ekf as i32);
+    let mut s = estimator(model, EstimatorKind::Ekf as i32);
     let wheel = speed / car.front_wheel_radius;
     // Centripetal only: ay = vx r, and ax = -r vy of the steady turn (dvx/dt = 0).
     let lateral_speed = car.cog_to_rear_axle * yaw_rate;
