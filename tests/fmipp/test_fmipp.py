@@ -11,7 +11,7 @@ model-description parser, built by packaging/fmipp.sh), beside fmpy and libcosim
   start 0, no stop time), fmi2EnterInitializationMode, fmi2ExitInitializationMode; `doStep`
   passes its own time, the sum of the step sizes so far, and newStep = true. FMI++ reads no
   Enumeration variable (only Real, Integer, Boolean and String), so both loops run the
-  estimator's default (the EKF on model A)."""
+  estimator's default (the EKF on the grip model, model 3)."""
 
 import pathlib
 import subprocess
