@@ -26,6 +26,7 @@ fn register_font() {
 }
 
 /// One line in a panel.
+#[derive(Clone, Debug)]
 pub struct Series {
     pub name: String,
     pub x: Vec<f64>,
@@ -34,6 +35,7 @@ pub struct Series {
     pub is_truth: bool,
 }
 
+#[derive(Clone, Debug)]
 pub struct Panel {
     pub title: String,
     pub x_label: String,

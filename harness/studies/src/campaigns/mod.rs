@@ -242,6 +242,7 @@ impl Campaign {
                 path.display()
             );
         }
+        check_estimator_models(&base)?;
         Ok(Campaign {
             file,
             base,
@@ -417,25 +418,61 @@ pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport
             if is_source {
                 angles_at_03g.insert(m.name.clone(), angle_at_03g(&output.result, "vehicle.ay")?);
             }
-            report.rows.extend(rows);
             if plots {
                 report.plots.push(draw(
                     &output,
+                    &rows,
                     &m.title,
                     &reference.car_label(&car_file),
                     &env.out_dir,
                 )?);
             }
+            report.rows.extend(rows);
         }
     }
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
 }
 
-/// The sideslip of every estimator of one run against the truth, as a PNG; (caption, path).
-fn draw(output: &RunOutput, title: &str, car: &str, out: &Path) -> Result<(String, PathBuf)> {
+/// The sideslip of every estimator of one run against the truth, as a PNG, one panel per
+/// estimator model (the run's `rows` name each estimator's) so that its six estimators and the
+/// truth stay apart in colour and legend; (caption, path).
+fn draw(
+    output: &RunOutput,
+    rows: &[Row],
+    title: &str,
+    car: &str,
+    out: &Path,
+) -> Result<(String, PathBuf)> {
     let path = out.join(format!("{}.png", output.scenario.name));
-    let panels = plot::estimate_panels(&output.scenario, &output.result, &["sideslip".into()]);
+    let mut panels = Vec::new();
+    for all in plot::estimate_panels(&output.scenario, &output.result, &["sideslip".into()]) {
+        let mut models: Vec<&str> = Vec::new();
+        for row in rows {
+            if !models.contains(&row.model) {
+                models.push(row.model);
+            }
+        }
+        for model in models {
+            let series = all
+                .series
+                .iter()
+                .filter(|s| {
+                    s.is_truth
+                        || rows
+                            .iter()
+                            .any(|r| r.model == model && r.estimator == s.name)
+                })
+                .cloned()
+                .collect();
+            panels.push(plot::Panel {
+                title: format!("{}, model {model}", all.title),
+                x_label: all.x_label.clone(),
+                y_label: all.y_label.clone(),
+                series,
+            });
+        }
+    }
     let caption = format!("{title} on the {car}: sideslip");
     // The full caption is wider than one panel: the plot's own title is the run's name.
     plot::draw_panels(&path, &output.scenario.name, &panels, 1)?;
@@ -472,6 +509,25 @@ fn manoeuvre_section(
     Ok((section, Some(amplitude)))
 }
 
+/// Every estimator instance of `base` names its `model` (1, 2 or 3): the rows are labelled by it
+/// (A, B, A+grip), and an instance left at the FMU's default model would need the default
+/// written here a second time.
+fn check_estimator_models(base: &Scenario) -> Result<()> {
+    for fmu in base.fmus.iter().filter(|f| f.name != VEHICLE) {
+        let model = fmu.parameters.get("model").and_then(|v| v.as_integer());
+        if !matches!(model, Some(1..=3)) {
+            bail!(
+                "campaign base scenario {}: instance {:?} sets no `model` of 1, 2 or 3 (got {:?}); \
+                 the campaign labels its rows by the estimator model",
+                base.source.display(),
+                fmu.name,
+                fmu.parameters.get("model")
+            );
+        }
+    }
+    Ok(())
+}
+
 /// The figures of `estimator` in one run.
 fn row(
     scenario: &Scenario,
@@ -495,6 +551,7 @@ fn row(
         manoeuvre: manoeuvre.to_string(),
         car: car.to_string(),
         estimator: estimator.to_string(),
+        // 1, 2 or 3: `check_estimator_models`
         model: match model {
             Some(2) => "B",
             Some(3) => "A+grip",
@@ -951,6 +1008,31 @@ mod tests {
         );
         assert_eq!(file.reference_models[0].model, 1);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// An estimator instance without `model` is refused, naming the base scenario and the
+    /// instance: the rows' model label would otherwise repeat the FMU's default.
+    #[test]
+    fn an_estimator_instance_must_name_its_model() {
+        let base = |parameters: &str| {
+            let text = format!(
+                "name = \"b\"\nstep = 0.01\n[manoeuvre]\nlibrary = \"seed001_step_steer_40deg\"\n\
+                 [[fmu]]\nname = \"vehicle\"\npath = \"v.fmu\"\n\
+                 [[fmu]]\nname = \"EKF\"\npath = \"e.fmu\"\nparameters = {{ {parameters} }}\n"
+            );
+            Scenario::from_str_at(&text, Path::new("base.toml"), Path::new(".")).unwrap()
+        };
+        assert!(check_estimator_models(&base("estimator = 2, model = 3")).is_ok());
+        for parameters in ["estimator = 2", "estimator = 2, model = 4"] {
+            let error = format!(
+                "{:#}",
+                check_estimator_models(&base(parameters)).unwrap_err()
+            );
+            assert!(
+                error.contains("base.toml") && error.contains("\"EKF\"") && error.contains("model"),
+                "{error}"
+            );
+        }
     }
 
     #[test]
