@@ -1,5 +1,5 @@
-"""Issue 12 through fmpy and the C ABI: the VehicleStateEstimator with its defaults on a car that is
-not the seed car, the Ford Escort (CommonRoad "vehicle 1", fmu-src/reference-vehicle/cars/
+"""Issue 12 through fmpy and the C ABI: the VehicleStateEstimator with its defaults, on its default
+model (the grip model) and on model A, on a car that is not the seed car, the Ford Escort (CommonRoad "vehicle 1", fmu-src/reference-vehicle/cars/
 ford_escort.ssv), simulated by the ReferenceVehicle's model 3 (the full vehicle) with its sensor
 noise. The estimator gets only the car's model-A parameters (mass, yaw inertia, axle distances,
 wheel radius and inertias, brake split, static wheel loads) and is never told the torques.
@@ -24,6 +24,13 @@ SERIES_SENSOR_NOISE = {"noise_std_yaw_rate_meas": 0.0035, "noise_std_ay_meas": 0
                        "noise_std_ax_meas": 0.1, "noise_std_omega_front_meas": 0.1,
                        "noise_std_omega_rear_meas": 0.1, "noise_std_vx_meas": 0.05}
 ESTIMATE = ["vx_est", "vy_est", "sideslip_est", "sideslip_std"]
+# The estimator models the cases run on: the default (model 3, the grip model) and model A.
+MODELS = ["single_track_grip", "single_track_5_state"]
+
+
+def on(estimator, model):
+    """`estimator_extra` for `model`, an item name of the enumeration `model`."""
+    return {"model": estimator.enumeration_value("model", model)}
 
 
 def escort_estimator_parameters(vehicle, kind, extra=None):
@@ -99,68 +106,75 @@ def relative_speed_error(result, after=0.0):
     return np.max(np.abs(result["vx_est"][late] - result["vx"][late]) / result["vx"][late])
 
 
+@pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("kind", ["ekf", "ukf"])
 def test_torques_unknown_the_speed_stays_within_two_percent(vehicle, vehicle_dir, estimator,
-                                                           estimator_dir, kind):
+                                                           estimator_dir, kind, model):
     result = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, kind, 20.0, 6.0,
-                        sine_with_drive)
+                        sine_with_drive, estimator_extra=on(estimator, model))
     assert relative_speed_error(result) < 0.02
     # Not worse than reporting a sideslip of zero on another car with the seed car's tyres.
     assert support.rmse(result["sideslip_est"], result["sideslip"]) < support.rmse(0.0, result["sideslip"])
     assert bits(result) & STATUS["initialising"]
 
 
+@pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("vx0", [5.0, 35.0, 55.0])
 def test_a_wrong_start_speed_is_replaced_by_the_measured_one(vehicle, vehicle_dir, estimator,
-                                                             estimator_dir, vx0):
+                                                             estimator_dir, vx0, model):
     straight = lambda t: {"steering_angle": 0.0, "drive_torque": 0.0, "brake_torque": 0.0}
-    result = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", vx0, 2.0, straight)
+    result = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", vx0, 2.0, straight,
+                        estimator_extra=on(estimator, model))
     assert relative_speed_error(result) < 0.02
 
 
+@pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("signal, value", [("ay_meas", 100.0), ("omega_front_meas", 1e4),
                                            ("yaw_rate_meas", 2.0), ("all", 0.0)])
 def test_one_glitch_or_zero_row_is_gated_and_changes_nothing_much(vehicle, vehicle_dir, estimator,
-                                                                  estimator_dir, signal, value):
+                                                                  estimator_dir, signal, value,
+                                                                  model):
     def glitch(t, sensors):
         if abs(t - 2.0) < 1e-9:
             for name in (support.SENSOR_SIGNALS if signal == "all" else [signal]):
                 sensors[name] = value
 
     clean = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", 20.0, 3.0,
-                       sine_with_drive)
+                       sine_with_drive, estimator_extra=on(estimator, model))
     glitched = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", 20.0, 3.0,
-                          sine_with_drive, glitch)
+                          sine_with_drive, glitch, estimator_extra=on(estimator, model))
     assert bits(glitched) & STATUS["row_gated"]
     assert np.max(np.abs(glitched["vy_est"] - clean["vy_est"])) < 0.02
     assert np.max(np.abs(glitched["vx_est"] - clean["vx_est"])) < 0.05
 
 
+@pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("signal", ["yaw_rate_meas", "ay_meas", "vx_meas", "omega_rear_meas"])
 def test_after_a_half_second_outage_the_estimate_is_back_within_a_second(
-        vehicle, vehicle_dir, estimator, estimator_dir, signal):
+        vehicle, vehicle_dir, estimator, estimator_dir, signal, model):
     def outage(t, sensors):
         if 1.5 <= t < 2.0:
             sensors[signal] = float("nan")
 
     clean = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", 20.0, 4.0,
-                       sine_with_drive)
+                       sine_with_drive, estimator_extra=on(estimator, model))
     cut = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", 20.0, 4.0,
-                     sine_with_drive, outage)
+                     sine_with_drive, outage, estimator_extra=on(estimator, model))
     back = clean["time"] >= 3.0
     assert np.max(np.abs(cut["vy_est"][back] - clean["vy_est"][back])) < 0.02
     assert np.max(np.abs(cut["vx_est"][back] - clean["vx_est"][back])) < 0.01 * 20.0
 
 
+@pytest.mark.parametrize("model", MODELS)
 def test_braking_to_a_stop_standing_and_pulling_away(vehicle, vehicle_dir, estimator,
-                                                     estimator_dir):
+                                                     estimator_dir, model):
     def stop_and_go(t):
         if t < 14.0:
             return {"steering_angle": 0.0, "drive_torque": 0.0, "brake_torque": 2500.0}
         return {"steering_angle": 0.0, "drive_torque": 600.0, "brake_torque": 0.0}
 
     result = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "ekf", 8.0, 18.0,
-                        stop_and_go)
+                        stop_and_go, estimator_extra=on(estimator, model))
     for name in ESTIMATE:
         assert np.all(np.isfinite(result[name])), name
     standing = (result["time"] > 4.0) & (result["time"] < 14.0)
@@ -194,8 +208,7 @@ def test_the_grip_model_holds_a_braked_corner_with_the_torques_unknown(
     result = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, kind, 25.0, 7.0,
                         braking_in_a_turn, estimator_extra=grip)
     model_a = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, kind, 25.0, 7.0,
-                         braking_in_a_turn, estimator_extra={
-                             "model": estimator.enumeration_value("model", "single_track_5_state")})
+                         braking_in_a_turn, estimator_extra=on(estimator, "single_track_5_state"))
     error = result["sideslip_est"] - result["sideslip"]
     rmse = support.rmse(result["sideslip_est"], result["sideslip"])
     assert np.degrees(rmse) < 0.3
