@@ -2,10 +2,11 @@
 //! crate, issue 17 points 3 and 4) as the FMU runs it. Everything the grip states do not change
 //! is model A's ([`crate::model_a`]): the car and noise parameters, the sensors' rows and the
 //! speed anchor, the reported speed (`model_a::step_reported_speed`), the plausibility limits,
-//! the start from the measurements, the wheels' extra process noise and the derived outputs. The grip factors start at 1 with `grip_std`, also when
-//! the filter is re-seeded (the re-seed says the estimate was lost, its grip with it), and the
-//! tyres' transient slip angles (`tyre_relaxation_length`) at straight running; `ay_est` is
-//! evaluated with the estimated grip and transient slip angles.
+//! the start from the measurements, the wheels' extra process noise and the derived outputs.
+//! The grip factors start at 1 with `grip_std`, also when the filter is re-seeded (the re-seed
+//! says the estimate was lost, its grip with it), and the tyres' transient slip angles
+//! (`tyre_relaxation_length`) at straight running; `ay_est` is evaluated with the estimated grip
+//! and transient slip angles.
 
 use estimation::kalman::InitialEstimate;
 use estimation::models::single_track::{

@@ -201,17 +201,17 @@ fn the_grip_models_ekf_stays_honest_on_the_vanagons_sine_with_dwell() {
 /// Issue 12 point 1 on the campaigns (torques unknown throughout): every estimator's speed stays
 /// within 2 % on every Escort run. Model A's own speed does not (its EKF 8.8 % off braking in a
 /// turn: the braked front wheel pulls vx through its spin balance and vx_meas is then gated), so
-/// model A reports the speed filter's (the FMU's `model_a::step_reported_speed`; measured at
-/// most 0.6 % on the Escort's runs, 0.8 % on all 15); model B runs at the same filter's speed,
-/// and the grip model reports it as model A does (its Kalman filters' own speed kept within
-/// 0.3 %, their wheels keeping their slip while the torques read 0, but its Luenberger observer,
-/// which runs on seed 000's wheels, was 5.2 % off braking in a turn and 54 % on the Vanagon's on
-/// model 2; with the filter at most 0.4 % and 0.8 % on the 45 runs of all three truths). And the speed's reported std covers its
-/// error on each (time-averaged NEES at most 2, at least 90 % of samples inside the 95 %
-/// bound; measured at most 1.96 and at least 92 % on all 195 rows of 2026-12-04, with the
-/// filters' own lateral covariance in the speed filter instead of the reported one up to 6.3 and
-/// 60 %; the Luenberger observer on model B, added 2026-12-05: at most 0.6 % off, NEES at most
-/// 0.68 and at least 95 % inside on its 15 rows). Every estimator of the base scenario has a row.
+/// model A reports the speed filter's (the FMU's `model_a::step_reported_speed`; measured at most
+/// 0.6 % on the Escort's runs, 0.8 % on all 15); model B runs at the same filter's speed, and the
+/// grip model reports it as model A does (its Kalman filters' own speed kept within 0.3 %, their
+/// wheels keeping their slip while the torques read 0, but its Luenberger observer, which runs on
+/// seed 000's wheels, was 5.2 % off braking in a turn and 54 % on the Vanagon's on model 2; with
+/// the filter at most 0.4 % and 0.8 % on the 45 runs of all three truths). And the speed's reported
+/// std covers its error on each (time-averaged NEES at most 2, at least 90 % of samples inside the
+/// 95 % bound; measured at most 1.96 and at least 92 % on all 195 rows of 2026-12-04, with the
+/// filters' own lateral covariance in the speed filter instead of the reported one up to 6.3
+/// and 60 %; the Luenberger observer on model B, added 2026-12-05: at most 0.6 % off, NEES at
+/// most 0.68 and at least 95 % inside on its 15 rows). Every estimator of the base scenario has a row.
 #[test]
 fn every_estimator_keeps_the_speed_within_two_percent_and_honest_on_every_escort_run() {
     let estimators = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS))
