@@ -28,7 +28,7 @@ use crate::model_a::{self, ModelA, ReportsFilteredSpeed};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive};
 use crate::runner::{EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors};
-use crate::speed_filter::SpeedFilter;
+use crate::speed_filter::{self, SpeedFilter};
 
 /// The longitudinal acceleration the speed's prediction leaves out while the torques are unknown
 /// and `ax` is not measured, m/s², one standard deviation of a random walk of `vx` (its
@@ -291,7 +291,10 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         }
         if self.takes_zero_torques_as_unknown()
             && unknown_torques::torques_read_zero(&input.data.0[0])
-            && !(filter_input[AX_VALID_INPUT] == 1.0 && filter_input[AX_INPUT] != 0.0)
+            && speed_filter::measured_ax(
+                (filter_input[AX_VALID_INPUT] == 1.0).then_some(filter_input[AX_INPUT]),
+            )
+            .is_none()
         {
             let step = UNKNOWN_LONGITUDINAL_ACCELERATION * v.sample_time;
             noise[(state_index::VX, state_index::VX)] += step * step;

@@ -43,6 +43,14 @@ pub const HELD_AX_STD: f64 = 1.0;
 /// 12 point 3's 0.5 s outage of a sensor.
 pub const HELD_AX_TIME: f64 = 0.5;
 
+/// `ax` as the models take it (finite and plausible, else `None`) if it is a measured
+/// acceleration: an `ax_meas` left unconnected reads its start value, exactly 0, and a speed
+/// predicted at 0 m/s² would lag a braking car (0.8 m/s at 4 m/s² with the defaults), so an `ax`
+/// of exactly 0 counts as not measured.
+pub fn measured_ax(ax: Option<f64>) -> Option<f64> {
+    ax.filter(|&ax| ax != 0.0)
+}
+
 /// The filter's state; `variance` NaN while the speed is taken as measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedFilter {
@@ -91,9 +99,8 @@ pub struct SpeedSample {
 impl SpeedSample {
     /// The sample at the FMU's parameters (`measurement_noise_std_vx`, `process_noise_std_vx`,
     /// `sample_time`): `lateral_velocity` is `value tan β` of the filter's speed `value` and the
-    /// lateral filter's sideslip β. `ax` as the models take it: an `ax_meas` left unconnected
-    /// reads its start value, exactly 0, and a speed predicted at 0 m/s² would lag a braking car
-    /// (0.8 m/s at 4 m/s² with the defaults), so only an `ax` that is not exactly 0 filters.
+    /// lateral filter's sideslip β; `ax` as the models take it, of which only a
+    /// [`measured_ax`] filters.
     pub fn at(
         v: &Variables,
         measured: f64,
@@ -104,7 +111,7 @@ impl SpeedSample {
         Self {
             measured,
             measurement_variance: v.measurement_noise_std_vx * v.measurement_noise_std_vx,
-            ax: ax.filter(|&ax| ax != 0.0),
+            ax: measured_ax(ax),
             yaw_rate,
             lateral_velocity,
             lateral_velocity_variance,

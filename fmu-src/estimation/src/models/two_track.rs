@@ -166,10 +166,11 @@ impl<T: TyreModel> TwoTrackEstimationModel<T> {
     /// (the gyro keeps the yaw rate where `ay` no longer depends on the sideslip, at the tyres'
     /// limit); `β` with model A's lateral pole `-40 1/s`, `r` with `-50 1/s` (continuous time,
     /// mapped by `z = exp(s T)`): at equal poles the coupling `dβ/dt = ay/vx − r` made the error
-    /// map 0.07 % slower than placed, which the block-wise gain's test refuses. The `ay` state gets no feedback of its own: the model computes it from
-    /// the tyre forces of the sample (001: eq 1), so its error follows those of `β` and `r`
-    /// within the sample and no output observes it apart from them (a block `(β, ay)` through
-    /// `ay` has a singular observability matrix).
+    /// map 0.07 % slower than placed, which the block-wise gain's test refuses. The `ay` state
+    /// gets no feedback of its own: the model computes it from the tyre forces of the sample
+    /// (001: eq 1), so its error follows those of `β` and `r` within the sample and no output
+    /// observes it apart from them (a block `(β, ay)` through `ay` has a singular observability
+    /// matrix).
     pub fn default_observer_design(&self) -> ObserverDesign {
         use vehicle_models::two_track_lateral::{measurement_index, state_index};
         let t = self.sample_time;
