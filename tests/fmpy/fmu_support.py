@@ -216,8 +216,10 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
         "use_speed_measurements": False,
         "start_from_measurements": False,
         "gate_measurements": False,
-        # Seed 000's LKF is linearised once (no gain scheduling).
+        # Seed 000's LKF is linearised once (no gain scheduling), and the observer's gain
+        # placed once, as seed 002's.
         "schedule_threshold": 0.0,
+        "observer_schedule_threshold": 0.0,
     }
     for state in ("vx", "vy", "yaw_rate", "omega_front", "omega_rear"):
         parameters[f"process_noise_std_{state}"] = vehicle.start(f"process_noise_std_{state}")

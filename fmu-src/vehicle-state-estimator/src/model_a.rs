@@ -488,7 +488,7 @@ where
     let [_, rear] = runner.model.single_track().kinematic_slip(&body, &driver);
     let rear_slip = rear.tan_slip_angle.atan();
     // Not where the filter's covariance carries the tyres' scale (its runner adds no such term).
-    let consider = if Model::estimates_tyre_scale(runner.choice()) {
+    let consider = if runner.estimates_tyre_scale() {
         0.0
     } else {
         stiffness_consider(&runner.parameters, rear_slip) * vx

@@ -151,15 +151,18 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     type Extra = SpeedFilter;
 
     /// The grip states carry the axles' force scale, and with it the stiffness uncertainty, in
-    /// the covariance of the EKF and both UKFs. Not in the LKF's (one linearisation, at straight
-    /// driving, where the grip is unobservable) nor in the particle filter's (its particles
-    /// collapse along the grip directions): without the term their sideslip NEES on the
-    /// campaigns was 1-75 and 2-1034, so they keep it.
-    fn estimates_tyre_scale(choice: EstimatorChoice) -> bool {
-        matches!(
-            choice,
-            EstimatorChoice::Ekf | EstimatorChoice::Ukf | EstimatorChoice::UkfScaled
-        )
+    /// the covariance of the EKF, both UKFs and the gain-scheduled LKF (re-linearised about the
+    /// estimate, by default whenever its linearisation errs by 0.02 noise std, so that its grip
+    /// columns follow the tyre forces). Not in the LKF linearised once (`schedule_threshold` 0,
+    /// at straight driving, where the grip is unobservable) nor in the particle filter's (its
+    /// particles collapse along the grip directions): without the term their sideslip NEES on
+    /// the campaigns was 1-75 and 2-1034, so they keep it.
+    fn estimates_tyre_scale(choice: EstimatorChoice, relinearised: bool) -> bool {
+        match choice {
+            EstimatorChoice::Ekf | EstimatorChoice::Ukf | EstimatorChoice::UkfScaled => true,
+            EstimatorChoice::Lkf => relinearised,
+            _ => false,
+        }
     }
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {

@@ -129,10 +129,11 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     type Extra: Clone + Copy + Debug + Send;
 
     /// Whether the model's filter estimates its tyres' force scale with a covariance that
-    /// follows it (the grip model's EKF and UKFs), so the reported std already holds the
-    /// stiffness uncertainty that [`with_stiffness_consider`] adds for the others, and the
-    /// runner leaves that term out.
-    fn estimates_tyre_scale(_choice: EstimatorChoice) -> bool {
+    /// follows it (the grip model's EKF, UKFs and re-linearised LKF), so the reported std
+    /// already holds the stiffness uncertainty that [`with_stiffness_consider`] adds for the
+    /// others, and the runner leaves that term out. `relinearised`: the linear estimators are
+    /// gain-scheduled (their schedule threshold is above 0).
+    fn estimates_tyre_scale(_choice: EstimatorChoice, _relinearised: bool) -> bool {
         false
     }
 
@@ -527,9 +528,15 @@ fn observer_scaling_window(sample_time: f64) -> usize {
     samples.clamp(MIN_WINDOW as f64, MAX_WINDOW as f64) as usize
 }
 
-/// `schedule_threshold`, finite and at least 0.
-fn schedule_threshold(v: &Variables) -> Result<f64, String> {
-    non_negative("schedule_threshold", v.schedule_threshold)
+/// The schedule threshold of the estimator `choice`: `observer_schedule_threshold` for the
+/// Luenberger observer, `schedule_threshold` for the others (only the LKF uses it), finite and at
+/// least 0.
+fn schedule_threshold(v: &Variables, choice: EstimatorChoice) -> Result<f64, String> {
+    if choice == EstimatorChoice::Luenberger {
+        non_negative("observer_schedule_threshold", v.observer_schedule_threshold)
+    } else {
+        non_negative("schedule_threshold", v.schedule_threshold)
+    }
 }
 
 /// A parameter that must be finite and at least 0.
@@ -601,8 +608,9 @@ where
     /// The measured speed of the last held sample (for its outputs, like `holding`).
     held_speed: Option<MeasuredSpeed>,
     gate: Option<Gate>,
-    /// `schedule_threshold`: the linear estimators re-linearise when their linearisation errs at
-    /// the estimate by more than this many noise standard deviations; 0 never.
+    /// `schedule_threshold` (the LKF) or `observer_schedule_threshold` (the Luenberger
+    /// observer): the linear estimators re-linearise when their linearisation errs at the
+    /// estimate by more than this many noise standard deviations; 0 never.
     schedule_threshold: f64,
     /// Samples in a row for which each plausible row was gated (FMU state).
     gated_samples: [u64; M],
@@ -697,7 +705,7 @@ where
             holding: false,
             held_speed: None,
             gate,
-            schedule_threshold: schedule_threshold(v)?,
+            schedule_threshold: schedule_threshold(v, choice)?,
             gated_samples: [0; M],
             innovations,
             started: !v.start_from_measurements,
@@ -746,9 +754,10 @@ where
         self.gate.map(|gate| gate.test)
     }
 
-    /// The estimator that runs.
-    pub(crate) fn choice(&self) -> EstimatorChoice {
-        self.choice
+    /// Whether the running filter's covariance carries its tyres' force scale
+    /// ([`EstimationModel::estimates_tyre_scale`]).
+    pub(crate) fn estimates_tyre_scale(&self) -> bool {
+        Model::estimates_tyre_scale(self.choice, self.schedule_threshold > 0.0)
     }
 
     /// The factor on the covariance the estimator reports ([`OutputSample::covariance_scale`]).
@@ -1113,7 +1122,7 @@ where
             ..*sample
         };
         let outputs = self.model.outputs(&scaled, &self.parameters);
-        if Model::estimates_tyre_scale(self.choice) {
+        if self.estimates_tyre_scale() {
             outputs
         } else {
             with_stiffness_consider(

@@ -34,7 +34,9 @@ fn seed_settings(s: &mut Slave) {
         s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
         Fmi2Status::Ok
     );
-    assert_eq!(s.set_real(vr::SCHEDULE_THRESHOLD, 0.0), Fmi2Status::Ok);
+    for threshold in [vr::SCHEDULE_THRESHOLD, vr::OBSERVER_SCHEDULE_THRESHOLD] {
+        assert_eq!(s.set_real(threshold, 0.0), Fmi2Status::Ok);
+    }
     for flag in [
         vr::USE_SPEED_MEASUREMENTS,
         vr::START_FROM_MEASUREMENTS,
@@ -140,13 +142,13 @@ fn track(estimator: i32, duration: f64) -> (f64, i32) {
     track_scheduled(estimator, duration, 0.0)
 }
 
-/// [`track`] with the linear estimators gain-scheduled at `schedule_threshold`.
+/// [`track`] with the linear estimators (LKF and observer) gain-scheduled at
+/// `schedule_threshold`.
 fn track_scheduled(estimator: i32, duration: f64, schedule_threshold: f64) -> (f64, i32) {
     let mut s = slave();
-    assert_eq!(
-        s.set_real(vr::SCHEDULE_THRESHOLD, schedule_threshold),
-        Fmi2Status::Ok
-    );
+    for threshold in [vr::SCHEDULE_THRESHOLD, vr::OBSERVER_SCHEDULE_THRESHOLD] {
+        assert_eq!(s.set_real(threshold, schedule_threshold), Fmi2Status::Ok);
+    }
     assert_eq!(s.set_integer(vr::ESTIMATOR, estimator), Fmi2Status::Ok);
     assert_eq!(s.set_integer(vr::PARTICLE_COUNT, 100), Fmi2Status::Ok);
     assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
@@ -194,8 +196,9 @@ fn ekf_and_ukf_track_the_high_ramp_and_the_lkf_does_not() {
 fn the_gain_scheduled_lkf_tracks_the_high_ramp_as_the_ekf_does() {
     // Linearised once about straight driving (seed 000) the LKF is off by more than 1e-2 m/s
     // (above); re-linearised about its estimate whenever the linear model errs there by more
-    // than one noise std (the default schedule_threshold), it follows the tyres into the
-    // nonlinear range and stays a linear filter in between. Measured: 2.2e-4 m/s, as the EKF.
+    // than one noise std (schedule_threshold 1, coarser than the default 0.02), it follows the
+    // tyres into the nonlinear range and stays a linear filter in between. Measured:
+    // 2.2e-4 m/s, as the EKF.
     let (scheduled, status) = track_scheduled(EstimatorKind::Lkf as i32, 8.0, 1.0);
     let (ekf, _) = track(EstimatorKind::Ekf as i32, 8.0);
     assert_eq!(status, 0);
@@ -421,6 +424,7 @@ fn fmu_states_continue_bit_identically_for_every_estimator() {
         let mut s = slave();
         s.set_integer(vr::ESTIMATOR, estimator);
         s.set_real(vr::SCHEDULE_THRESHOLD, schedule_threshold);
+        s.set_real(vr::OBSERVER_SCHEDULE_THRESHOLD, schedule_threshold);
         s.set_integer(vr::PARTICLE_COUNT, 100);
         // Start at 4.3 s, on the ramp: the state is stored mid-manoeuvre.
         assert_eq!(s.initialize(4.3), Fmi2Status::Ok);

@@ -51,13 +51,21 @@ fn estimator_with_lag(
     uncertainty: Option<f64>,
     relaxation_length: Option<f64>,
 ) -> Slave {
+    let lag = relaxation_length.map(|length| (vr::TYRE_RELAXATION_LENGTH, length));
+    estimator_with(kind, model, uncertainty, lag.as_slice())
+}
+
+/// [`estimator_of_kind`] with the real parameters `settings` set.
+fn estimator_with(
+    kind: EstimatorKind,
+    model: EstimatorModel,
+    uncertainty: Option<f64>,
+    settings: &[(u32, f64)],
+) -> Slave {
     let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "consider", GUID)
         .expect("instantiate");
-    if let Some(length) = relaxation_length {
-        assert_eq!(
-            s.set_real(vr::TYRE_RELAXATION_LENGTH, length),
-            Fmi2Status::Ok
-        );
+    for &(reference, value) in settings {
+        assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
     }
     assert_eq!(s.set_integer(vr::MODEL, model as i32), Fmi2Status::Ok);
     assert_eq!(s.set_integer(vr::ESTIMATOR, kind as i32), Fmi2Status::Ok);
@@ -135,16 +143,19 @@ fn the_consider_term_widens_the_reported_std_and_leaves_the_estimate_alone() {
     }
 }
 
-/// The covariance of the grip model's EKF and UKFs holds its tyres' scale uncertainty (the
-/// grip states): every output is the same to the bit whatever the parameter. Its LKF and
-/// particle filter, whose covariances do not follow the grip, report the term.
+/// The covariance of the grip model's EKF, UKFs and gain-scheduled LKF (the default) holds its
+/// tyres' scale uncertainty (the grip states): every output is the same to the bit whatever the
+/// parameter. Its LKF linearised once (`schedule_threshold` 0) and its particle filter, whose
+/// covariances do not follow the grip, report the term.
 #[test]
 fn the_grip_models_ekf_and_ukfs_report_their_own_covariance() {
     let model = EstimatorModel::SingleTrackGrip;
+    let linearised_once = [(vr::SCHEDULE_THRESHOLD, 0.0)];
     for kind in [
         EstimatorKind::Ekf,
         EstimatorKind::Ukf,
         EstimatorKind::UkfScaled,
+        EstimatorKind::Lkf,
     ] {
         let with = run(&mut estimator_of_kind(kind, model, Some(0.25)));
         let without = run(&mut estimator_of_kind(kind, model, Some(0.0)));
@@ -160,9 +171,12 @@ fn the_grip_models_ekf_and_ukfs_report_their_own_covariance() {
         // and a sideslip std is reported (the filter's own, not 0)
         assert!(with[200..].iter().all(|(w, _)| w[4] > 0.0), "{kind:?}");
     }
-    for kind in [EstimatorKind::Lkf, EstimatorKind::ParticleFilter] {
-        let with = run(&mut estimator_of_kind(kind, model, Some(0.25)));
-        let without = run(&mut estimator_of_kind(kind, model, Some(0.0)));
+    for (kind, settings) in [
+        (EstimatorKind::Lkf, &linearised_once[..]),
+        (EstimatorKind::ParticleFilter, &[]),
+    ] {
+        let with = run(&mut estimator_with(kind, model, Some(0.25), settings));
+        let without = run(&mut estimator_with(kind, model, Some(0.0), settings));
         // in the corner the rear slip angle is not 0, so the term widens the std
         let wider = with[200..]
             .iter()
