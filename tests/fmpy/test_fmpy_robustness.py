@@ -14,7 +14,6 @@ import fmu_support as support
 from test_fmpy_reference_model3 import read_ssv
 
 STEP = 0.01
-GRAVITY = 9.81
 ESCORT = support.ROOT / "fmu-src" / "reference-vehicle" / "cars" / "ford_escort.ssv"
 STATUS = {"row_gated": 128, "readmitted": 256, "initialising": 512, "below_min_speed": 32}
 TRUTH = ["vx", "vy", "sideslip"]
@@ -45,16 +44,14 @@ def escort_estimator_parameters(vehicle, kind, extra=None):
 
 def model_a_parameters(car):
     """The estimator's model-A car parameters from a car's parameter-value file (as read_ssv
-    reads it): mass, inertias, axle distances, radii, brake split, static wheel loads."""
-    wheelbase = car["cog_to_front_axle"] + car["cog_to_rear_axle"]
-    axle = lambda distance: car["mass"] * GRAVITY * distance / wheelbase / 2.0
+    reads it): mass, inertias, axle distances, radii, brake split, static wheel loads (the car
+    file holds them for the ReferenceVehicle's models 1 and 2)."""
     parameters = {name: car[name] for name in (
         "mass", "yaw_inertia", "cog_to_front_axle", "cog_to_rear_axle",
-        "wheel_inertia_front", "wheel_inertia_rear", "brake_distribution_front")}
+        "wheel_inertia_front", "wheel_inertia_rear", "brake_distribution_front",
+        "wheel_load_front", "wheel_load_rear")}
     # The car file has one radius for all wheels; the estimator takes one per axle.
     parameters["wheel_radius_front"] = parameters["wheel_radius_rear"] = car["wheel_radius"]
-    parameters["wheel_load_front"] = axle(car["cog_to_rear_axle"])
-    parameters["wheel_load_rear"] = axle(car["cog_to_front_axle"])
     return parameters
 
 

@@ -5,10 +5,13 @@
 
 use std::path::{Path, PathBuf};
 
+use fmi_export::ffi::Fmi2Status;
+use fmi_export::fmi2_api_of;
+use fmi_export::testing::Slave;
 use fmi_export::Causality;
 use vehicle_models::full_vehicle::CarData;
-use vehicle_models::parameters::{full_vehicle_parameter_values, parameter_value_file};
-use ReferenceVehicle::model_description::VARIABLES;
+use vehicle_models::parameters::parameter_value_file;
+use ReferenceVehicle::model_description::{vr, GUID, VARIABLES};
 
 fn manifest_directory() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -73,7 +76,7 @@ fn every_name_in_a_parameter_value_file_is_a_parameter_of_the_fmu_and_in_range()
                 "{name} is no parameter of the ReferenceVehicle"
             );
         }
-        for (name, value) in full_vehicle_parameter_values(&car.vehicle) {
+        for (name, value) in real_values(&text) {
             let variable = VARIABLES.iter().find(|v| v.name == name).unwrap();
             assert!(
                 (variable.min..=variable.max).contains(&value),
@@ -81,6 +84,40 @@ fn every_name_in_a_parameter_value_file_is_a_parameter_of_the_fmu_and_in_range()
                 variable.min,
                 variable.max
             );
+        }
+    }
+}
+
+/// The `(name, value)` of every `ssv:Real` entry of a parameter-value file.
+fn real_values(text: &str) -> Vec<(&str, f64)> {
+    text.split("<ssv:Parameter name=\"")
+        .skip(1)
+        .filter_map(|rest| {
+            let name = &rest[..rest.find('"')?];
+            let value = rest.split("<ssv:Real value=\"").nth(1)?;
+            Some((name, value[..value.find('"')?].parse().ok()?))
+        })
+        .collect()
+}
+
+/// A master that applies a car file and sets `model` to 1 or 2 runs the car's static wheel
+/// loads (the file holds them), not the seed car's defaults; the models output them.
+#[test]
+fn a_car_file_gives_models_1_and_2_the_cars_static_wheel_loads() {
+    for (stem, car) in cars() {
+        let text = std::fs::read_to_string(ssv_path(&stem)).unwrap();
+        let (front, rear) = car.vehicle.static_wheel_loads();
+        for model in [1, 2] {
+            let mut s = Slave::instantiate(fmi2_api_of!(ReferenceVehicle), "car", GUID)
+                .expect("instantiate");
+            for (name, value) in real_values(&text) {
+                let variable = VARIABLES.iter().find(|v| v.name == name).unwrap();
+                assert_eq!(s.set_real(variable.value_reference, value), Fmi2Status::Ok);
+            }
+            assert_eq!(s.set_integer(vr::MODEL, model), Fmi2Status::Ok);
+            assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+            let loads = s.reals(&[vr::WHEEL_LOAD_FRONT_LEFT, vr::WHEEL_LOAD_REAR_RIGHT]);
+            assert_eq!(loads, [front, rear], "{stem} on model {model}");
         }
     }
 }

@@ -294,10 +294,17 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
 /// The item of the ReferenceVehicle's `model` enumeration that runs the full vehicle.
 pub const FULL_VEHICLE_MODEL_ITEM: &str = "full_vehicle";
 
+/// The ReferenceVehicle's parameters of the static load of one front and one rear wheel, which
+/// its models 1 and 2 take as given (the full vehicle computes its own).
+pub const STATIC_WHEEL_LOAD_PARAMETERS: [&str; 2] = ["wheel_load_front", "wheel_load_rear"];
+
 /// A car file as an SSP 1.0 parameter-value file (`.ssv`, SSP 1.0 Sect. 6, namespace
-/// `ssv`): `model = full_vehicle`, `abs_enabled` and every Real parameter of
-/// [`visit_full_vehicle_parameters`] under the ReferenceVehicle's names, so a master or an SSP
-/// applies a car to the FMU as it is. Numbers are written in Rust's shortest round-trip form.
+/// `ssv`): `model = full_vehicle`, `abs_enabled`, every Real parameter of
+/// [`visit_full_vehicle_parameters`] under the ReferenceVehicle's names and the car's static wheel
+/// loads ([`STATIC_WHEEL_LOAD_PARAMETERS`], [`FullVehicleParams::static_wheel_loads`]), so a
+/// master or an SSP applies a car to the FMU as it is, on any of its models (a master that sets
+/// `model` to 1 or 2 keeps the car's loads, not the seed car's). Numbers are written in Rust's
+/// shortest round-trip form.
 pub fn parameter_value_file(car: &CarData) -> String {
     let escape = |text: &str| {
         text.replace('&', "&amp;")
@@ -309,7 +316,15 @@ pub fn parameter_value_file(car: &CarData) -> String {
          <ssv:Parameter name=\"{ABS_ENABLED_PARAMETER}\"><ssv:Boolean value=\"{}\"/></ssv:Parameter>\n",
         car.vehicle.drivetrain.abs.enabled
     );
-    for (name, value) in full_vehicle_parameter_values(&car.vehicle) {
+    let (front_load, rear_load) = car.vehicle.static_wheel_loads();
+    let static_loads = [
+        (STATIC_WHEEL_LOAD_PARAMETERS[0], front_load),
+        (STATIC_WHEEL_LOAD_PARAMETERS[1], rear_load),
+    ];
+    for (name, value) in full_vehicle_parameter_values(&car.vehicle)
+        .into_iter()
+        .chain(static_loads)
+    {
         parameters.push_str(&format!(
             "    <ssv:Parameter name=\"{name}\"><ssv:Real value=\"{value:?}\"/></ssv:Parameter>\n"
         ));
@@ -321,6 +336,9 @@ pub fn parameter_value_file(car: &CarData) -> String {
          name=\"{}\" description=\"{}\" generationTool=\"vehicle_models::parameters::parameter_value_file\">\n  \
          <ssv:Parameters>\n{parameters}  </ssv:Parameters>\n</ssv:ParameterSet>\n",
         escape(&car.name),
-        escape(&format!("ReferenceVehicle model 3 parameters; source: {}", car.source)),
+        escape(&format!(
+            "ReferenceVehicle parameters: model 3 (full_vehicle) and the static wheel loads models 1 and 2 take; source: {}",
+            car.source
+        )),
     )
 }

@@ -12,11 +12,12 @@ use fmi_master::cosim::ParameterValue;
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::scenario::{Scenario, VarRef};
 use fmi_master::ssv::{read_parameter_file, SsvValue};
-use vehicle_models::GRAVITY;
+use vehicle_models::parameters::STATIC_WHEEL_LOAD_PARAMETERS;
 
 /// Parameters copied unchanged from the car file to the estimator (both FMUs name them alike:
-/// 000 table 5.1's symbols).
-pub const COPIED_PARAMETERS: [&str; 7] = [
+/// 000 table 5.1's symbols, and the static load of one wheel per axle, which the car file holds
+/// for the ReferenceVehicle's models 1 and 2, `vehicle_models::parameters::parameter_value_file`).
+pub const COPIED_PARAMETERS: [&str; 9] = [
     "mass",
     "yaw_inertia",
     "cog_to_front_axle",
@@ -24,13 +25,14 @@ pub const COPIED_PARAMETERS: [&str; 7] = [
     "wheel_inertia_front",
     "wheel_inertia_rear",
     "brake_distribution_front",
+    STATIC_WHEEL_LOAD_PARAMETERS[0],
+    STATIC_WHEEL_LOAD_PARAMETERS[1],
 ];
 
 /// The estimator's parameter values for the car of `car_file`: the copied ones; the wheel
 /// radius, once as `wheel_radius` and once per axle (`wheel_radius_front`, `_rear`: the car
 /// file's own per-axle values where it has them), so that either form of the estimator finds
-/// its own; and the static load of one wheel per axle, Fz_F = m g lR / (2 (lF + lR)) and
-/// Fz_R = m g lF / (2 (lF + lR)) (model A's constant wheel loads, 000: after table 5.2).
+/// its own.
 pub fn estimator_values(car_file: &Path) -> Result<Vec<(String, f64)>> {
     let parameters = read_parameter_file(car_file)
         .with_context(|| format!("reading the car file {}", car_file.display()))?;
@@ -64,34 +66,7 @@ pub fn estimator_values(car_file: &Path) -> Result<Vec<(String, f64)>> {
         let own = find(&name).unwrap_or(radius);
         values.push((name, own));
     }
-    let (mass, front, rear) = (
-        value("mass")?,
-        value("cog_to_front_axle")?,
-        value("cog_to_rear_axle")?,
-    );
-    values.extend(static_wheel_loads(mass, front, rear));
     Ok(values)
-}
-
-/// The static load of one wheel per axle, `wheel_load_front` Fz_F = m g lR / (2 (lF + lR)) and
-/// `wheel_load_rear` Fz_R = m g lF / (2 (lF + lR)) (model A's constant wheel loads, 000: after
-/// table 5.2), under the names both FMUs give them.
-fn static_wheel_loads(mass: f64, front: f64, rear: f64) -> [(String, f64); 2] {
-    let per_wheel = mass * GRAVITY / (2.0 * (front + rear));
-    [
-        ("wheel_load_front".into(), per_wheel * rear),
-        ("wheel_load_rear".into(), per_wheel * front),
-    ]
-}
-
-/// The static wheel loads of the car of `car_file` ([`estimator_values`]' own), for a
-/// ReferenceVehicle model that takes them as parameters (models 1 and 2: the car files set the
-/// full vehicle's parameters, which computes its loads itself, and would leave the seed car's).
-pub fn static_wheel_load_values(car_file: &Path) -> Result<Vec<(String, f64)>> {
-    Ok(estimator_values(car_file)?
-        .into_iter()
-        .filter(|(name, _)| name.starts_with("wheel_load_"))
-        .collect())
 }
 
 /// [`estimator_values`] as parameter overrides of every instance in `instances`, those the

@@ -267,8 +267,8 @@ impl Campaign {
 
     /// Manoeuvre `m` (with its [manoeuvre] `section`) on the car of `car_file` on the
     /// ReferenceVehicle model `reference` through the master: the run and one [`Row`] per
-    /// estimator. For a model other than the full vehicle the vehicle gets that `model` and the
-    /// car's static wheel loads ([`car::static_wheel_load_values`]).
+    /// estimator. For a model other than the full vehicle the vehicle gets that `model`; the car
+    /// file holds the static wheel loads models 1 and 2 take.
     pub fn run_one(
         &self,
         reference: &ReferenceModel,
@@ -297,11 +297,6 @@ impl Campaign {
             vehicle
                 .parameters
                 .insert("model".into(), toml::Value::Integer(reference.model));
-            for (parameter, value) in car::static_wheel_load_values(car_file)? {
-                vehicle
-                    .parameters
-                    .insert(parameter, toml::Value::Float(value));
-            }
         }
         scenario.validate()?;
         let overrides = car::estimator_overrides(car_file, &self.estimators, estimator_fmu)?;
