@@ -140,30 +140,6 @@ fn sliding_axles(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [
     })
 }
 
-/// One sample's step of each transient slip angle by the lag equation, `min(1, vx T / σ)
-/// (tan α − tan α')` at the estimate (Pacejka 2012, sect. 7.2.1; `tan α` model A's kinematic
-/// slip angle), with the state it moves: what a relative error `ε` of the relaxation length `σ`
-/// changes by `ε` times itself, to first order (`tyre_relaxation_length_uncertainty`).
-fn lag_steps(
-    model: &ModelGrip,
-    state: &StateGrip,
-    input: &InputVector,
-    v: &Variables,
-) -> [(usize, f64); 2] {
-    let driver: [f64; INPUT_DIM] = std::array::from_fn(|i| input[i]);
-    let chassis: [f64; STATE_DIM] = std::array::from_fn(|i| state[i]);
-    let kinematic = model.vehicle().kinematic_slip(&chassis, &driver);
-    let rate = (state[state_index::VX].abs() * v.sample_time / v.tyre_relaxation_length).min(1.0);
-    let transient = [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR];
-    std::array::from_fn(|axle| {
-        let index = transient[axle];
-        (
-            index,
-            rate * (kinematic[axle].tan_slip_angle - state[index]),
-        )
-    })
-}
-
 impl ReportsFilteredSpeed<GRIP_STATE_DIM> for ModelGrip {
     fn single_track(&self) -> &SingleTrackModel<HsriTyre> {
         self.vehicle()
@@ -326,8 +302,10 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             let step = UNKNOWN_LONGITUDINAL_ACCELERATION * v.sample_time;
             noise[(state_index::VX, state_index::VX)] += step * step;
         }
-        if v.tyre_relaxation_length_uncertainty > 0.0 && v.tyre_relaxation_length > 0.0 {
-            for (index, step) in lag_steps(self, state, input, v) {
+        // A relaxation length off by ε σ changes the lag's step by ε times itself, to first
+        // order (`tyre_relaxation_length_uncertainty`; Pacejka 2012, sect. 7.2.1).
+        if v.tyre_relaxation_length_uncertainty > 0.0 {
+            for (index, step) in self.transient_slip_steps(state, filter_input) {
                 let error = v.tyre_relaxation_length_uncertainty * step;
                 noise[(index, index)] += error * error;
             }

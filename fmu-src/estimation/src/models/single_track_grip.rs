@@ -207,6 +207,19 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         self.lateral_states(&state.data.0[0])
     }
 
+    /// Each axle's transient slip angle: its state index and the step the transition's lag
+    /// takes it by over one sample at `(state, input)` ([`Self::transient_slip_step`]; 0 without
+    /// a relaxation length).
+    pub fn transient_slip_steps(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> [(usize, f64); 2] {
+        let next = self.transient_slip_step(&state.data.0[0], &input.data.0[0]);
+        let index = [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR];
+        core::array::from_fn(|axle| (index[axle], next[axle] - state[index[axle]]))
+    }
+
     /// Model A with the speed anchor, without the grip states.
     pub fn anchored(&self) -> &SpeedAnchoredModel<T> {
         &self.anchored
