@@ -13,7 +13,7 @@ use estimation::models::single_track::{
     ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM, AX_INPUT, AX_VALID_INPUT,
 };
 use estimation::models::single_track_grip::{
-    extend_state, GripPrior, SingleTrackGripModel, GRIP_FACTORS, GRIP_STATE_DIM,
+    extend_state, GripPrior, SingleTrackGripModel, GRIP_FACTORS, GRIP_STATE_DIM, RELAXATION_FACTOR,
     TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR,
 };
 use estimation::models::unknown_torques;
@@ -53,11 +53,13 @@ type StateA = SVector<f64, STATE_DIM>;
 pub type RunnerGrip =
     Runner<ModelGrip, GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>;
 
-/// The grip factors' prior from `grip_std` and `grip_time_constant`.
+/// The grip factors' prior from `grip_std` and `grip_time_constant`, the relaxation factor's
+/// from `tyre_relaxation_length_uncertainty`.
 fn prior(v: &Variables) -> Result<GripPrior, String> {
     Ok(GripPrior {
         std: positive("grip_std", v.grip_std)?,
         time_constant: positive("grip_time_constant", v.grip_time_constant)?,
+        relaxation_std: v.tyre_relaxation_length_uncertainty,
     })
 }
 
@@ -243,7 +245,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     /// are kept with it: a re-seed in a corner that put them to straight running would take the
     /// side force off the kept sideslip's tyres for a relaxation length (measured: braking in a
     /// turn, harness robustness, EKF_G re-seeded four times and 2.0 deg RMSE against 1.2 deg
-    /// with them kept).
+    /// with them kept). So is the relaxation factor, the tyres' and not the lost estimate's
+    /// (with its prior's variance).
     fn readmitted_start(&self, current: &StateGrip, start: &mut InitialEstimate<GRIP_STATE_DIM>) {
         let mut body_start = body_estimate(start);
         self.anchored()
@@ -252,7 +255,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             .state
             .fixed_rows_mut::<STATE_DIM>(0)
             .copy_from(&body_start.state);
-        for i in [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR] {
+        for i in [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR, RELAXATION_FACTOR] {
             start.state[i] = current[i];
         }
     }
@@ -302,14 +305,6 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             let step = UNKNOWN_LONGITUDINAL_ACCELERATION * v.sample_time;
             noise[(state_index::VX, state_index::VX)] += step * step;
         }
-        // A relaxation length off by ε σ changes the lag's step by ε times itself, to first
-        // order (`tyre_relaxation_length_uncertainty`; Pacejka 2012, sect. 7.2.1).
-        if v.tyre_relaxation_length_uncertainty > 0.0 {
-            for (index, step) in self.transient_slip_steps(state, filter_input) {
-                let error = v.tyre_relaxation_length_uncertainty * step;
-                noise[(index, index)] += error * error;
-            }
-        }
         let variance = v.grip_std * v.grip_std;
         for (sliding, grip) in sliding_axles(self, state, input)
             .into_iter()
@@ -355,7 +350,10 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             .outputs_with_lateral_states(
                 &body_sample.state,
                 &sample.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
-                Some(self.lateral_states_of(&sample.state)),
+                Some(self.lateral_states_of(
+                    &sample.state,
+                    &sample.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
+                )),
             )
             .lateral_acceleration;
         model_a::at_reported_speed(values, &sample.extra)

@@ -1,11 +1,12 @@
 //! Model A with per-axle lateral grip states and tyre relaxation (issue 17 points 3 and 4) as a
-//! [`StateSpaceModel<9, 5, 6>`].
+//! [`StateSpaceModel<10, 5, 6>`].
 //!
 //! - state `x = [vx, vy, yaw_rate, omega_front, omega_rear, grip_front, grip_rear,
-//!   transient_slip_front, transient_slip_rear]`: model A's five states, one factor per axle on
-//!   model A's lateral tyre force ([`SingleTrackModel::step_with_lateral_states`]; 1 is the
-//!   user's tyre), and per axle the tyre's transient slip angle `tan α'` at which the tyre law
-//!   is evaluated (see **Tyre lag**);
+//!   transient_slip_front, transient_slip_rear, relaxation_factor]`: model A's five states, one
+//!   factor per axle on model A's lateral tyre force
+//!   ([`SingleTrackModel::step_with_lateral_states`]; 1 is the user's tyre), per axle the tyre's
+//!   transient slip angle `tan α'`, and the share of the lag the tyres actually have (see
+//!   **Tyre lag** and **How much lag**);
 //! - measurement and input as [`SpeedAnchoredModel`]'s: `y = [yaw_rate, ay, omega_front,
 //!   omega_rear, vx]`, `u = [steering_angle, drive_torque, brake_torque, drive_torque_rear, ax,
 //!   ax_valid]`, with the `vx` row and the `ax` kinematics of the speed anchor.
@@ -40,6 +41,23 @@
 //! holds `α'` at standstill. `σ = 0` is model A's instantaneous tyre: the forces use the
 //! kinematic slip angles and the transient states merely follow them.
 //!
+//! **How much lag.** The car's relaxation length is rarely known, and a wrong one is a wrong
+//! phase between the slip angle and the force in every transient, which the filter puts into
+//! its sideslip. So the tyre law is evaluated at
+//! `tan α_eff = tan α + κ (tan α' − tan α)`, with the relaxation factor `κ` a state: `κ = 1` is
+//! the lag of `σ`, `κ = 0` none, and for a slowly changing `α` the force lags by `κ σ / |Vcx|`,
+//! as a tyre of relaxation length `κ σ` does (to first order in the rate: the blend of the
+//! lagged and the instantaneous slip angle rather than `σ` itself inside the lag, so that the
+//! force is linear in `κ` and the filter's linearisation holds at any `κ`). `κ` is a
+//! Gauss-Markov process about 1 of stationary std `ε` (the relative uncertainty of `σ`,
+//! [`GripPrior::relaxation_std`]) and correlation time [`RELAXATION_FACTOR_TIME_CONSTANT`]; a
+//! `κ` below 0 (a force ahead of its slip) is taken as 0. Where the slip angles do not change,
+//! `α' = α` and `κ` is unobservable and harmless. Measured on the mismatch campaigns (`harness
+//! robustness`, EKF_G's sideslip RMSEs summed over full vehicle / model 1 / model 2, 15 runs
+//! each; fmu-src/vehicle-state-estimator/README.md, "The tyres' lag estimated"): `ε` 0 / 0.1 /
+//! 0.2 / 0.5 gave 1.24 / 1.45 / 1.57 / 1.69°, 2.41 / 1.25 / 0.85 / 0.85° and 2.22 / 1.47 /
+//! 1.23 / 1.24°. The other form, `κ σ` inside the lag equation, gave 1.62 / 1.39 / 1.50° at 0.5.
+//!
 //! **Unknown torques.** With [`SingleTrackGripModel::with_unknown_torques`] (the FMU's default),
 //! while every torque input reads 0 (with or without `ax` measured), the tyre forces are those
 //! of freely rolling wheels and each wheel keeps its slip velocity ([`unknown_torques`]): the wheels'
@@ -67,7 +85,7 @@ use crate::registry::EstimatorSettings;
 use crate::StateSpaceModel;
 
 /// Number of states of the grip model.
-pub const GRIP_STATE_DIM: usize = STATE_DIM + 4;
+pub const GRIP_STATE_DIM: usize = STATE_DIM + 5;
 
 /// Index of the front axle's grip factor.
 pub const GRIP_FRONT: usize = STATE_DIM;
@@ -84,6 +102,20 @@ pub const TRANSIENT_SLIP_FRONT: usize = STATE_DIM + 2;
 /// Index of the rear tyres' transient slip angle `tan α'`.
 pub const TRANSIENT_SLIP_REAR: usize = STATE_DIM + 3;
 
+/// Index of the relaxation factor `κ`, the share of the lag of the relaxation length that the
+/// tyres have (module docs, **How much lag**).
+pub const RELAXATION_FACTOR: usize = STATE_DIM + 4;
+
+/// Correlation time of the relaxation factor's Gauss-Markov process, s: the relaxation length
+/// is the tyre's (it changes with load and wear, not within a manoeuvre), so the factor is
+/// nearly a random constant. Measured on the campaigns at `ε = 0.5`: 30 s and 3000 s gave the
+/// same sideslip RMSEs as 300 s to within 0.02° summed per reference model.
+pub const RELAXATION_FACTOR_TIME_CONSTANT: f64 = 300.0;
+
+/// The least standard deviation the relaxation factor is given, so that the covariance stays
+/// positive definite where `ε = 0` fixes the lag at the relaxation length's.
+const RELAXATION_FACTOR_MIN_STD: f64 = 1e-6;
+
 /// Standard deviation of each transient slip angle at the start, rad: the start knows the car's
 /// speed and yaw rate, not its slip angles (a few degrees in a corner).
 const TRANSIENT_SLIP_START_STD: f64 = 0.02;
@@ -97,29 +129,46 @@ const TRANSIENT_SLIP_NOISE_DENSITY: f64 = 4e-6;
 /// The grip model's state.
 pub type GripState = SVector<f64, GRIP_STATE_DIM>;
 
-/// The first-order Gauss-Markov prior of each grip factor (Brown and Hwang, §2.9).
+/// The first-order Gauss-Markov prior of each grip factor (Brown and Hwang, §2.9), and of the
+/// relaxation factor.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GripPrior {
     /// Stationary standard deviation `σ` of each factor about 1.
     pub std: f64,
     /// Correlation time `τ`, s.
     pub time_constant: f64,
+    /// Stationary standard deviation `ε` of the relaxation factor `κ` about 1: the relative
+    /// uncertainty of the relaxation length (module docs, **How much lag**); 0 fixes the lag
+    /// at the relaxation length's ([`RELAXATION_FACTOR_MIN_STD`]).
+    pub relaxation_std: f64,
 }
 
 impl GripPrior {
     fn check(&self) -> Result<(), SettingsError> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if positive(self.std) && positive(self.time_constant) {
-            Ok(())
-        } else {
-            Err(SettingsError(format!(
+        if !(positive(self.std) && positive(self.time_constant)) {
+            return Err(SettingsError(format!(
                 "the grip factors' std and time constant must be positive, got {self:?}"
-            )))
+            )));
         }
+        if !(self.relaxation_std.is_finite() && self.relaxation_std >= 0.0) {
+            return Err(SettingsError(format!(
+                "the relaxation factor's std must be at least 0, got {}",
+                self.relaxation_std
+            )));
+        }
+        Ok(())
     }
 
-    /// Model A's start extended by the grip factors' prior (mean 1, variance `σ²`) and the
-    /// transient slip angles (straight running, [`TRANSIENT_SLIP_START_STD`]), uncorrelated.
+    /// The relaxation factor's stationary variance, at least [`RELAXATION_FACTOR_MIN_STD`]².
+    fn relaxation_variance(&self) -> f64 {
+        let std = self.relaxation_std.max(RELAXATION_FACTOR_MIN_STD);
+        std * std
+    }
+
+    /// Model A's start extended by the grip factors' prior (mean 1, variance `σ²`), the
+    /// transient slip angles (straight running, [`TRANSIENT_SLIP_START_STD`]) and the relaxation
+    /// factor's prior (mean 1, variance `ε²`), uncorrelated.
     pub fn extend_initial(
         &self,
         start: &InitialEstimate<STATE_DIM>,
@@ -134,6 +183,7 @@ impl GripPrior {
         for i in [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR] {
             covariance[(i, i)] = TRANSIENT_SLIP_START_STD * TRANSIENT_SLIP_START_STD;
         }
+        covariance[(RELAXATION_FACTOR, RELAXATION_FACTOR)] = self.relaxation_variance();
         InitialEstimate {
             state: extend_state(&start.state),
             covariance,
@@ -149,6 +199,8 @@ pub struct SingleTrackGripModel<T: TyreModel = HsriTyre> {
     prior: GripPrior,
     /// `a = exp(−T/τ)`.
     decay: f64,
+    /// The relaxation factor's `exp(−T/τκ)` ([`RELAXATION_FACTOR_TIME_CONSTANT`]).
+    relaxation_decay: f64,
     /// The tyres' relaxation length `σ`, m; 0: no lag.
     relaxation_length: f64,
     /// Whether zero torques mean unknown ones ([`Self::with_unknown_torques`]).
@@ -160,11 +212,14 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     /// 0; [`Self::with_relaxation_length`]).
     pub fn new(anchored: SpeedAnchoredModel<T>, prior: GripPrior) -> Result<Self, SettingsError> {
         prior.check()?;
-        let decay = (-anchored.inner().sample_time() / prior.time_constant).exp();
+        let sample_time = anchored.inner().sample_time();
+        let decay = (-sample_time / prior.time_constant).exp();
+        let relaxation_decay = (-sample_time / RELAXATION_FACTOR_TIME_CONSTANT).exp();
         Ok(Self {
             anchored,
             prior,
             decay,
+            relaxation_decay,
             relaxation_length: 0.0,
             unknown_torques: false,
         })
@@ -201,23 +256,15 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         }
     }
 
-    /// The grip factors and (with a relaxation length) the transient slip angles of `state`, as
-    /// model A's equations take them ([`SingleTrackModel::outputs_with_lateral_states`]).
-    pub fn lateral_states_of(&self, state: &GripState) -> LateralTyreStates<f64> {
-        self.lateral_states(&state.data.0[0])
-    }
-
-    /// Each axle's transient slip angle: its state index and the step the transition's lag
-    /// takes it by over one sample at `(state, input)` ([`Self::transient_slip_step`]; 0 without
-    /// a relaxation length).
-    pub fn transient_slip_steps(
+    /// The grip factors and (with a relaxation length) the slip angles the tyre law is
+    /// evaluated at, of `state` with the driver input `driver`, as model A's equations take them
+    /// ([`SingleTrackModel::outputs_with_lateral_states`]).
+    pub fn lateral_states_of(
         &self,
         state: &GripState,
-        input: &SVector<f64, ANCHORED_INPUT_DIM>,
-    ) -> [(usize, f64); 2] {
-        let next = self.transient_slip_step(&state.data.0[0], &input.data.0[0]);
-        let index = [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR];
-        core::array::from_fn(|axle| (index[axle], next[axle] - state[index[axle]]))
+        driver: &SVector<f64, INPUT_DIM>,
+    ) -> LateralTyreStates<f64> {
+        self.lateral_states(&state.data.0[0], &driver.data.0[0])
     }
 
     /// Model A with the speed anchor, without the grip states.
@@ -256,7 +303,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             observer_design: anchored.observer_design.map(|design| ObserverDesign {
                 open_loop: (design.open_loop.into_iter())
                     .chain(GRIP_FACTORS)
-                    .chain([TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR])
+                    .chain([TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR, RELAXATION_FACTOR])
                     .collect(),
                 ..design
             }),
@@ -278,18 +325,39 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             &body,
             &driver,
             Some(u[REAR_DRIVE_INPUT]),
-            Some(self.lateral_states(x)),
+            Some(self.lateral_states(x, &driver)),
             inner.sample_time(),
             inner.integrator(),
         )
     }
 
-    /// The grip factors and, with a relaxation length, the transient slip angles of `x`.
-    fn lateral_states<S: Scalar>(&self, x: &[S; GRIP_STATE_DIM]) -> LateralTyreStates<S> {
+    /// The grip factors and, with a relaxation length, the slip angles the tyre law is
+    /// evaluated at: `tan α + κ (tan α' − tan α)` per axle, the kinematic slip angle `α` at
+    /// `(x, driver)` moved towards the transient one by the relaxation factor `κ ≥ 0` (module
+    /// docs, **How much lag**).
+    fn lateral_states<S: Scalar>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        driver: &[S; INPUT_DIM],
+    ) -> LateralTyreStates<S> {
         LateralTyreStates {
             grip: [x[GRIP_FRONT], x[GRIP_REAR]],
-            transient_tan_slip_angle: (self.relaxation_length > 0.0)
-                .then(|| [x[TRANSIENT_SLIP_FRONT], x[TRANSIENT_SLIP_REAR]]),
+            transient_tan_slip_angle: (self.relaxation_length > 0.0).then(|| {
+                let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+                let kinematic = self.vehicle().kinematic_slip(&body, driver);
+                let factor = x[RELAXATION_FACTOR];
+                // a force ahead of its slip angle is no tyre's: κ < 0 is held at 0
+                let factor = if factor.value() < 0.0 {
+                    factor * 0.0
+                } else {
+                    factor
+                };
+                let transient = [x[TRANSIENT_SLIP_FRONT], x[TRANSIENT_SLIP_REAR]];
+                core::array::from_fn(|axle| {
+                    let kinematic = kinematic[axle].tan_slip_angle;
+                    kinematic + (transient[axle] - kinematic) * factor
+                })
+            }),
         }
     }
 
@@ -354,6 +422,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             // g(k+1) = 1 + a (g(k) − 1) (Brown and Hwang, §2.9)
             next[i] = (x[i] - 1.0) * self.decay + 1.0;
         }
+        next[RELAXATION_FACTOR] = (x[RELAXATION_FACTOR] - 1.0) * self.relaxation_decay + 1.0;
         let [front, rear] = self.transient_slip_step(x, u);
         next[TRANSIENT_SLIP_FRONT] = front;
         next[TRANSIENT_SLIP_REAR] = rear;
@@ -400,7 +469,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         let y = self.vehicle().measurement_with_lateral_states(
             &body,
             &driver,
-            Some(self.lateral_states(x)),
+            Some(self.lateral_states(x, &driver)),
         );
         core::array::from_fn(|i| match i {
             // the wheel rows measure the wheel states themselves
@@ -412,12 +481,12 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     }
 }
 
-/// Model A's state with both grip factors at 1 and the transient slip angles of straight
-/// running (0).
+/// Model A's state with both grip factors and the relaxation factor at 1 and the transient slip
+/// angles of straight running (0).
 pub fn extend_state(state: &SVector<f64, STATE_DIM>) -> GripState {
     GripState::from_fn(|i, _| match i {
         _ if i < STATE_DIM => state[i],
-        GRIP_FRONT | GRIP_REAR => 1.0,
+        GRIP_FRONT | GRIP_REAR | RELAXATION_FACTOR => 1.0,
         _ => 0.0,
     })
 }
@@ -437,6 +506,7 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
             "grip_rear",
             "transient_slip_front",
             "transient_slip_rear",
+            "relaxation_factor",
         ]
     }
 
@@ -510,7 +580,8 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
     }
 
     /// Model A's `Q`, per grip factor `σ² (1 − a²)` (Brown and Hwang, §2.9), per transient slip
-    /// angle [`TRANSIENT_SLIP_NOISE_DENSITY`] `· T`; uncorrelated.
+    /// angle [`TRANSIENT_SLIP_NOISE_DENSITY`] `· T`, for the relaxation factor `ε² (1 − aκ²)`;
+    /// uncorrelated.
     fn process_noise(&self) -> SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM> {
         let mut noise = SMatrix::<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>::zeros();
         noise
@@ -522,6 +593,8 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
         let slip_variance = TRANSIENT_SLIP_NOISE_DENSITY * self.anchored.inner().sample_time();
         noise[(TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_FRONT)] = slip_variance;
         noise[(TRANSIENT_SLIP_REAR, TRANSIENT_SLIP_REAR)] = slip_variance;
+        noise[(RELAXATION_FACTOR, RELAXATION_FACTOR)] = self.prior.relaxation_variance()
+            * (1.0 - self.relaxation_decay * self.relaxation_decay);
         noise
     }
 
@@ -556,6 +629,7 @@ mod tests {
     const PRIOR: GripPrior = GripPrior {
         std: 0.15,
         time_constant: 2.0,
+        relaxation_std: 0.2,
     };
 
     fn anchored(rear_scale: f64) -> SpeedAnchoredModel<HsriTyre> {
@@ -593,7 +667,7 @@ mod tests {
     }
 
     fn jacobians_match_finite_differences(model: SingleTrackGripModel<HsriTyre>) {
-        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02]);
+        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02, 0.7]);
         let driver = SVector::<f64, INPUT_DIM>::from([0.06, 50.0, 800.0]);
         for ax in [None, Some(-2.0)] {
             let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 120.0, ax);
@@ -625,7 +699,7 @@ mod tests {
     /// A braked turn's state with the brake torque not reported: every torque input 0, `ax`
     /// measured (the case of [`unknown_torques`]).
     fn torques_unknown_case() -> (GripState, SVector<f64, ANCHORED_INPUT_DIM>) {
-        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02]);
+        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02, 0.7]);
         let driver = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 0.0]);
         let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, Some(-4.0));
         (x, u)
@@ -751,6 +825,26 @@ mod tests {
         // stationary variance of g(k+1) = a g(k) + w: q / (1 − a²) = σ²
         assert!((q / (1.0 - a * a) - PRIOR.std * PRIOR.std).abs() < 1e-12);
         assert!(GripPrior { std: 0.0, ..PRIOR }.check().is_err());
+        // the relaxation factor: the same Gauss-Markov law with its own time constant
+        let mut relaxing = x;
+        relaxing[RELAXATION_FACTOR] = 0.5;
+        let a = (-SAMPLE_TIME / RELAXATION_FACTOR_TIME_CONSTANT).exp();
+        let next = model.transition(&relaxing, &u)[RELAXATION_FACTOR];
+        assert!((next - (1.0 - 0.5 * a)).abs() < 1e-15);
+        let q = model.process_noise()[(RELAXATION_FACTOR, RELAXATION_FACTOR)];
+        let variance = PRIOR.relaxation_std * PRIOR.relaxation_std;
+        assert!((q / (1.0 - a * a) - variance).abs() < 1e-12);
+        let fixed = GripPrior {
+            relaxation_std: 0.0,
+            ..PRIOR
+        };
+        assert!(fixed.relaxation_variance() > 0.0);
+        assert!(GripPrior {
+            relaxation_std: -0.1,
+            ..PRIOR
+        }
+        .check()
+        .is_err());
         let anchored_settings = model.anchored().estimator_settings(
             (x5, driver),
             true,
@@ -771,7 +865,8 @@ mod tests {
                 GRIP_FRONT,
                 GRIP_REAR,
                 TRANSIENT_SLIP_FRONT,
-                TRANSIENT_SLIP_REAR
+                TRANSIENT_SLIP_REAR,
+                RELAXATION_FACTOR
             ]
         );
     }
@@ -820,6 +915,34 @@ mod tests {
         assert_eq!(unlagged.measurement(&start, &u), plain.measurement(&x5, &u));
         assert!(grip_model().with_relaxation_length(-0.1).is_err());
         assert!(grip_model().with_relaxation_length(f64::NAN).is_err());
+    }
+
+    /// The relaxation factor `κ` blends the slip angle the tyre law sees between the transient
+    /// one (`κ = 1`) and the kinematic one (`κ = 0`, model A to the bit; below 0 held at 0), and
+    /// the force follows it linearly between.
+    #[test]
+    fn the_relaxation_factor_blends_the_lagged_and_the_instantaneous_slip_angle() {
+        let lagged = grip_model().with_relaxation_length(0.5).unwrap();
+        let plain = anchored(1.0);
+        let x5 = SVector::<f64, STATE_DIM>::from([20.0, -0.3, 0.25, 66.0, 66.0]);
+        let driver = SVector::<f64, INPUT_DIM>::from([0.04, 0.0, 0.0]);
+        let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, None);
+        let ay = |factor: f64| {
+            // transient slip angles of straight running, a corner's kinematic ones
+            let mut x = extend_state(&x5);
+            x[RELAXATION_FACTOR] = factor;
+            lagged.measurement(&x, &u)[1]
+        };
+        let instantaneous = plain.measurement(&x5, &u)[1];
+        assert_eq!(ay(0.0), instantaneous);
+        assert_eq!(ay(-0.5), instantaneous);
+        assert!(ay(1.0).abs() < 0.1 * instantaneous.abs(), "{}", ay(1.0));
+        // between: the slip angle is the blend, so a small step moves ay by a share of the gap
+        let half = ay(0.5);
+        assert!(half.abs() > ay(1.0).abs() && half.abs() < instantaneous.abs());
+        // the Jacobian sees the factor: ∂ay/∂κ of the sign that takes force away
+        let (_, jacobian) = lagged.measurement_and_jacobian(&extend_state(&x5), &u);
+        assert!(jacobian[(1, RELAXATION_FACTOR)] * instantaneous < 0.0);
     }
 
     /// The truth: model A with 15 % stiffer rear tyres, a 2° steering sine of 4 s period at
