@@ -4,9 +4,10 @@
 //! speed anchor, the reported speed (`model_a::step_reported_speed`), the plausibility limits,
 //! the start from the measurements, the wheels' extra process noise and the derived outputs.
 //! The grip factors start at 1 with `grip_std`, also when the filter is re-seeded (the re-seed
-//! says the estimate was lost, its grip with it), and the tyres' transient slip angles
-//! (`tyre_relaxation_length`) at straight running; `ay_est` is evaluated with the estimated grip
-//! and transient slip angles.
+//! says the estimate was lost, its grip with it), the tyres' transient slip angles
+//! (`tyre_relaxation_length`) at straight running and the relaxation factor, how much of that
+//! lag the tyres have, at 1 with `tyre_relaxation_length_uncertainty`; `ay_est` is evaluated
+//! with the estimated grip, transient slip angles and relaxation factor.
 
 use estimation::kalman::InitialEstimate;
 use estimation::models::single_track::{
@@ -345,15 +346,13 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 covariance_scale: sample.covariance_scale,
             },
         );
+        let driver = sample.input.fixed_rows::<INPUT_DIM>(0).into_owned();
         values.ay_est = self
             .vehicle()
             .outputs_with_lateral_states(
                 &body_sample.state,
-                &sample.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
-                Some(self.lateral_states_of(
-                    &sample.state,
-                    &sample.input.fixed_rows::<INPUT_DIM>(0).into_owned(),
-                )),
+                &driver,
+                Some(self.lateral_states_of(&sample.state, &driver)),
             )
             .lateral_acceleration;
         model_a::at_reported_speed(values, &sample.extra)
