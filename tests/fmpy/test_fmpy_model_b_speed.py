@@ -1,9 +1,10 @@
 """Issue 12 point 1 through fmpy and the C ABI: model B's speed with a measured ax, and the speed
-model A reports, are the scalar Kalman filter of dvx/dt = ax + r vy
-(fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked sample by sample against filterpy's
-KalmanFilter as the oracle on straight braking (r vy = 0, so the filter is filterpy's with F = 1,
-B = T, H = 1). Without ax_meas (its start value 0, an unconnected input) model B's vx_est is the
-measured speed and vx_std measurement_noise_std_vx."""
+model A reports, are the Kalman filter of dvx/dt = ax - b + r vy with the accelerometer's offset b
+as a second state (fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked sample by sample
+against filterpy's KalmanFilter as the oracle on straight braking (r vy = 0, the car straight, so
+the offset is updated and the filter is filterpy's with x = [vx, b], F = [[1, -T], [0, a]],
+B = [T, 0], H = [1, 0]). Without ax_meas (its start value 0, an unconnected input) model B's
+vx_est is the measured speed and vx_std measurement_noise_std_vx."""
 
 import pytest
 
@@ -17,6 +18,9 @@ AX = -3.0
 SPEED0 = 22.0
 Q_STD = 0.005  # process_noise_std_vx, the FMU's default
 R_STD = 0.1  # measurement_noise_std_vx, the FMU's default
+OFFSET_STD = 0.2  # ax_offset_std, the FMU's default
+# speed_filter::AX_OFFSET_TIME_CONSTANT, the offset's correlation time (not an FMU variable)
+OFFSET_TIME_CONSTANT = 600.0
 SAMPLES = 300
 
 
@@ -50,23 +54,27 @@ def run_estimator(estimator, estimator_dir, ax, model="two_track_3_state"):
 
 
 def oracle(measured):
-    """filterpy's scalar Kalman filter, started at the first measured speed with P = R, each
-    output its one-step prediction (the FMU's outputs are the estimate for the next sample)."""
-    kf = KalmanFilter(dim_x=1, dim_z=1, dim_u=1)
-    kf.F = np.array([[1.0]])
-    kf.B = np.array([[STEP]])
-    kf.H = np.array([[1.0]])
-    kf.Q = np.array([[Q_STD**2]])
+    """filterpy's Kalman filter of [vx, b], started at the first measured speed with variance R
+    and the offset at 0 with variance OFFSET_STD^2, each output its one-step prediction (the
+    FMU's outputs are the estimate for the next sample). The offset is a Gauss-Markov process,
+    b' = a b with a = exp(-T / tau) and process noise OFFSET_STD^2 (1 - a^2)."""
+    decay = np.exp(-STEP / OFFSET_TIME_CONSTANT)
+    kf = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
+    kf.F = np.array([[1.0, -STEP], [0.0, decay]])
+    kf.B = np.array([[STEP], [0.0]])
+    kf.H = np.array([[1.0, 0.0]])
+    kf.Q = np.diag([Q_STD**2, OFFSET_STD**2 * (1.0 - decay**2)])
     kf.R = np.array([[R_STD**2]])
-    kf.x = np.array([[measured[0]]])
-    kf.P = np.array([[R_STD**2]])
+    kf.x = np.array([[measured[0]], [0.0]])
+    kf.P = np.diag([R_STD**2, OFFSET_STD**2])
     rows = []
     for k, z in enumerate(measured):
         if k > 0:
             kf.predict(u=np.array([[AX]]))
             kf.update(np.array([[z]]))
-        ahead = kf.x[0, 0] + STEP * AX
-        rows.append((ahead, np.sqrt(kf.P[0, 0] + Q_STD**2)))
+        ahead = kf.x[0, 0] + STEP * (AX - kf.x[1, 0])
+        prior = kf.F @ kf.P @ kf.F.T + kf.Q
+        rows.append((ahead, np.sqrt(prior[0, 0])))
     return np.array(rows)
 
 
@@ -74,6 +82,7 @@ def oracle(measured):
 def test_the_speed_is_filterpys_kalman_filter_on_the_kinematics(estimator, estimator_dir, model):
     assert estimator.start("process_noise_std_vx") == Q_STD
     assert estimator.start("measurement_noise_std_vx") == R_STD
+    assert estimator.start("ax_offset_std") == OFFSET_STD
     fmu, measured = run_estimator(estimator, estimator_dir, AX, model)
     expected = oracle(measured)
     np.testing.assert_allclose(fmu, expected, rtol=1e-12, atol=1e-12)

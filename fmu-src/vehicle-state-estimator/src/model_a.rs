@@ -421,6 +421,13 @@ where
     Model: ReportsFilteredSpeed<N>,
 {
     let mut sample = anchored_sample(runner, sensors);
+    // The speed filter's accelerometer offset, learned in straight driving (speed_filter's
+    // module docs): an offset left in the kinematics reads as `b / r` of lateral velocity.
+    if let Ok(sample) = &mut sample {
+        if runner.extra.filtering() && sample.input[AX_VALID_INPUT] == 1.0 {
+            sample.input[AX_INPUT] -= runner.extra.ax_offset;
+        }
+    }
     match &mut sample {
         Ok(sample) => sample.bits |= step_reported_speed(runner, sensors),
         Err(_) => runner.extra = SpeedFilter::measured(runner.extra.value),

@@ -23,7 +23,19 @@
 //!
 //! The filtered speed `vx` of a sample is model B's input for that sample; what the FMU reports
 //! (`vx_est`, `vx_std`) is, like its other outputs, the estimate for the next sample instant:
-//! `vx + T (ax + r vy)` with variance `P + q`.
+//! `vx + T (ax − b + r vy)` with variance `P + q`.
+//!
+//! **The accelerometer's offset.** A real `ax` is offset (the sensor's own offset, the road's
+//! grade `g sin γ`, the body's pitch), and integrated over a drive the offset takes the speed
+//! off and its std no longer covers the error. So the filter carries the offset `b` as a second
+//! state, `vx⁻ = vx + T (ax − b + r vy)`, `b⁻ = a b`, a Gauss-Markov process about 0 of std
+//! `ax_offset_std` and correlation time [`AX_OFFSET_TIME_CONSTANT`] (Brown and Hwang, §2.9;
+//! the 2 × 2 Kalman filter, Joseph form). Only while the car drives straight (`|r|` below
+//! [`STRAIGHT_YAW_RATE`]) does the measured speed update `b`: in a corner `r vy` and `b` enter
+//! the speed alike, and a `b` learned there takes up the lateral estimate's error. In a corner
+//! `b` is held, its variance still carried (a consider state: Schmidt 1966). Models A and the
+//! grip model take `ax − b` in their own kinematics too (`model_a::reported_speed_sample`), where
+//! an offset would read as `b / r` of lateral velocity.
 
 use fmi_export::{StateError, StateReader, StateWriter};
 
@@ -42,6 +54,15 @@ pub const HELD_AX_STD: f64 = 1.0;
 /// The longest an acceleration is held, or the speed predicted without a measured one, s: issue
 /// 12 point 3's 0.5 s outage of a sensor.
 pub const HELD_AX_TIME: f64 = 0.5;
+
+/// Correlation time of the accelerometer offset, s: a sensor's offset drifts with temperature
+/// over minutes, a road's grade changes over hundreds of metres.
+pub const AX_OFFSET_TIME_CONSTANT: f64 = 600.0;
+
+/// The yaw rate below which the car counts as driving straight and the measured speed updates
+/// the accelerometer offset, rad/s (1.1°/s: at 20 m/s a radius of 1 km, where `r vy` is at most
+/// a few mm/s²).
+pub const STRAIGHT_YAW_RATE: f64 = 0.02;
 
 /// `ax` as the models take it (finite and plausible, else `None`) if it is a measured
 /// acceleration: an `ax_meas` left unconnected reads its start value, exactly 0, and a speed
@@ -70,6 +91,11 @@ pub struct SpeedFilter {
     pub ax_held: u64,
     /// Samples in a row without a measured speed.
     pub unmeasured: u64,
+    /// The offset `b` of the measured `ax`, m/s² (module docs), its variance and its covariance
+    /// with the speed; 0, NaN and 0 while not filtering.
+    pub ax_offset: f64,
+    pub ax_offset_variance: f64,
+    pub speed_offset_covariance: f64,
 }
 
 /// What one sample gives the filter.
@@ -94,6 +120,9 @@ pub struct SpeedSample {
     pub process_variance: f64,
     /// The speed below which model B holds (`min_speed`).
     pub min_speed: f64,
+    /// The accelerometer offset's stationary variance `ax_offset_std²`, (m/s²)²; 0 takes `ax`
+    /// as it comes.
+    pub offset_variance: f64,
 }
 
 impl SpeedSample {
@@ -118,6 +147,7 @@ impl SpeedSample {
             sample_time: v.sample_time,
             process_variance: v.process_noise_std_vx * v.process_noise_std_vx,
             min_speed,
+            offset_variance: v.ax_offset_std * v.ax_offset_std,
         }
     }
 
@@ -133,6 +163,17 @@ impl SpeedSample {
     /// Vanagon's sine with dwell, 8° of sideslip) drew the speed off `vx_meas` until the gate
     /// locked the measurement out: 4.2 % off; with the filter's covariance alone, the speed's
     /// reported std was overconfident on the sines (model A's EKF on the Vanagon's: NEES 6.3).
+    /// The offset's decay per sample, `a = exp(−T/τb)`.
+    fn offset_decay(&self) -> f64 {
+        (-self.sample_time / AX_OFFSET_TIME_CONSTANT).exp()
+    }
+
+    /// The offset's process noise per sample, `σb² (1 − a²)`.
+    fn offset_process_variance(&self) -> f64 {
+        let decay = self.offset_decay();
+        self.offset_variance * (1.0 - decay * decay)
+    }
+
     pub fn prediction_variance(&self) -> f64 {
         let rate_error = self.yaw_rate * self.yaw_rate * self.lateral_velocity_variance;
         let lateral = 2.0 * LATERAL_CORRELATION_TIME * self.sample_time * rate_error;
@@ -156,6 +197,9 @@ impl SpeedFilter {
             ax: f64::NAN,
             ax_held: 0,
             unmeasured: 0,
+            ax_offset: 0.0,
+            ax_offset_variance: f64::NAN,
+            speed_offset_covariance: 0.0,
         }
     }
 
@@ -171,20 +215,69 @@ impl SpeedFilter {
             .then(|| self.ahead_variance.sqrt())
     }
 
-    /// `vx + T (ax + r vy)` of `sample` from `speed`.
-    fn predicted(speed: f64, ax: f64, sample: &SpeedSample) -> f64 {
-        speed + sample.sample_time * (ax + sample.yaw_rate * sample.lateral_velocity)
+    /// `vx + T (ax − b + r vy)` of `sample` from `speed`, `b` the filter's offset.
+    fn predicted(&self, speed: f64, ax: f64, sample: &SpeedSample) -> f64 {
+        speed
+            + sample.sample_time * (ax - self.ax_offset + sample.yaw_rate * sample.lateral_velocity)
     }
 
-    /// The prediction's variance over one sample: [`SpeedSample::prediction_variance`], and
-    /// while `ax` is held, `(T σh)²` with `σh` = [`HELD_AX_STD`].
-    fn prior_variance(&self, sample: &SpeedSample) -> f64 {
+    /// The prediction's covariance over one sample, `F P Fᵀ + Q` with `F = [[1, −T], [0, a]]`:
+    /// the speed's variance, its covariance with the offset and the offset's variance. `Q` is
+    /// [`SpeedSample::prediction_variance`] on the speed, and while `ax` is held `(T σh)²` with
+    /// `σh` = [`HELD_AX_STD`], and the offset's process noise on the offset.
+    fn prior_covariance(&self, sample: &SpeedSample) -> (f64, f64, f64) {
+        let t = sample.sample_time;
         let held = if self.ax_held > 0 {
-            (sample.sample_time * HELD_AX_STD).powi(2)
+            (t * HELD_AX_STD).powi(2)
         } else {
             0.0
         };
-        self.variance + sample.prediction_variance() + held
+        let offset = self.ax_offset_variance;
+        let speed = self.variance - 2.0 * t * self.speed_offset_covariance
+            + t * t * offset
+            + sample.prediction_variance()
+            + held;
+        let decay = sample.offset_decay();
+        let covariance = decay * (self.speed_offset_covariance - t * offset);
+        (
+            speed,
+            covariance,
+            decay * decay * offset + sample.offset_process_variance(),
+        )
+    }
+
+    /// The speed's part of [`Self::prior_covariance`].
+    fn prior_variance(&self, sample: &SpeedSample) -> f64 {
+        self.prior_covariance(sample).0
+    }
+
+    /// Takes the prior of [`Self::prior_covariance`] as the estimate (no measurement).
+    fn keep_prior(&mut self, predicted: f64, sample: &SpeedSample) {
+        let (speed, covariance, offset) = self.prior_covariance(sample);
+        self.value = predicted;
+        self.ax_offset *= sample.offset_decay();
+        self.variance = speed;
+        self.speed_offset_covariance = covariance;
+        self.ax_offset_variance = offset;
+    }
+
+    /// The measurement update of the speed and, while the car drives straight, the offset, with
+    /// gain `K = [kv, kb]` (`kb` = 0 in a corner), Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ`.
+    fn correct(&mut self, predicted: f64, innovation: f64, sample: &SpeedSample) {
+        let (speed, covariance, offset) = self.prior_covariance(sample);
+        let r = sample.measurement_variance;
+        let innovation_variance = speed + r;
+        let kv = speed / innovation_variance;
+        let kb = if sample.yaw_rate.abs() < STRAIGHT_YAW_RATE {
+            covariance / innovation_variance
+        } else {
+            0.0
+        };
+        self.value = predicted + kv * innovation;
+        self.ax_offset = sample.offset_decay() * self.ax_offset + kb * innovation;
+        self.variance = (1.0 - kv) * (1.0 - kv) * speed + kv * kv * r;
+        self.speed_offset_covariance = (1.0 - kv) * (covariance - kb * speed) + kv * kb * r;
+        self.ax_offset_variance = offset - 2.0 * kb * covariance + kb * kb * speed + kb * kb * r;
     }
 
     /// One sample; returns its status bits (1 no measured speed, 128 gated, 256 restarted
@@ -192,7 +285,7 @@ impl SpeedFilter {
     pub fn step(&mut self, sample: &SpeedSample, gate: Option<ChiSquareGate>) -> i32 {
         let bits = self.update(sample, gate);
         if self.filtering() {
-            let ahead = Self::predicted(self.value, self.ax, sample);
+            let ahead = self.predicted(self.value, self.ax, sample);
             self.ahead = if Self::plausible(ahead, sample) {
                 ahead
             } else {
@@ -241,12 +334,11 @@ impl SpeedFilter {
             self.ax = ax;
             return 0;
         }
-        let predicted = Self::predicted(self.value, ax, sample);
+        let predicted = self.predicted(self.value, ax, sample);
         let prior = self.prior_variance(sample);
         self.ax = ax;
         if !sample.measured.is_finite() {
-            self.value = predicted;
-            self.variance = prior;
+            self.keep_prior(predicted, sample);
             return status::ROW_SKIPPED;
         }
         let innovation = sample.measured - predicted;
@@ -258,15 +350,12 @@ impl SpeedFilter {
                     self.restart(sample);
                     return status::ROW_GATED | status::SENSOR_READMITTED;
                 }
-                self.value = predicted;
-                self.variance = prior;
+                self.keep_prior(predicted, sample);
                 self.restart_if_implausible(sample);
                 return status::ROW_GATED;
             }
         }
-        let gain = prior / innovation_variance;
-        self.value = predicted + gain * innovation;
-        self.variance = (1.0 - gain) * prior;
+        self.correct(predicted, innovation, sample);
         self.rejected = 0;
         self.restart_if_implausible(sample);
         0
@@ -283,11 +372,19 @@ impl SpeedFilter {
         speed.is_finite() && (sample.min_speed..=highest).contains(&speed)
     }
 
-    /// From the measured speed with its variance (the acceleration kept).
+    /// From the measured speed with its variance (the acceleration kept, and the offset with its
+    /// variance where the filter ran, else the offset's prior: 0 with `ax_offset_std²`).
     fn restart(&mut self, sample: &SpeedSample) {
+        let (ax_offset, ax_offset_variance) = if self.ax_offset_variance.is_finite() {
+            (self.ax_offset, self.ax_offset_variance)
+        } else {
+            (0.0, sample.offset_variance)
+        };
         *self = Self {
             variance: sample.measurement_variance,
             ax: self.ax,
+            ax_offset,
+            ax_offset_variance,
             ..Self::measured(sample.measured)
         };
     }
@@ -297,7 +394,13 @@ impl SpeedFilter {
     /// plausibility bound of the wheel speeds; a wild `r vy` of a lateral estimate that lost
     /// itself) restarts from the measurement.
     fn restart_if_implausible(&mut self, sample: &SpeedSample) {
-        if !(Self::plausible(self.value, sample) && self.variance.is_finite()) {
+        let finite = self.variance.is_finite()
+            && self.ax_offset.is_finite()
+            && self.ax_offset_variance.is_finite();
+        if !finite {
+            self.ax_offset_variance = f64::NAN;
+        }
+        if !(Self::plausible(self.value, sample) && finite) {
             self.restart(sample);
         }
     }
@@ -312,6 +415,9 @@ impl SpeedFilter {
         writer.f64(self.ax);
         writer.u64(self.ax_held);
         writer.u64(self.unmeasured);
+        writer.f64(self.ax_offset);
+        writer.f64(self.ax_offset_variance);
+        writer.f64(self.speed_offset_covariance);
     }
 
     /// The filter [`Self::write`] wrote.
@@ -325,6 +431,9 @@ impl SpeedFilter {
             ax: reader.f64("speed filter's acceleration")?,
             ax_held: reader.u64("samples with ax held")?,
             unmeasured: reader.u64("samples without a measured speed")?,
+            ax_offset: reader.f64("accelerometer offset")?,
+            ax_offset_variance: reader.f64("accelerometer offset variance")?,
+            speed_offset_covariance: reader.f64("speed-offset covariance")?,
         })
     }
 }
