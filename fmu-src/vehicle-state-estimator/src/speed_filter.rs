@@ -151,6 +151,17 @@ impl SpeedSample {
         }
     }
 
+    /// The offset's decay per sample, `a = exp(−T/τb)`.
+    fn offset_decay(&self) -> f64 {
+        (-self.sample_time / AX_OFFSET_TIME_CONSTANT).exp()
+    }
+
+    /// The offset's process noise per sample, `σb² (1 − a²)`.
+    fn offset_process_variance(&self) -> f64 {
+        let decay = self.offset_decay();
+        self.offset_variance * (1.0 - decay * decay)
+    }
+
     /// The variance one prediction adds: `q` and what the lateral estimate's uncertainty puts
     /// into the integrated `r vy`. That error is not white: it lasts as long as the lateral
     /// estimate's error, about a manoeuvre's half period. As a first-order Gauss-Markov process
@@ -163,17 +174,6 @@ impl SpeedSample {
     /// Vanagon's sine with dwell, 8° of sideslip) drew the speed off `vx_meas` until the gate
     /// locked the measurement out: 4.2 % off; with the filter's covariance alone, the speed's
     /// reported std was overconfident on the sines (model A's EKF on the Vanagon's: NEES 6.3).
-    /// The offset's decay per sample, `a = exp(−T/τb)`.
-    fn offset_decay(&self) -> f64 {
-        (-self.sample_time / AX_OFFSET_TIME_CONSTANT).exp()
-    }
-
-    /// The offset's process noise per sample, `σb² (1 − a²)`.
-    fn offset_process_variance(&self) -> f64 {
-        let decay = self.offset_decay();
-        self.offset_variance * (1.0 - decay * decay)
-    }
-
     pub fn prediction_variance(&self) -> f64 {
         let rate_error = self.yaw_rate * self.yaw_rate * self.lateral_velocity_variance;
         let lateral = 2.0 * LATERAL_CORRELATION_TIME * self.sample_time * rate_error;
@@ -251,9 +251,10 @@ impl SpeedFilter {
         self.prior_covariance(sample).0
     }
 
-    /// Takes the prior of [`Self::prior_covariance`] as the estimate (no measurement).
-    fn keep_prior(&mut self, predicted: f64, sample: &SpeedSample) {
-        let (speed, covariance, offset) = self.prior_covariance(sample);
+    /// Takes the prediction `predicted` with its covariance `prior` ([`Self::prior_covariance`])
+    /// as the estimate (no measurement).
+    fn keep_prior(&mut self, predicted: f64, prior: (f64, f64, f64), sample: &SpeedSample) {
+        let (speed, covariance, offset) = prior;
         self.value = predicted;
         self.ax_offset *= sample.offset_decay();
         self.variance = speed;
@@ -263,8 +264,14 @@ impl SpeedFilter {
 
     /// The measurement update of the speed and, while the car drives straight, the offset, with
     /// gain `K = [kv, kb]` (`kb` = 0 in a corner), Joseph form `(I − K H) P (I − K H)ᵀ + K R Kᵀ`.
-    fn correct(&mut self, predicted: f64, innovation: f64, sample: &SpeedSample) {
-        let (speed, covariance, offset) = self.prior_covariance(sample);
+    fn correct(
+        &mut self,
+        predicted: f64,
+        prior: (f64, f64, f64),
+        innovation: f64,
+        sample: &SpeedSample,
+    ) {
+        let (speed, covariance, offset) = prior;
         let r = sample.measurement_variance;
         let innovation_variance = speed + r;
         let kv = speed / innovation_variance;
@@ -335,14 +342,14 @@ impl SpeedFilter {
             return 0;
         }
         let predicted = self.predicted(self.value, ax, sample);
-        let prior = self.prior_variance(sample);
+        let prior = self.prior_covariance(sample);
         self.ax = ax;
         if !sample.measured.is_finite() {
-            self.keep_prior(predicted, sample);
+            self.keep_prior(predicted, prior, sample);
             return status::ROW_SKIPPED;
         }
         let innovation = sample.measured - predicted;
-        let innovation_variance = prior + sample.measurement_variance;
+        let innovation_variance = prior.0 + sample.measurement_variance;
         if let Some(gate) = gate {
             if !gate.admits(innovation, innovation_variance) {
                 self.rejected += 1;
@@ -350,12 +357,12 @@ impl SpeedFilter {
                     self.restart(sample);
                     return status::ROW_GATED | status::SENSOR_READMITTED;
                 }
-                self.keep_prior(predicted, sample);
+                self.keep_prior(predicted, prior, sample);
                 self.restart_if_implausible(sample);
                 return status::ROW_GATED;
             }
         }
-        self.correct(predicted, innovation, sample);
+        self.correct(predicted, prior, innovation, sample);
         self.rejected = 0;
         self.restart_if_implausible(sample);
         0

@@ -70,7 +70,9 @@
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 use vehicle_models::single_track::{measurement_index, state_index, MEASUREMENT_DIM, STATE_DIM};
-use vehicle_models::{HsriTyre, LateralTyreStates, Scalar, SingleTrackModel, TyreModel};
+use vehicle_models::{
+    AxleSlipKinematics, HsriTyre, LateralTyreStates, Scalar, SingleTrackModel, TyreModel,
+};
 
 use super::dual_passes::{input_pass, state_pass};
 use super::unknown_torques;
@@ -264,7 +266,9 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         state: &GripState,
         driver: &SVector<f64, INPUT_DIM>,
     ) -> LateralTyreStates<f64> {
-        self.lateral_states(&state.data.0[0], &driver.data.0[0])
+        let x = &state.data.0[0];
+        let driver = &driver.data.0[0];
+        self.lateral_states(x, &self.kinematic_slip(x, driver))
     }
 
     /// Model A with the speed anchor, without the grip states.
@@ -317,6 +321,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         &self,
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
+        kinematic: &[AxleSlipKinematics<S>; 2],
     ) -> [S; STATE_DIM] {
         let inner = self.anchored.inner();
         let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
@@ -325,30 +330,40 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             &body,
             &driver,
             Some(u[REAR_DRIVE_INPUT]),
-            Some(self.lateral_states(x, &driver)),
+            Some(self.lateral_states(x, kinematic)),
             inner.sample_time(),
             inner.integrator(),
         )
     }
 
+    /// Model A's kinematic slip of each axle at `x` (its body; the wheel speeds do not enter)
+    /// with the driver input of `u`, which the lag and the tyre law both take.
+    fn kinematic_slip<S: Scalar, const K: usize>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        u: &[S; K],
+    ) -> [AxleSlipKinematics<S>; 2] {
+        let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
+        let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
+        self.vehicle().kinematic_slip(&body, &driver)
+    }
+
     /// The grip factors and, with a relaxation length, the slip angles the tyre law is
-    /// evaluated at: `tan α + κ (tan α' − tan α)` per axle, the kinematic slip angle `α` at
-    /// `(x, driver)` moved towards the transient one by the relaxation factor `κ ≥ 0` (module
-    /// docs, **How much lag**).
+    /// evaluated at: `tan α + κ (tan α' − tan α)` per axle, the kinematic slip angle `α`
+    /// ([`Self::kinematic_slip`]) moved towards the transient one by the relaxation factor
+    /// `κ ≥ 0` (module docs, **How much lag**).
     fn lateral_states<S: Scalar>(
         &self,
         x: &[S; GRIP_STATE_DIM],
-        driver: &[S; INPUT_DIM],
+        kinematic: &[AxleSlipKinematics<S>; 2],
     ) -> LateralTyreStates<S> {
         LateralTyreStates {
             grip: [x[GRIP_FRONT], x[GRIP_REAR]],
             transient_tan_slip_angle: (self.relaxation_length > 0.0).then(|| {
-                let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
-                let kinematic = self.vehicle().kinematic_slip(&body, driver);
                 let factor = x[RELAXATION_FACTOR];
                 // a force ahead of its slip angle is no tyre's: κ < 0 is held at 0
                 let factor = if factor.value() < 0.0 {
-                    factor * 0.0
+                    S::constant(0.0)
                 } else {
                     factor
                 };
@@ -362,15 +377,12 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     }
 
     /// Each axle's transient slip angle one sample on: the relaxation-length lag towards the
-    /// kinematic slip angle at `(x, u)`, one explicit-Euler step (module docs).
+    /// kinematic slip angle `kinematic` at `x`, one explicit-Euler step (module docs).
     fn transient_slip_step<S: Scalar>(
         &self,
         x: &[S; GRIP_STATE_DIM],
-        u: &[S; ANCHORED_INPUT_DIM],
+        kinematic: &[AxleSlipKinematics<S>; 2],
     ) -> [S; 2] {
-        let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
-        let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
-        let kinematic = self.vehicle().kinematic_slip(&body, &driver);
         let transient = [x[TRANSIENT_SLIP_FRONT], x[TRANSIENT_SLIP_REAR]];
         core::array::from_fn(|axle| {
             let target = kinematic[axle].tan_slip_angle;
@@ -399,7 +411,9 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> [S; GRIP_STATE_DIM] {
         let rolling = self.rolling_body(x, u);
-        let body = self.body_step(&Self::force_state(x, rolling.as_ref()), u);
+        // the rolling body changes the wheel speeds only, which the kinematic slip does not read
+        let kinematic = self.kinematic_slip(x, u);
+        let body = self.body_step(&Self::force_state(x, rolling.as_ref()), u, &kinematic);
         let mut next: [S; GRIP_STATE_DIM] =
             core::array::from_fn(|i| if i < STATE_DIM { body[i] } else { x[i] });
         if u[AX_VALID_INPUT].value() == 1.0 {
@@ -423,7 +437,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             next[i] = (x[i] - 1.0) * self.decay + 1.0;
         }
         next[RELAXATION_FACTOR] = (x[RELAXATION_FACTOR] - 1.0) * self.relaxation_decay + 1.0;
-        let [front, rear] = self.transient_slip_step(x, u);
+        let [front, rear] = self.transient_slip_step(x, &kinematic);
         next[TRANSIENT_SLIP_FRONT] = front;
         next[TRANSIENT_SLIP_REAR] = rear;
         next
@@ -469,7 +483,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         let y = self.vehicle().measurement_with_lateral_states(
             &body,
             &driver,
-            Some(self.lateral_states(x, &driver)),
+            Some(self.lateral_states(x, &self.kinematic_slip(x, u))),
         );
         core::array::from_fn(|i| match i {
             // the wheel rows measure the wheel states themselves
