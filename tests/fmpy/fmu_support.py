@@ -216,6 +216,8 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
         "use_speed_measurements": False,
         "start_from_measurements": False,
         "gate_measurements": False,
+        # The seed's gyro has no offset, and the seed's filter takes it as it comes.
+        "yaw_rate_offset_std": 0.0,
         # Seed 000's LKF is linearised once (no gain scheduling), and the observer's gain
         # placed once, as seed 002's.
         "schedule_threshold": 0.0,
@@ -254,12 +256,13 @@ def sensor_connections(vehicle, estimator):
 
 
 def read_outputs(slave):
-    """The compared outputs of a `Slave`, Integers as floats."""
+    """The compared outputs of a `Slave` in model-description order, Integers as floats."""
     outputs = compared_outputs(slave.interface)
     reals = [x.valueReference for x in outputs if x.type == "Real"]
     integers = [x.valueReference for x in outputs if x.type == "Integer"]
-    values = slave.fmu.getReal(reals) if reals else []
-    return list(values) + [float(i) for i in (slave.fmu.getInteger(integers) if integers else [])]
+    values = {"Real": iter(slave.fmu.getReal(reals) if reals else []),
+              "Integer": iter(slave.fmu.getInteger(integers) if integers else [])}
+    return [float(next(values[x.type])) for x in outputs]
 
 
 def assert_bit_identical(rows, plain, names, importer):

@@ -39,6 +39,9 @@
 //!   re-seeds the filter from the measurements (bit 256), so it cannot lock itself out. Bit
 //!   1024: an input outside its declared range was clamped by the FMI layer (fmi2Warning) since
 //!   the previous doStep.
+//! - `yaw_rate_offset_std` (a Real, 0 switches it off as the seed scenarios do): the runner
+//!   learns the gyro's offset standing still and driving straight and takes it off
+//!   `yaw_rate_meas` for every estimator ([`yaw_rate_offset`]; output `yaw_rate_offset_est`).
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
 //! `u = [steering_angle, vx, ax_meas]` (`ax_meas` with `use_speed_measurements`, for the
@@ -69,6 +72,7 @@ pub mod parameters;
 pub mod runner;
 pub mod speed_filter;
 mod state;
+pub mod yaw_rate_offset;
 
 use model_a::RunnerA;
 use model_b::RunnerB;

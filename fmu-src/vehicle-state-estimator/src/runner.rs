@@ -20,6 +20,7 @@ use crate::model_description::{EstimatorModel, RealOutputs, Variables};
 use crate::parameters::{self, positive};
 use crate::state::{Sink, Source};
 use crate::status;
+use crate::yaw_rate_offset::{OffsetSample, YawRateOffset};
 
 /// Number of driver inputs: the models' `[steering_angle, drive_torque, brake_torque]`
 /// ([`vehicle_models::driver_input`]) and `drive_torque_rear`.
@@ -287,6 +288,8 @@ pub struct OutputSample<const N: usize, Extra> {
     /// The factor on everything the estimator reports of its uncertainty, `covariance` and the
     /// consider terms: the Luenberger observer's innovation scaling, 1 for the other estimators.
     pub covariance_scale: f64,
+    /// The gyro's offset taken off `yaw_rate_meas` in this sample (0 without the learner).
+    pub yaw_rate_offset: f64,
 }
 
 /// A speed as the sensors measure it, without the filter: what a held sample reports as vx_est.
@@ -632,6 +635,9 @@ where
     adaptation: Option<NoiseAdaptation<N>>,
     /// The Luenberger observer's reported covariance scaled to its innovations (FMU state).
     observer_scaling: Option<InnovationScaling>,
+    /// The gyro's offset, taken off `yaw_rate_meas` before the filter sees it
+    /// (`yaw_rate_offset_std`; FMU state).
+    yaw_rate_offset: Option<YawRateOffset>,
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
@@ -719,6 +725,7 @@ where
                 .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
                 .transpose()
                 .map_err(|e| e.0)?,
+            yaw_rate_offset: YawRateOffset::from_parameters(v)?,
         })
     }
 
@@ -739,6 +746,10 @@ where
         self.settings.operating_point = operating_point;
         self.gate = tuned.gate;
         self.parameters = tuned.parameters;
+        self.yaw_rate_offset = match (self.yaw_rate_offset, tuned.yaw_rate_offset) {
+            (Some(current), Some(tuned)) => Some(current.retuned(tuned)),
+            (_, tuned) => tuned,
+        };
         if self.rebuild(&current) {
             Ok(())
         } else {
@@ -768,6 +779,11 @@ where
     /// The running filter (for tests and benchmarks).
     pub fn filter(&self) -> &BoxedEstimator<N, M, U> {
         &self.filter
+    }
+
+    /// The gyro's offset as learned so far (`None` with `yaw_rate_offset_std` 0).
+    pub fn yaw_rate_offset(&self) -> Option<&YawRateOffset> {
+        self.yaw_rate_offset.as_ref()
     }
 
     /// Replaces the filter by a new one of the same kind and settings started at `initial`;
@@ -811,6 +827,25 @@ where
     /// One sample: measurement update with the sensors, then time update to the next sample.
     /// Returns the status bits of the sample.
     pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
+        let corrected;
+        let sensors = match self.yaw_rate_offset.as_mut() {
+            Some(offset) => {
+                offset.step(&OffsetSample {
+                    yaw_rate: sensors.yaw_rate,
+                    ay: sensors.ay,
+                    all_zero: sensors.all_zero(),
+                    steering: self.input[0],
+                    speed: MeasuredSpeed::of(sensors, &self.parameters)
+                        .map(|measured| (measured.speed, measured.std)),
+                });
+                corrected = Sensors {
+                    yaw_rate: sensors.yaw_rate - offset.offset,
+                    ..*sensors
+                };
+                &corrected
+            }
+            None => sensors,
+        };
         let mut bits = 0;
         self.holding = false;
         if !self.started {
@@ -1079,6 +1114,7 @@ where
             holding: self.holding,
             held_speed: self.held_speed,
             covariance_scale: self.covariance_scale(),
+            yaw_rate_offset: self.yaw_rate_offset.map_or(0.0, |offset| offset.offset),
         });
     }
 
@@ -1121,7 +1157,8 @@ where
             covariance: sample.covariance * scale,
             ..*sample
         };
-        let outputs = self.model.outputs(&scaled, &self.parameters);
+        let mut outputs = self.model.outputs(&scaled, &self.parameters);
+        outputs.yaw_rate_offset_est = sample.yaw_rate_offset;
         if self.estimates_tyre_scale() {
             outputs
         } else {
@@ -1175,6 +1212,9 @@ where
         if let Some(scaling) = &self.observer_scaling {
             scaling.save(&mut Sink(writer));
         }
+        if let Some(offset) = &self.yaw_rate_offset {
+            offset.write(writer);
+        }
     }
 
     pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
@@ -1212,6 +1252,9 @@ where
             scaling
                 .restore(&mut Source(reader))
                 .map_err(|e| StateError::new(e.0))?;
+        }
+        if let Some(offset) = runner.yaw_rate_offset.as_mut() {
+            offset.read(reader)?;
         }
         Ok(runner)
     }

@@ -19,3 +19,4 @@ mod speed_filter;
 mod stiffness_consider;
 mod tunable;
 mod wheel_lift;
+mod yaw_rate_offset;
