@@ -42,6 +42,10 @@
 //! - `yaw_rate_offset_std` (a Real, 0 switches it off as the seed scenarios do): the runner
 //!   learns the gyro's offset standing still and driving straight and takes it off
 //!   `yaw_rate_meas` for every estimator ([`yaw_rate_offset`]; output `yaw_rate_offset_est`).
+//! - `ay_offset_std` and `ay_gain_std` (Reals, both 0 switches it off): the runner learns the
+//!   lateral accelerometer's offset driving straight and, where `ay_gain_std` is not 0, its gain
+//!   in steady corners, and takes them off `ay_meas` ([`lateral_accelerometer`]; outputs
+//!   `ay_offset_est`, `ay_gain_est`).
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
 //! `u = [steering_angle, vx, ax_meas]` (`ax_meas` with `use_speed_measurements`, for the
@@ -65,6 +69,7 @@ pub mod model_description {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 
+pub mod lateral_accelerometer;
 pub mod model_a;
 pub mod model_b;
 pub mod model_grip;

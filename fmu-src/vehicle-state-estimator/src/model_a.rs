@@ -566,8 +566,10 @@ pub(crate) fn estimate_outputs<Extra>(
         omega_rear_std: std(state_index::OMEGA_REAR),
         sideslip_std: sideslip_variance.max(0.0).sqrt(),
         nis: sample.nis,
-        // the runner's, set by `Runner::outputs_of`
+        // the runner's three, set by `Runner::outputs_of`
         yaw_rate_offset_est: 0.0,
+        ay_offset_est: 0.0,
+        ay_gain_est: 0.0,
     }
 }
 

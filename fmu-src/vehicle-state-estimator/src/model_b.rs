@@ -240,8 +240,10 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
             omega_rear_std: v.measurement_noise_std_omega_rear,
             sideslip_std: std(state_index::SIDESLIP),
             nis: sample.nis,
-            // the runner's, set by `Runner::outputs_of`
+            // the runner's three, set by `Runner::outputs_of`
             yaw_rate_offset_est: 0.0,
+            ay_offset_est: 0.0,
+            ay_gain_est: 0.0,
         }
     }
 

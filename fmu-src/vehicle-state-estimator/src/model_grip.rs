@@ -345,6 +345,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 held_speed: sample.held_speed,
                 covariance_scale: sample.covariance_scale,
                 yaw_rate_offset: sample.yaw_rate_offset,
+                ay_calibration: sample.ay_calibration,
             },
         );
         let driver = sample.input.fixed_rows::<INPUT_DIM>(0).into_owned();

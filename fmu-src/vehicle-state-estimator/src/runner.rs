@@ -16,6 +16,7 @@ use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 
+use crate::lateral_accelerometer::{AySample, LateralAccelerometer};
 use crate::model_description::{EstimatorModel, RealOutputs, Variables};
 use crate::parameters::{self, positive};
 use crate::state::{Sink, Source};
@@ -290,6 +291,9 @@ pub struct OutputSample<const N: usize, Extra> {
     pub covariance_scale: f64,
     /// The gyro's offset taken off `yaw_rate_meas` in this sample (0 without the learner).
     pub yaw_rate_offset: f64,
+    /// The lateral accelerometer's offset and gain error taken off `ay_meas` in this sample (0
+    /// without the learner).
+    pub ay_calibration: [f64; 2],
 }
 
 /// A speed as the sensors measure it, without the filter: what a held sample reports as vx_est.
@@ -638,6 +642,9 @@ where
     /// The gyro's offset, taken off `yaw_rate_meas` before the filter sees it
     /// (`yaw_rate_offset_std`; FMU state).
     yaw_rate_offset: Option<YawRateOffset>,
+    /// The lateral accelerometer's offset and gain, taken off `ay_meas` before the filter sees
+    /// it (`ay_offset_std`, `ay_gain_std`; FMU state).
+    lateral_accelerometer: Option<LateralAccelerometer>,
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
@@ -726,6 +733,7 @@ where
                 .transpose()
                 .map_err(|e| e.0)?,
             yaw_rate_offset: YawRateOffset::from_parameters(v)?,
+            lateral_accelerometer: LateralAccelerometer::from_parameters(v)?,
         })
     }
 
@@ -747,6 +755,11 @@ where
         self.gate = tuned.gate;
         self.parameters = tuned.parameters;
         self.yaw_rate_offset = match (self.yaw_rate_offset, tuned.yaw_rate_offset) {
+            (Some(current), Some(tuned)) => Some(current.retuned(tuned)),
+            (_, tuned) => tuned,
+        };
+        self.lateral_accelerometer = match (self.lateral_accelerometer, tuned.lateral_accelerometer)
+        {
             (Some(current), Some(tuned)) => Some(current.retuned(tuned)),
             (_, tuned) => tuned,
         };
@@ -824,28 +837,45 @@ where
         rebuilt
     }
 
+    /// The sensors as the filters take them: the gyro's offset and the lateral accelerometer's
+    /// offset and gain learned from this sample ([`crate::yaw_rate_offset`],
+    /// [`crate::lateral_accelerometer`]) and taken off their signals.
+    fn calibrated(&mut self, sensors: &Sensors) -> Sensors {
+        let mut corrected = *sensors;
+        if self.yaw_rate_offset.is_none() && self.lateral_accelerometer.is_none() {
+            return corrected;
+        }
+        let measured = MeasuredSpeed::of(sensors, &self.parameters);
+        let all_zero = sensors.all_zero();
+        let steering = self.input[0];
+        if let Some(offset) = self.yaw_rate_offset.as_mut() {
+            offset.step(&OffsetSample {
+                yaw_rate: sensors.yaw_rate,
+                ay: sensors.ay,
+                all_zero,
+                steering,
+                speed: measured.map(|measured| (measured.speed, measured.std)),
+            });
+            corrected.yaw_rate -= offset.offset;
+        }
+        if let Some(accelerometer) = self.lateral_accelerometer.as_mut() {
+            accelerometer.step(&AySample {
+                ay: sensors.ay,
+                yaw_rate: corrected.yaw_rate,
+                all_zero,
+                steering,
+                speed: measured.map(|measured| measured.speed),
+            });
+            corrected.ay = accelerometer.corrected(sensors.ay);
+        }
+        corrected
+    }
+
     /// One sample: measurement update with the sensors, then time update to the next sample.
     /// Returns the status bits of the sample.
     pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
-        let corrected;
-        let sensors = match self.yaw_rate_offset.as_mut() {
-            Some(offset) => {
-                offset.step(&OffsetSample {
-                    yaw_rate: sensors.yaw_rate,
-                    ay: sensors.ay,
-                    all_zero: sensors.all_zero(),
-                    steering: self.input[0],
-                    speed: MeasuredSpeed::of(sensors, &self.parameters)
-                        .map(|measured| (measured.speed, measured.std)),
-                });
-                corrected = Sensors {
-                    yaw_rate: sensors.yaw_rate - offset.offset,
-                    ..*sensors
-                };
-                &corrected
-            }
-            None => sensors,
-        };
+        let corrected = self.calibrated(sensors);
+        let sensors = &corrected;
         let mut bits = 0;
         self.holding = false;
         if !self.started {
@@ -1115,6 +1145,9 @@ where
             held_speed: self.held_speed,
             covariance_scale: self.covariance_scale(),
             yaw_rate_offset: self.yaw_rate_offset.map_or(0.0, |offset| offset.offset),
+            ay_calibration: self
+                .lateral_accelerometer
+                .map_or([0.0; 2], |accelerometer| accelerometer.estimate.into()),
         });
     }
 
@@ -1159,6 +1192,7 @@ where
         };
         let mut outputs = self.model.outputs(&scaled, &self.parameters);
         outputs.yaw_rate_offset_est = sample.yaw_rate_offset;
+        [outputs.ay_offset_est, outputs.ay_gain_est] = sample.ay_calibration;
         if self.estimates_tyre_scale() {
             outputs
         } else {
@@ -1215,6 +1249,9 @@ where
         if let Some(offset) = &self.yaw_rate_offset {
             offset.write(writer);
         }
+        if let Some(accelerometer) = &self.lateral_accelerometer {
+            accelerometer.write(writer);
+        }
     }
 
     pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
@@ -1255,6 +1292,9 @@ where
         }
         if let Some(offset) = runner.yaw_rate_offset.as_mut() {
             offset.read(reader)?;
+        }
+        if let Some(accelerometer) = runner.lateral_accelerometer.as_mut() {
+            accelerometer.read(reader)?;
         }
         Ok(runner)
     }

@@ -28,14 +28,20 @@ fn slave() -> Slave {
 }
 
 /// Seed 000's filter: model A, its Q and R (SPEC §7, the truth's noise below), none of issue
-/// 12's robustness and the linear filters linearised once (no gain scheduling).
+/// 12's robustness, the linear filters linearised once (no gain scheduling) and the sensors taken
+/// as they come (no learned offsets: the seed's have none).
 fn seed_settings(s: &mut Slave) {
     assert_eq!(
         s.set_integer(vr::MODEL, EstimatorModel::SingleTrack5State as i32),
         Fmi2Status::Ok
     );
-    for threshold in [vr::SCHEDULE_THRESHOLD, vr::OBSERVER_SCHEDULE_THRESHOLD] {
-        assert_eq!(s.set_real(threshold, 0.0), Fmi2Status::Ok);
+    for zero in [
+        vr::SCHEDULE_THRESHOLD,
+        vr::OBSERVER_SCHEDULE_THRESHOLD,
+        vr::YAW_RATE_OFFSET_STD,
+        vr::AY_OFFSET_STD,
+    ] {
+        assert_eq!(s.set_real(zero, 0.0), Fmi2Status::Ok);
     }
     for flag in [
         vr::USE_SPEED_MEASUREMENTS,

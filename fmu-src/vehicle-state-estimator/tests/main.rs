@@ -6,6 +6,7 @@ mod adaptive_noise;
 mod c_api;
 mod car;
 mod gate_model_error;
+mod lateral_accelerometer;
 mod load_unload;
 mod model_b;
 mod model_grip;
