@@ -516,7 +516,7 @@ impl RobustnessReport {
              `{}` (the Ford Escort, CommonRoad vehicle 1) and series-production sensor noise, sampled at 10 ms; \
              the estimators are EKFs told only the Escort's mass, yaw inertia, axle distances, wheel \
              radius and inertias, brake split and static wheel loads. `EKF` runs with today's defaults on model A, \
-             `EKF_G` with them on model 3, the FMU's default model (model A with grip states and lagging tyres), `EKF_old` with the old behaviour (gate_measurements, start_from_measurements and use_speed_measurements off, no gyro offset learned, \
+             `EKF_G` with them on model 3, the FMU's default model (model A with grip states and lagging tyres), `EKF_old` with the old behaviour (gate_measurements, start_from_measurements and use_speed_measurements off, no gyro or accelerometer offset learned, \
              the seeds' noise values); each has a clean twin on the same truth and sensor noise without the \
              corruption, so corrupted − twin is the event's effect alone. Cases and corruptions: \
              `harness/scenarios/robustness/cases.toml` on `escort.toml`, injected by the master's `[[override]]`. \
