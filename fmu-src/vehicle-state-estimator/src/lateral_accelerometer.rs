@@ -36,6 +36,7 @@
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{Matrix2, Vector2};
 
+use crate::gauss_markov::GaussMarkov;
 use crate::model_description::Variables;
 
 /// Correlation time of the offset and the gain, s: a sensor's offset drifts with temperature
@@ -82,10 +83,12 @@ pub const GAIN_ACCELERATION: f64 = 2.0;
 /// The learner's fixed settings, from the parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Settings {
-    /// The stationary variances of the offset, (m/s²)², and of the gain error.
-    stationary: Vector2<f64>,
-    /// `a = exp(−T/τ)`.
-    decay: f64,
+    /// The processes of the offset and of the gain error (stationary variances `ay_offset_std²`,
+    /// (m/s²)², and `ay_gain_std²`; `τ` = [`AY_CALIBRATION_TIME_CONSTANT`]).
+    offset: GaussMarkov,
+    gain: GaussMarkov,
+    /// `ay_gain_std` is not 0.
+    learns_gain: bool,
     /// `measurement_noise_std_ay²` and `measurement_noise_std_yaw_rate²`.
     ay_variance: f64,
     yaw_rate_variance: f64,
@@ -161,9 +164,12 @@ impl LateralAccelerometer {
             return Ok(None);
         }
         let stationary = Vector2::new(v.ay_offset_std.powi(2), v.ay_gain_std.powi(2));
+        let process =
+            |variance| GaussMarkov::new(variance, v.sample_time, AY_CALIBRATION_TIME_CONSTANT);
         let settings = Settings {
-            stationary,
-            decay: (-v.sample_time / AY_CALIBRATION_TIME_CONSTANT).exp(),
+            offset: process(stationary[0]),
+            gain: process(stationary[1]),
+            learns_gain: v.ay_gain_std > 0.0,
             ay_variance: v.measurement_noise_std_ay.powi(2),
             yaw_rate_variance: v.measurement_noise_std_yaw_rate.powi(2),
             smoothing: 1.0 - (-v.sample_time / QUASI_STEADY_FILTER_TIME).exp(),
@@ -196,10 +202,11 @@ impl LateralAccelerometer {
     /// One sample: the prediction, then the update where the car is quasi-steady.
     pub fn step(&mut self, sample: &AySample) {
         let s = self.settings;
-        let a = s.decay;
+        // Both processes share `τ`, hence `a`.
+        let a = s.offset.decay;
         self.estimate *= a;
-        self.covariance =
-            self.covariance * (a * a) + Matrix2::from_diagonal(&(s.stationary * (1.0 - a * a)));
+        let process = Vector2::new(s.offset.process_variance, s.gain.process_variance);
+        self.covariance = self.covariance * (a * a) + Matrix2::from_diagonal(&process);
         let steady = self
             .steady
             .step(sample.steering, sample.yaw_rate, s.smoothing);
@@ -213,7 +220,7 @@ impl LateralAccelerometer {
         let mut noise = s.ay_variance
             + speed * speed * s.yaw_rate_variance
             + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD.powi(2) / s.sample_time;
-        let observation = if kinematic.abs() >= GAIN_ACCELERATION && s.stationary[1] > 0.0 {
+        let observation = if kinematic.abs() >= GAIN_ACCELERATION && s.learns_gain {
             Vector2::new(1.0, kinematic)
         } else if kinematic.abs() < STRAIGHT_ACCELERATION {
             noise += self.covariance[(1, 1)] * kinematic * kinematic;

@@ -69,6 +69,7 @@ pub mod model_description {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 
+mod gauss_markov;
 pub mod lateral_accelerometer;
 pub mod model_a;
 pub mod model_b;

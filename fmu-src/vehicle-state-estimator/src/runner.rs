@@ -547,6 +547,15 @@ fn schedule_threshold(v: &Variables, choice: EstimatorChoice) -> Result<f64, Str
 }
 
 /// A parameter that must be finite and at least 0.
+/// A sensor learner after a retune: what it has learned (`current`) with `tuned`'s settings, or
+/// `tuned` as it starts where there was none; `None` where the tuned parameters switch it off.
+fn carried_over<T: Copy>(current: Option<T>, tuned: Option<T>, carry: fn(&T, T) -> T) -> Option<T> {
+    match (current, tuned) {
+        (Some(current), Some(tuned)) => Some(carry(&current, tuned)),
+        (_, tuned) => tuned,
+    }
+}
+
 fn non_negative(name: &str, value: f64) -> Result<f64, String> {
     if value.is_finite() && value >= 0.0 {
         Ok(value)
@@ -754,15 +763,16 @@ where
         self.settings.operating_point = operating_point;
         self.gate = tuned.gate;
         self.parameters = tuned.parameters;
-        self.yaw_rate_offset = match (self.yaw_rate_offset, tuned.yaw_rate_offset) {
-            (Some(current), Some(tuned)) => Some(current.retuned(tuned)),
-            (_, tuned) => tuned,
-        };
-        self.lateral_accelerometer = match (self.lateral_accelerometer, tuned.lateral_accelerometer)
-        {
-            (Some(current), Some(tuned)) => Some(current.retuned(tuned)),
-            (_, tuned) => tuned,
-        };
+        self.yaw_rate_offset = carried_over(
+            self.yaw_rate_offset,
+            tuned.yaw_rate_offset,
+            YawRateOffset::retuned,
+        );
+        self.lateral_accelerometer = carried_over(
+            self.lateral_accelerometer,
+            tuned.lateral_accelerometer,
+            LateralAccelerometer::retuned,
+        );
         if self.rebuild(&current) {
             Ok(())
         } else {
@@ -792,11 +802,6 @@ where
     /// The running filter (for tests and benchmarks).
     pub fn filter(&self) -> &BoxedEstimator<N, M, U> {
         &self.filter
-    }
-
-    /// The gyro's offset as learned so far (`None` with `yaw_rate_offset_std` 0).
-    pub fn yaw_rate_offset(&self) -> Option<&YawRateOffset> {
-        self.yaw_rate_offset.as_ref()
     }
 
     /// Replaces the filter by a new one of the same kind and settings started at `initial`;

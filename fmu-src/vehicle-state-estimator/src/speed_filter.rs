@@ -39,6 +39,7 @@
 
 use fmi_export::{StateError, StateReader, StateWriter};
 
+use crate::gauss_markov::GaussMarkov;
 use crate::model_description::Variables;
 use crate::runner::ChiSquareGate;
 use crate::status;
@@ -151,15 +152,18 @@ impl SpeedSample {
         }
     }
 
-    /// The offset's decay per sample, `a = exp(−T/τb)`.
-    fn offset_decay(&self) -> f64 {
-        (-self.sample_time / AX_OFFSET_TIME_CONSTANT).exp()
+    /// The offset's process: `a = exp(−T/τb)` and `σb² (1 − a²)` per sample.
+    fn offset_process(&self) -> GaussMarkov {
+        GaussMarkov::new(
+            self.offset_variance,
+            self.sample_time,
+            AX_OFFSET_TIME_CONSTANT,
+        )
     }
 
-    /// The offset's process noise per sample, `σb² (1 − a²)`.
-    fn offset_process_variance(&self) -> f64 {
-        let decay = self.offset_decay();
-        self.offset_variance * (1.0 - decay * decay)
+    /// The offset's decay per sample, `a`.
+    fn offset_decay(&self) -> f64 {
+        self.offset_process().decay
     }
 
     /// The variance one prediction adds: `q` and what the lateral estimate's uncertainty puts
@@ -237,13 +241,9 @@ impl SpeedFilter {
             + t * t * offset
             + sample.prediction_variance()
             + held;
-        let decay = sample.offset_decay();
-        let covariance = decay * (self.speed_offset_covariance - t * offset);
-        (
-            speed,
-            covariance,
-            decay * decay * offset + sample.offset_process_variance(),
-        )
+        let process = sample.offset_process();
+        let covariance = process.decay * (self.speed_offset_covariance - t * offset);
+        (speed, covariance, process.predicted_variance(offset))
     }
 
     /// The speed's part of [`Self::prior_covariance`].

@@ -32,6 +32,7 @@
 
 use fmi_export::{StateError, StateReader, StateWriter};
 
+use crate::gauss_markov::GaussMarkov;
 use crate::model_description::Variables;
 
 /// Correlation time of the gyro's offset, s: it drifts with the sensor's temperature, over
@@ -79,10 +80,9 @@ pub const GATE_SIGMAS: f64 = 5.0;
 /// The learner's fixed settings, from the parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Settings {
-    /// `σb²`, (rad/s)².
-    stationary_variance: f64,
-    /// `a = exp(−T/τ)`.
-    decay: f64,
+    /// The offset's process: `σb² = yaw_rate_offset_std²`, `τ` =
+    /// [`YAW_RATE_OFFSET_TIME_CONSTANT`].
+    process: GaussMarkov,
     /// The gyro's noise variance, `measurement_noise_std_yaw_rate²`.
     gyro_variance: f64,
     /// The axle distance `l`, m.
@@ -115,8 +115,7 @@ impl YawRateOffset {
             return Ok(None);
         }
         let settings = Settings {
-            stationary_variance: std * std,
-            decay: (-v.sample_time / YAW_RATE_OFFSET_TIME_CONSTANT).exp(),
+            process: GaussMarkov::new(std * std, v.sample_time, YAW_RATE_OFFSET_TIME_CONSTANT),
             gyro_variance: v.measurement_noise_std_yaw_rate.powi(2),
             wheelbase: v.cog_to_front_axle + v.cog_to_rear_axle,
             sample_time: v.sample_time,
@@ -124,7 +123,7 @@ impl YawRateOffset {
         Ok(Some(Self {
             settings,
             offset: 0.0,
-            variance: settings.stationary_variance,
+            variance: std * std,
         }))
     }
 
@@ -139,9 +138,8 @@ impl YawRateOffset {
     /// One sample: the prediction, then the update where [`reference`] gives a yaw rate.
     pub fn step(&mut self, sample: &OffsetSample) {
         let s = &self.settings;
-        let a = s.decay;
-        let prior = a * a * self.variance + s.stationary_variance * (1.0 - a * a);
-        self.offset *= a;
+        let prior = s.process.predicted_variance(self.variance);
+        self.offset *= s.process.decay;
         self.variance = prior;
         if !sample.yaw_rate.is_finite() || sample.all_zero {
             return;
