@@ -147,9 +147,10 @@ pub struct LateralAccelerometer {
 }
 
 impl LateralAccelerometer {
-    /// The learner at the prior, `None` when `ay_offset_std` and `ay_gain_std` are both 0 (`ay`
-    /// taken as it comes).
-    pub fn from_parameters(v: &Variables) -> Result<Option<Self>, String> {
+    /// The learner at the prior, `None` when `ay_offset_std` and the gain's std are both 0 (`ay`
+    /// taken as it comes). The gain's std is `ay_gain_std` where `learns_gain` (the model's
+    /// filter does not estimate the gain itself), else 0.
+    pub fn from_parameters(v: &Variables, learns_gain: bool) -> Result<Option<Self>, String> {
         for (name, std) in [
             ("ay_offset_std", v.ay_offset_std),
             ("ay_gain_std", v.ay_gain_std),
@@ -160,16 +161,17 @@ impl LateralAccelerometer {
                 ));
             }
         }
-        if v.ay_offset_std == 0.0 && v.ay_gain_std == 0.0 {
+        let gain_std = if learns_gain { v.ay_gain_std } else { 0.0 };
+        if v.ay_offset_std == 0.0 && gain_std == 0.0 {
             return Ok(None);
         }
-        let stationary = Vector2::new(v.ay_offset_std.powi(2), v.ay_gain_std.powi(2));
+        let stationary = Vector2::new(v.ay_offset_std.powi(2), gain_std.powi(2));
         let process =
             |variance| GaussMarkov::new(variance, v.sample_time, AY_CALIBRATION_TIME_CONSTANT);
         let settings = Settings {
             offset: process(stationary[0]),
             gain: process(stationary[1]),
-            learns_gain: v.ay_gain_std > 0.0,
+            learns_gain: gain_std > 0.0,
             ay_variance: v.measurement_noise_std_ay.powi(2),
             yaw_rate_variance: v.measurement_noise_std_yaw_rate.powi(2),
             smoothing: 1.0 - (-v.sample_time / QUASI_STEADY_FILTER_TIME).exp(),

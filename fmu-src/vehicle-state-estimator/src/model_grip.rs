@@ -14,8 +14,8 @@ use estimation::models::single_track::{
     ANCHORED_INPUT_DIM, ANCHORED_MEASUREMENT_DIM, AX_INPUT, AX_VALID_INPUT,
 };
 use estimation::models::single_track_grip::{
-    extend_state, GripPrior, SingleTrackGripModel, GRIP_FACTORS, GRIP_STATE_DIM, RELAXATION_FACTOR,
-    TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR,
+    extend_state, GripPrior, SingleTrackGripModel, AY_GAIN, GRIP_FACTORS, GRIP_STATE_DIM,
+    RELAXATION_FACTOR, TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR,
 };
 use estimation::models::unknown_torques;
 use estimation::registry::{EstimatorChoice, EstimatorSettings};
@@ -55,12 +55,20 @@ pub type RunnerGrip =
     Runner<ModelGrip, GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>;
 
 /// The grip factors' prior from `grip_std` and `grip_time_constant`, the relaxation factor's
-/// from `tyre_relaxation_length_uncertainty`.
+/// from `tyre_relaxation_length_uncertainty`, the accelerometer's gain error's from
+/// `ay_gain_std` (0 for the particle filter).
 fn prior(v: &Variables) -> Result<GripPrior, String> {
     Ok(GripPrior {
         std: positive("grip_std", v.grip_std)?,
         time_constant: positive("grip_time_constant", v.grip_time_constant)?,
         relaxation_std: v.tyre_relaxation_length_uncertainty,
+        // the particle filter's particles spread along the gain and the set degenerated
+        // (README, "The accelerometer gain in the grip filter"): it keeps the gain at 0
+        ay_gain_std: if parameters::runs_particle_filter(v) {
+            0.0
+        } else {
+            v.ay_gain_std
+        },
     })
 }
 
@@ -152,6 +160,13 @@ impl ReportsFilteredSpeed<GRIP_STATE_DIM> for ModelGrip {
 impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> for ModelGrip {
     /// Model A's reported speed.
     type Extra = SpeedFilter;
+
+    /// The `ay_gain` state (`estimation::models::single_track_grip`, "The accelerometer's
+    /// gain"): learned jointly with `vy` and the grip, where the runner's learner, ahead of the
+    /// filter, learned it in quasi-steady corners only and left the grip learned before it
+    /// wrong (fmu-src/vehicle-state-estimator/README.md, "The accelerometer gain in the grip
+    /// filter").
+    const ESTIMATES_AY_GAIN: bool = true;
 
     /// The grip states carry the axles' force scale, and with it the stiffness uncertainty, in
     /// the covariance of the EKF, both UKFs and the gain-scheduled LKF (re-linearised about the
@@ -246,8 +261,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     /// are kept with it: a re-seed in a corner that put them to straight running would take the
     /// side force off the kept sideslip's tyres for a relaxation length (measured: braking in a
     /// turn, harness robustness, EKF_G re-seeded four times and 2.0 deg RMSE against 1.2 deg
-    /// with them kept). So is the relaxation factor, the tyres' and not the lost estimate's
-    /// (with its prior's variance).
+    /// with them kept). So are the relaxation factor, the tyres' and not the lost estimate's,
+    /// and the accelerometer's gain error, the sensor's (each with its prior's variance).
     fn readmitted_start(&self, current: &StateGrip, start: &mut InitialEstimate<GRIP_STATE_DIM>) {
         let mut body_start = body_estimate(start);
         self.anchored()
@@ -256,7 +271,12 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             .state
             .fixed_rows_mut::<STATE_DIM>(0)
             .copy_from(&body_start.state);
-        for i in [TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR, RELAXATION_FACTOR] {
+        for i in [
+            TRANSIENT_SLIP_FRONT,
+            TRANSIENT_SLIP_REAR,
+            RELAXATION_FACTOR,
+            AY_GAIN,
+        ] {
             start.state[i] = current[i];
         }
     }
@@ -357,6 +377,12 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 Some(self.lateral_states_of(&sample.state, &driver)),
             )
             .lateral_acceleration;
+        // with `ay_gain_std` 0 the state is held at its least std (1e-6), not exactly at 0
+        values.ay_gain_est = if self.prior().ay_gain_std > 0.0 {
+            sample.state[AY_GAIN]
+        } else {
+            0.0
+        };
         model_a::at_reported_speed(values, &sample.extra)
     }
 

@@ -39,6 +39,15 @@ pub fn runs_luenberger(v: &Variables) -> bool {
     matches!(estimator_choice(v), Ok((_, EstimatorChoice::Luenberger)))
 }
 
+/// Whether the `estimator` parameter selects the particle filter, which keeps the grip model's
+/// accelerometer gain at 0 (see `model_grip`).
+pub fn runs_particle_filter(v: &Variables) -> bool {
+    matches!(
+        estimator_choice(v),
+        Ok((_, EstimatorChoice::ParticleFilter))
+    )
+}
+
 /// The discretisation of the estimator's model.
 pub fn integrator(v: &Variables) -> Result<Integrator, String> {
     Ok(

@@ -130,6 +130,12 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// it passes through); part of the FMU state.
     type Extra: Clone + Copy + Debug + Send;
 
+    /// Whether the model's filter estimates the lateral accelerometer's gain error itself (the
+    /// grip model's `ay_gain` state, with `ay_gain_std` as its prior): the runner's learner
+    /// (`lateral_accelerometer`) then learns the offset only, and the model reports
+    /// `ay_gain_est`.
+    const ESTIMATES_AY_GAIN: bool = false;
+
     /// Whether the model's filter estimates its tyres' force scale with a covariance that
     /// follows it (the grip model's EKF, UKFs and re-linearised LKF), so the reported std
     /// already holds the stiffness uncertainty that [`with_stiffness_consider`] adds for the
@@ -742,7 +748,10 @@ where
                 .transpose()
                 .map_err(|e| e.0)?,
             yaw_rate_offset: YawRateOffset::from_parameters(v)?,
-            lateral_accelerometer: LateralAccelerometer::from_parameters(v)?,
+            lateral_accelerometer: LateralAccelerometer::from_parameters(
+                v,
+                !Model::ESTIMATES_AY_GAIN,
+            )?,
         })
     }
 
@@ -1197,7 +1206,10 @@ where
         };
         let mut outputs = self.model.outputs(&scaled, &self.parameters);
         outputs.yaw_rate_offset_est = sample.yaw_rate_offset;
-        [outputs.ay_offset_est, outputs.ay_gain_est] = sample.ay_calibration;
+        outputs.ay_offset_est = sample.ay_calibration[0];
+        if !Model::ESTIMATES_AY_GAIN {
+            outputs.ay_gain_est = sample.ay_calibration[1];
+        }
         if self.estimates_tyre_scale() {
             outputs
         } else {

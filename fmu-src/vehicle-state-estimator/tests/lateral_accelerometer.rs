@@ -28,7 +28,7 @@ fn learner(gain_std: f64) -> LateralAccelerometer {
         ay_gain_std: gain_std,
         ..Variables::default()
     };
-    LateralAccelerometer::from_parameters(&v)
+    LateralAccelerometer::from_parameters(&v, true)
         .expect("valid parameters")
         .expect("on by default")
 }
@@ -157,11 +157,14 @@ fn a_transient_a_glitch_an_all_zero_row_or_a_crawl_teaches_nothing() {
 #[test]
 fn negative_standard_deviations_are_refused_and_zeros_switch_the_learner_off() {
     let with = |offset: f64, gain: f64| {
-        LateralAccelerometer::from_parameters(&Variables {
-            ay_offset_std: offset,
-            ay_gain_std: gain,
-            ..Variables::default()
-        })
+        LateralAccelerometer::from_parameters(
+            &Variables {
+                ay_offset_std: offset,
+                ay_gain_std: gain,
+                ..Variables::default()
+            },
+            true,
+        )
     };
     let refused = with(-0.1, 0.0).unwrap_err();
     assert!(refused.contains("ay_offset_std"), "{refused}");
@@ -170,11 +173,71 @@ fn negative_standard_deviations_are_refused_and_zeros_switch_the_learner_off() {
     assert_eq!(with(0.0, 0.0), Ok(None));
 }
 
+/// Where the model's filter estimates the gain (the grip model), the learner learns the offset
+/// only: nothing at all without `ay_offset_std`, and in a steady corner no gain.
+#[test]
+fn a_model_that_estimates_the_gain_leaves_the_learner_the_offset() {
+    let v = Variables {
+        sample_time: T,
+        measurement_noise_std_ay: AY_NOISE,
+        measurement_noise_std_yaw_rate: GYRO_NOISE,
+        ay_gain_std: 0.15,
+        ..Variables::default()
+    };
+    let off = Variables {
+        ay_offset_std: 0.0,
+        ..v.clone()
+    };
+    assert_eq!(LateralAccelerometer::from_parameters(&off, false), Ok(None));
+    let mut learner = LateralAccelerometer::from_parameters(&v, false)
+        .expect("valid parameters")
+        .expect("the offset is learned");
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    feed(&mut learner, &mut rng, 300, (0.0, 0.0, SPEED), (0.2, 0.12));
+    feed(&mut learner, &mut rng, 300, (0.03, 0.3, SPEED), (0.2, 0.12));
+    let [offset, gain] = [learner.estimate[0], learner.estimate[1]];
+    assert!((offset - 0.2).abs() < 0.05, "{learner:?}");
+    assert_eq!(gain, 0.0);
+}
+
+/// `ay_meas` reading `1 + gain` times the truth, with `ay_gain_std` `std` (learned by the grip
+/// filter's own state) and the offset's learner off.
+fn gained_accelerometer(gain: f64, std: f64) -> SensorOffset {
+    SensorOffset {
+        sensor: vr::AY_MEAS,
+        offset: 0.0,
+        gain,
+        learner_std: Some((vr::AY_GAIN_STD, std)),
+        learned_output: vr::AY_GAIN_EST,
+    }
+}
+
+/// The body-fixed accelerometer's gain error (the roll's gravity) on the grip model: learned by
+/// its filter, its sideslip error after a step steer stays near the clean sensor's.
+#[test]
+fn the_grip_filter_learns_the_accelerometer_gain() {
+    let (clean, _, _) = largest_sideslip_error(&gained_accelerometer(0.0, 0.1));
+    let (ignored, _, none) = largest_sideslip_error(&gained_accelerometer(0.12, 0.0));
+    let (learned, _, gain) = largest_sideslip_error(&gained_accelerometer(0.12, 0.1));
+    println!(
+        "largest sideslip error after the step: clean ay {clean}, gain ignored {ignored}, \
+         gain learned {learned} rad; ay_gain_est at the end {gain}"
+    );
+    assert_eq!(none, 0.0);
+    assert!((gain - 0.12).abs() < 0.03, "{gain}");
+    assert!(ignored > 2.0 * clean, "{ignored} vs {clean}");
+    assert!(
+        learned - clean < 0.3 * (ignored - clean),
+        "{learned} vs {clean} and {ignored}"
+    );
+}
+
 /// `ay_meas` with `offset` and the learner's offset std `std` (its default where `None`).
 fn accelerometer(offset: f64, std: Option<f64>) -> SensorOffset {
     SensorOffset {
         sensor: vr::AY_MEAS,
         offset,
+        gain: 0.0,
         learner_std: std.map(|std| (vr::AY_OFFSET_STD, std)),
         learned_output: vr::AY_OFFSET_EST,
     }
@@ -182,9 +245,9 @@ fn accelerometer(offset: f64, std: Option<f64>) -> SensorOffset {
 
 #[test]
 fn the_grip_model_s_sideslip_survives_an_offset_accelerometer() {
-    let (clean, _) = largest_sideslip_error(&accelerometer(0.0, None));
-    let (ignored, none) = largest_sideslip_error(&accelerometer(0.3, Some(0.0)));
-    let (learned, offset) = largest_sideslip_error(&accelerometer(0.3, None));
+    let (clean, _, _) = largest_sideslip_error(&accelerometer(0.0, None));
+    let (ignored, none, _) = largest_sideslip_error(&accelerometer(0.3, Some(0.0)));
+    let (learned, offset, _) = largest_sideslip_error(&accelerometer(0.3, None));
     println!(
         "largest sideslip error after the step: clean ay {clean}, offset ignored {ignored}, \
          offset learned {learned} rad; ay_offset_est at the step {offset} m/s²"

@@ -142,20 +142,24 @@ fn a_negative_standard_deviation_is_refused_and_zero_switches_the_learner_off() 
 
 const SPEED: f64 = 65.0 / 3.6;
 
-/// A sensor offset and the learner that takes it off: the sensor, its offset, the learner's
-/// std parameter (its default where `None`) and the output that reports what it learned.
+/// A sensor offset (and gain error) and the learner that takes it off: the sensor, its offset
+/// and gain error, the learner's std parameter (its default where `None`) and the output that
+/// reports what it learned.
 pub(crate) struct SensorOffset {
     pub sensor: u32,
     pub offset: f64,
+    /// The sensor reads `(1 + gain)` times the truth, plus `offset`.
+    pub gain: f64,
     pub learner_std: Option<(u32, f64)>,
     pub learned_output: u32,
 }
 
 /// The grip model's EKF at its defaults but for `case.learner_std` on the two-track reference
 /// vehicle driving straight for 3 s and then through a 2.5° road-wheel step; `case.sensor`
-/// reads the truth plus `case.offset`, the other sensors the truth. Returns the largest
-/// sideslip error after the step, rad, and `case.learned_output` at the step.
-pub(crate) fn largest_sideslip_error(case: &SensorOffset) -> (f64, f64) {
+/// reads `(1 + case.gain)` times the truth plus `case.offset`, the other sensors the truth.
+/// Returns the largest sideslip error after the step, rad, and `case.learned_output` at the
+/// step and at the end (3 s later).
+pub(crate) fn largest_sideslip_error(case: &SensorOffset) -> (f64, f64, f64) {
     let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "offset", GUID)
         .expect("instantiate");
     assert_eq!(
@@ -186,7 +190,7 @@ pub(crate) fn largest_sideslip_error(case: &SensorOffset) -> (f64, f64) {
             other => panic!("no offset case for value reference {other}"),
         };
         assert_eq!(
-            s.set_real(case.sensor, measured + case.offset),
+            s.set_real(case.sensor, (1.0 + case.gain) * measured + case.offset),
             Fmi2Status::Ok
         );
         assert_eq!(s.do_step(t, T), Fmi2Status::Ok, "{:?}", s.log.last());
@@ -203,7 +207,10 @@ pub(crate) fn largest_sideslip_error(case: &SensorOffset) -> (f64, f64) {
             worst = worst.max((sideslip - truth.truth(&input).sideslip).abs());
         }
     }
-    (worst, learned)
+    let [at_end] = s.reals(&[case.learned_output])[..] else {
+        unreachable!("one value asked for")
+    };
+    (worst, learned, at_end)
 }
 
 /// The gyro with `offset` and the learner's std `std` (its default where `None`).
@@ -211,6 +218,7 @@ fn gyro(offset: f64, std: Option<f64>) -> SensorOffset {
     SensorOffset {
         sensor: vr::YAW_RATE_MEAS,
         offset,
+        gain: 0.0,
         learner_std: std.map(|std| (vr::YAW_RATE_OFFSET_STD, std)),
         learned_output: vr::YAW_RATE_OFFSET_EST,
     }
@@ -218,9 +226,9 @@ fn gyro(offset: f64, std: Option<f64>) -> SensorOffset {
 
 #[test]
 fn the_grip_model_s_sideslip_survives_an_offset_gyro() {
-    let (clean, _) = largest_sideslip_error(&gyro(0.0, None));
-    let (ignored, none) = largest_sideslip_error(&gyro(OFFSET, Some(0.0)));
-    let (learned, offset) = largest_sideslip_error(&gyro(OFFSET, None));
+    let (clean, _, _) = largest_sideslip_error(&gyro(0.0, None));
+    let (ignored, none, _) = largest_sideslip_error(&gyro(OFFSET, Some(0.0)));
+    let (learned, offset, _) = largest_sideslip_error(&gyro(OFFSET, None));
     println!(
         "largest sideslip error after the step: clean gyro {clean}, offset ignored {ignored}, \
          offset learned {learned} rad; yaw_rate_offset_est at the step {offset} rad/s"

@@ -1,12 +1,13 @@
 //! Model A with per-axle lateral grip states and tyre relaxation (issue 17 points 3 and 4) as a
-//! [`StateSpaceModel<10, 5, 6>`].
+//! [`StateSpaceModel<11, 5, 6>`].
 //!
 //! - state `x = [vx, vy, yaw_rate, omega_front, omega_rear, grip_front, grip_rear,
-//!   transient_slip_front, transient_slip_rear, relaxation_factor]`: model A's five states, one
-//!   factor per axle on model A's lateral tyre force
+//!   transient_slip_front, transient_slip_rear, relaxation_factor, ay_gain]`: model A's five
+//!   states, one factor per axle on model A's lateral tyre force
 //!   ([`SingleTrackModel::step_with_lateral_states`]; 1 is the user's tyre), per axle the tyre's
-//!   transient slip angle `tan α'`, and the share of the lag the tyres actually have (see
-//!   **Tyre lag** and **How much lag**);
+//!   transient slip angle `tan α'`, the share of the lag the tyres actually have (see
+//!   **Tyre lag** and **How much lag**), and the lateral accelerometer's gain error (see
+//!   **The accelerometer's gain**);
 //! - measurement and input as [`SpeedAnchoredModel`]'s: `y = [yaw_rate, ay, omega_front,
 //!   omega_rear, vx]`, `u = [steering_angle, drive_torque, brake_torque, drive_torque_rear, ax,
 //!   ax_valid]`, with the `vx` row and the `ax` kinematics of the speed anchor.
@@ -58,6 +59,21 @@
 //! 0.2 / 0.5 gave 1.24 / 1.45 / 1.57 / 1.69°, 2.41 / 1.25 / 0.85 / 0.85° and 2.22 / 1.47 /
 //! 1.23 / 1.24°. The other form, `κ σ` inside the lag equation, gave 1.62 / 1.39 / 1.50° at 0.5.
 //!
+//! **The accelerometer's gain.** A series car's `ay` sensor sits in the body, which rolls by `φ`
+//! in a corner, and reads `g sin φ` of gravity besides the lateral acceleration (ISO 8855
+//! specific force): with a roll proportional to `ay` (4-7°/g on passenger cars) a gain error `e`
+//! of 0.07-0.13. The grip factors make the tyres' force free to follow `ay_meas`, so `vy`
+//! integrates what `ay_meas` says beyond `r vx` (`dvy/dt = Fy/m − r vx`): an `e` of 0.13 on the
+//! full vehicle's campaigns took the sideslip RMSE summed over its 15 runs from 1.85° to 13.0°,
+//! and even the right `e` fixed ahead of the filter left 4.8°, because the grip learned in the
+//! step before a steady corner stays (the direction is unobservable there). So the `ay` row is
+//! `(1 + e) Fy / m` with `e` a state, a Gauss-Markov process about 0 of stationary std
+//! [`GripPrior::ay_gain_std`] and correlation time [`AY_GAIN_TIME_CONSTANT`]: where `ay_meas`
+//! and `r vx` disagree for longer than the grip's prior lets `vy` drift, `e` takes it, and its
+//! covariance with `vy` and the grip carries them back. 0 (the FMU's default, `ay_gain_std`)
+//! fixes `e` at 0, the filter then as without the state. Measured in
+//! fmu-src/vehicle-state-estimator/README.md, "The accelerometer gain in the grip filter".
+//!
 //! **Unknown torques.** With [`SingleTrackGripModel::with_unknown_torques`] (the FMU's default),
 //! while every torque input reads 0 (with or without `ax` measured), the tyre forces are those
 //! of freely rolling wheels and each wheel keeps its slip velocity ([`unknown_torques`]): the wheels'
@@ -87,7 +103,7 @@ use crate::registry::EstimatorSettings;
 use crate::StateSpaceModel;
 
 /// Number of states of the grip model.
-pub const GRIP_STATE_DIM: usize = STATE_DIM + 5;
+pub const GRIP_STATE_DIM: usize = STATE_DIM + 6;
 
 /// Index of the front axle's grip factor.
 pub const GRIP_FRONT: usize = STATE_DIM;
@@ -107,6 +123,15 @@ pub const TRANSIENT_SLIP_REAR: usize = STATE_DIM + 3;
 /// Index of the relaxation factor `κ`, the share of the lag of the relaxation length that the
 /// tyres have (module docs, **How much lag**).
 pub const RELAXATION_FACTOR: usize = STATE_DIM + 4;
+
+/// Index of the lateral accelerometer's gain error `e` (module docs, **The accelerometer's
+/// gain**).
+pub const AY_GAIN: usize = STATE_DIM + 5;
+
+/// Correlation time of the accelerometer's gain error, s: the roll gradient is the car's and
+/// changes with its load, not within a drive; the same as the FMU's runner-level learner of the
+/// offset (600 s).
+pub const AY_GAIN_TIME_CONSTANT: f64 = 600.0;
 
 /// Correlation time of the relaxation factor's Gauss-Markov process, s: the relaxation length
 /// is the tyre's (it changes with load and wear, not within a manoeuvre), so the factor is
@@ -143,6 +168,10 @@ pub struct GripPrior {
     /// uncertainty of the relaxation length (module docs, **How much lag**); 0 fixes the lag
     /// at the relaxation length's ([`RELAXATION_FACTOR_MIN_STD`]).
     pub relaxation_std: f64,
+    /// Stationary standard deviation of the accelerometer's gain error `e` about 0 (module docs,
+    /// **The accelerometer's gain**); 0 fixes it at 0 ([`RELAXATION_FACTOR_MIN_STD`] keeps the
+    /// covariance positive definite).
+    pub ay_gain_std: f64,
 }
 
 impl GripPrior {
@@ -153,24 +182,39 @@ impl GripPrior {
                 "the grip factors' std and time constant must be positive, got {self:?}"
             )));
         }
-        if !(self.relaxation_std.is_finite() && self.relaxation_std >= 0.0) {
-            return Err(SettingsError(format!(
-                "the relaxation factor's std must be at least 0, got {}",
-                self.relaxation_std
-            )));
+        for (what, std) in [
+            ("the relaxation factor's", self.relaxation_std),
+            ("the accelerometer's gain error's", self.ay_gain_std),
+        ] {
+            if !(std.is_finite() && std >= 0.0) {
+                return Err(SettingsError(format!(
+                    "{what} std must be at least 0, got {std}"
+                )));
+            }
         }
         Ok(())
     }
 
     /// The relaxation factor's stationary variance, at least [`RELAXATION_FACTOR_MIN_STD`]².
     fn relaxation_variance(&self) -> f64 {
-        let std = self.relaxation_std.max(RELAXATION_FACTOR_MIN_STD);
+        Self::least_variance(self.relaxation_std)
+    }
+
+    /// The accelerometer's gain error's stationary variance, at least
+    /// [`RELAXATION_FACTOR_MIN_STD`]².
+    fn ay_gain_variance(&self) -> f64 {
+        Self::least_variance(self.ay_gain_std)
+    }
+
+    fn least_variance(std: f64) -> f64 {
+        let std = std.max(RELAXATION_FACTOR_MIN_STD);
         std * std
     }
 
     /// Model A's start extended by the grip factors' prior (mean 1, variance `σ²`), the
-    /// transient slip angles (straight running, [`TRANSIENT_SLIP_START_STD`]) and the relaxation
-    /// factor's prior (mean 1, variance `ε²`), uncorrelated.
+    /// transient slip angles (straight running, [`TRANSIENT_SLIP_START_STD`]), the relaxation
+    /// factor's prior (mean 1, variance `ε²`) and the accelerometer's gain error's (mean 0),
+    /// uncorrelated.
     pub fn extend_initial(
         &self,
         start: &InitialEstimate<STATE_DIM>,
@@ -186,6 +230,7 @@ impl GripPrior {
             covariance[(i, i)] = TRANSIENT_SLIP_START_STD * TRANSIENT_SLIP_START_STD;
         }
         covariance[(RELAXATION_FACTOR, RELAXATION_FACTOR)] = self.relaxation_variance();
+        covariance[(AY_GAIN, AY_GAIN)] = self.ay_gain_variance();
         InitialEstimate {
             state: extend_state(&start.state),
             covariance,
@@ -203,6 +248,8 @@ pub struct SingleTrackGripModel<T: TyreModel = HsriTyre> {
     decay: f64,
     /// The relaxation factor's `exp(−T/τκ)` ([`RELAXATION_FACTOR_TIME_CONSTANT`]).
     relaxation_decay: f64,
+    /// The accelerometer's gain error's `exp(−T/τe)` ([`AY_GAIN_TIME_CONSTANT`]).
+    ay_gain_decay: f64,
     /// The tyres' relaxation length `σ`, m; 0: no lag.
     relaxation_length: f64,
     /// Whether zero torques mean unknown ones ([`Self::with_unknown_torques`]).
@@ -222,6 +269,7 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             prior,
             decay,
             relaxation_decay,
+            ay_gain_decay: (-sample_time / AY_GAIN_TIME_CONSTANT).exp(),
             relaxation_length: 0.0,
             unknown_torques: false,
         })
@@ -294,7 +342,8 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
     /// placed for them: the observer lets each relax to 1 by its Gauss-Markov step
     /// (`a = exp(−T/τ)`, stable) and the transient slip angles follow the kinematic ones by the
     /// tyre lag (stable at any speed above standstill), so it is model A's observer with the
-    /// tyres' lag.
+    /// tyres' lag. The accelerometer's gain error, 0 in a straight line's `ay` row as well, is
+    /// left to decay to 0 the same way.
     pub fn extend_settings(
         &self,
         anchored: EstimatorSettings<STATE_DIM, ANCHORED_INPUT_DIM>,
@@ -307,7 +356,12 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             observer_design: anchored.observer_design.map(|design| ObserverDesign {
                 open_loop: (design.open_loop.into_iter())
                     .chain(GRIP_FACTORS)
-                    .chain([TRANSIENT_SLIP_FRONT, TRANSIENT_SLIP_REAR, RELAXATION_FACTOR])
+                    .chain([
+                        TRANSIENT_SLIP_FRONT,
+                        TRANSIENT_SLIP_REAR,
+                        RELAXATION_FACTOR,
+                        AY_GAIN,
+                    ])
                     .collect(),
                 ..design
             }),
@@ -437,6 +491,8 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             next[i] = (x[i] - 1.0) * self.decay + 1.0;
         }
         next[RELAXATION_FACTOR] = (x[RELAXATION_FACTOR] - 1.0) * self.relaxation_decay + 1.0;
+        // e(k+1) = a e(k) (Brown and Hwang, §2.9)
+        next[AY_GAIN] = x[AY_GAIN] * self.ay_gain_decay;
         let [front, rear] = self.transient_slip_step(x, &kinematic);
         next[TRANSIENT_SLIP_FRONT] = front;
         next[TRANSIENT_SLIP_REAR] = rear;
@@ -489,6 +545,8 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
             // the wheel rows measure the wheel states themselves
             measurement_index::OMEGA_FRONT => x[state_index::OMEGA_FRONT],
             measurement_index::OMEGA_REAR => x[state_index::OMEGA_REAR],
+            // the body-fixed sensor's (1 + e) Fy / m (module docs, **The accelerometer's gain**)
+            measurement_index::LATERAL_ACCELERATION => y[i] * (x[AY_GAIN] + 1.0),
             _ if i < MEASUREMENT_DIM => y[i],
             _ => x[state_index::VX],
         })
@@ -521,6 +579,7 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
             "transient_slip_front",
             "transient_slip_rear",
             "relaxation_factor",
+            "ay_gain",
         ]
     }
 
@@ -594,7 +653,8 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
     }
 
     /// Model A's `Q`, per grip factor `σ² (1 − a²)` (Brown and Hwang, §2.9), per transient slip
-    /// angle [`TRANSIENT_SLIP_NOISE_DENSITY`] `· T`, for the relaxation factor `ε² (1 − aκ²)`;
+    /// angle [`TRANSIENT_SLIP_NOISE_DENSITY`] `· T`, for the relaxation factor `ε² (1 − aκ²)`,
+    /// for the accelerometer's gain error its stationary variance times `1 − ae²`;
     /// uncorrelated.
     fn process_noise(&self) -> SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM> {
         let mut noise = SMatrix::<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>::zeros();
@@ -609,6 +669,8 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
         noise[(TRANSIENT_SLIP_REAR, TRANSIENT_SLIP_REAR)] = slip_variance;
         noise[(RELAXATION_FACTOR, RELAXATION_FACTOR)] = self.prior.relaxation_variance()
             * (1.0 - self.relaxation_decay * self.relaxation_decay);
+        noise[(AY_GAIN, AY_GAIN)] =
+            self.prior.ay_gain_variance() * (1.0 - self.ay_gain_decay * self.ay_gain_decay);
         noise
     }
 
@@ -644,6 +706,7 @@ mod tests {
         std: 0.15,
         time_constant: 2.0,
         relaxation_std: 0.2,
+        ay_gain_std: 0.1,
     };
 
     fn anchored(rear_scale: f64) -> SpeedAnchoredModel<HsriTyre> {
@@ -681,7 +744,7 @@ mod tests {
     }
 
     fn jacobians_match_finite_differences(model: SingleTrackGripModel<HsriTyre>) {
-        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02, 0.7]);
+        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02, 0.7, 0.05]);
         let driver = SVector::<f64, INPUT_DIM>::from([0.06, 50.0, 800.0]);
         for ax in [None, Some(-2.0)] {
             let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 120.0, ax);
@@ -713,7 +776,7 @@ mod tests {
     /// A braked turn's state with the brake torque not reported: every torque input 0, `ax`
     /// measured (the case of [`unknown_torques`]).
     fn torques_unknown_case() -> (GripState, SVector<f64, ANCHORED_INPUT_DIM>) {
-        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02, 0.7]);
+        let x = GripState::from([17.0, -0.4, 0.3, 55.5, 56.0, 0.9, 1.2, 0.01, 0.02, 0.7, 0.05]);
         let driver = SVector::<f64, INPUT_DIM>::from([0.06, 0.0, 0.0]);
         let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 0.0, Some(-4.0));
         (x, u)
@@ -816,6 +879,60 @@ mod tests {
 
     /// At grip 1 the first five states and the measurement are the speed-anchored model A's to
     /// the bit; a grip factor relaxes to 1 with `a = exp(−T/τ)`; the stationary std is `σ`.
+    /// The `ay` row reads `(1 + e)` times model A's `ay`, the other rows do not see `e`, and `e`
+    /// is a Gauss-Markov process about 0 of stationary std `ay_gain_std`.
+    #[test]
+    fn the_accelerometer_gain_scales_the_ay_row_only() {
+        let model = grip_model();
+        let x = extend_state(&SVector::<f64, STATE_DIM>::from([
+            17.0, -0.4, 0.3, 55.5, 56.0,
+        ]));
+        let driver = SVector::<f64, INPUT_DIM>::from([0.06, 50.0, 800.0]);
+        let u = SpeedAnchoredModel::<HsriTyre>::extend_input(&driver, 120.0, Some(-2.0));
+        let mut reading = x;
+        reading[AY_GAIN] = 0.12;
+        let (plain, scaled) = (model.measurement(&x, &u), model.measurement(&reading, &u));
+        let ay = measurement_index::LATERAL_ACCELERATION;
+        assert!(plain[ay].abs() > 1.0, "a corner: {}", plain[ay]);
+        assert!((scaled[ay] - 1.12 * plain[ay]).abs() < 1e-12 * plain[ay].abs());
+        for row in (0..ANCHORED_MEASUREMENT_DIM).filter(|&row| row != ay) {
+            assert_eq!(scaled[row], plain[row], "row {row}");
+        }
+        let (_, jacobian) = model.measurement_and_jacobian(&x, &u);
+        assert!((jacobian[(ay, AY_GAIN)] - plain[ay]).abs() < 1e-12 * plain[ay].abs());
+        let next = model.transition(&reading, &u);
+        assert_eq!(
+            next.fixed_rows::<STATE_DIM>(0),
+            model.transition(&x, &u).fixed_rows::<STATE_DIM>(0),
+            "the gain is the sensor's, not the car's"
+        );
+        let a = (-SAMPLE_TIME / AY_GAIN_TIME_CONSTANT).exp();
+        assert!((next[AY_GAIN] - 0.12 * a).abs() < 1e-15);
+        let q = model.process_noise()[(AY_GAIN, AY_GAIN)];
+        assert!((q / (1.0 - a * a) - PRIOR.ay_gain_std.powi(2)).abs() < 1e-12);
+        let start = PRIOR.extend_initial(&InitialEstimate {
+            state: SVector::zeros(),
+            covariance: SMatrix::identity(),
+        });
+        assert_eq!(start.state[AY_GAIN], 0.0);
+        assert_eq!(
+            start.covariance[(AY_GAIN, AY_GAIN)],
+            PRIOR.ay_gain_std.powi(2)
+        );
+        for std in [-0.1, f64::NAN] {
+            let prior = GripPrior {
+                ay_gain_std: std,
+                ..PRIOR
+            };
+            assert!(prior.check().is_err(), "{std}");
+        }
+        let fixed = GripPrior {
+            ay_gain_std: 0.0,
+            ..PRIOR
+        };
+        assert!(fixed.ay_gain_variance() > 0.0);
+    }
+
     #[test]
     fn unit_grip_is_model_a_and_the_grip_is_gauss_markov() {
         let model = grip_model();
@@ -880,7 +997,8 @@ mod tests {
                 GRIP_REAR,
                 TRANSIENT_SLIP_FRONT,
                 TRANSIENT_SLIP_REAR,
-                RELAXATION_FACTOR
+                RELAXATION_FACTOR,
+                AY_GAIN
             ]
         );
     }
