@@ -21,7 +21,11 @@
 //! straight ([`STRAIGHT_ACCELERATION`]), and where the gain is learned `z − a = [1, a] x` in a
 //! steady corner ([`GAIN_ACCELERATION`]). `r` is the gyro corrected by its own
 //! learner (`yaw_rate_offset`), `vx` the measured speed. The estimators get
-//! `(ay_meas − b) / (1 + e)`.
+//! `(ay_meas − b) / (1 + e)`. On the grip model the filter estimates the gain itself (its
+//! `ay_gain` state, `EstimationModel::ESTIMATES_AY_GAIN`), and this learner keeps `e` at 0 and
+//! learns the offset only: learned here, in quasi-steady corners only, the gain came too late
+//! for the grip the filter had learned in the step before (fmu-src/vehicle-state-estimator/
+//! README.md, "The accelerometer gain in the grip filter").
 //!
 //! The reference's error: the gyro's noise times the speed, and what is left of `dvy/dt`
 //! in a quasi-steady state ([`QUASI_STEADY_STD`], correlated over [`QUASI_STEADY_TIME`], as white
