@@ -21,6 +21,7 @@ use estimation::identification::EmSchedule;
 use estimation::models::rear_axle::PARAMETER_NAMES;
 use estimation::particle::Proposal;
 
+use crate::campaigns::Overrides;
 use crate::consistency::{self, ConsistencyReport};
 pub use crate::findings::{fmt, window_mean, window_rmse, Finding, Sources};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
@@ -360,7 +361,12 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
     bar.set_message("robustness cases and mismatch campaigns on real cars (issues 12, 13, 17)");
     let real_cars = keep(
         REAL_CARS_STUDY,
-        RealCars::run_shipped(&env.fmu_dir, &env.out_dir.join("real_cars"), options.plots),
+        RealCars::run_shipped(
+            &env.fmu_dir,
+            &env.out_dir.join("real_cars"),
+            options.plots,
+            &Overrides::default(),
+        ),
         &bar,
         &mut failures,
     );

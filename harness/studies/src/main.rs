@@ -189,6 +189,12 @@ enum Command {
         /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
+        /// Set a parameter on every mismatch-campaign run, after the car's: an instance of
+        /// harness/scenarios/campaigns/base.toml, instance.variable=value (repeatable; for
+        /// example vehicle.gravity_in_accelerometers=true or EKF_G.ay_gain_std=0.1). The
+        /// robustness cases run as shipped; the report says what was set.
+        #[arg(long = "set", value_name = "INST.VAR=VALUE")]
+        set: Vec<String>,
     },
     /// Check an .fmu and list its variables
     Inspect {
@@ -280,14 +286,15 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             writeln!(stdout, "csv: {}", out.display())?;
             Ok(())
         }
-        Command::Robustness { out, fmu_dir } => {
+        Command::Robustness { out, fmu_dir, set } => {
+            let overrides = harness::campaigns::Overrides::parse(&set)?;
             let custom_dir = fmu_dir.is_some();
             let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
             demo::ensure_fmus(&fmu_dir, !custom_dir)?;
             write!(
                 stdout,
                 "{}",
-                harness::robustness::run_and_report(&fmu_dir, &out)?
+                harness::robustness::run_and_report(&fmu_dir, &out, &overrides)?
             )?;
             writeln!(stdout, "report: {}", out.join("report.md").display())?;
             Ok(())

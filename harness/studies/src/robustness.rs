@@ -583,11 +583,17 @@ pub struct RealCars {
 pub const REAL_CARS_STUDY: &str = "robustness cases and mismatch campaigns (harness/scenarios/robustness, harness/scenarios/campaigns)";
 
 impl RealCars {
-    /// Runs both, every file below `out_dir` (plots with `plots`).
-    pub fn run_shipped(fmu_dir: &Path, out_dir: &Path, plots: bool) -> Result<Self> {
+    /// Runs both, every file below `out_dir` (plots with `plots`), the campaigns with
+    /// `overrides` set on every run.
+    pub fn run_shipped(
+        fmu_dir: &Path,
+        out_dir: &Path,
+        plots: bool,
+        overrides: &crate::campaigns::Overrides,
+    ) -> Result<Self> {
         Ok(RealCars {
             robustness: run_shipped(fmu_dir, out_dir, plots)?,
-            campaigns: crate::campaigns::run_shipped(fmu_dir, out_dir, plots)?,
+            campaigns: crate::campaigns::run_shipped(fmu_dir, out_dir, plots, overrides)?,
         })
     }
 
@@ -609,11 +615,16 @@ impl RealCars {
     }
 }
 
-/// `harness robustness`: the robustness cases and the mismatch campaigns alone, written as
-/// `report.md` and `report.html` in `out`; returns the terminal summary.
-pub fn run_and_report(fmu_dir: &Path, out: &Path) -> Result<String> {
+/// `harness robustness`: the robustness cases and the mismatch campaigns alone (the campaigns
+/// with `overrides` set on every run), written as `report.md` and `report.html` in `out`;
+/// returns the terminal summary.
+pub fn run_and_report(
+    fmu_dir: &Path,
+    out: &Path,
+    overrides: &crate::campaigns::Overrides,
+) -> Result<String> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let both = RealCars::run_shipped(fmu_dir, out, true)?;
+    let both = RealCars::run_shipped(fmu_dir, out, true, overrides)?;
     let mut doc = Document::default();
     doc.heading(
         1,

@@ -20,14 +20,14 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Deserialize;
 
-use fmi_master::cosim::RunResult;
+use fmi_master::cosim::{ParameterValue, RunResult};
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::plot;
 use fmi_master::report::Document;
 use fmi_master::runner::{
-    angle_at_03g, run_scenario, scenario_dir, Environment, RunOutput, WorkFolder,
+    angle_at_03g, parse_override, run_scenario, scenario_dir, Environment, RunOutput, WorkFolder,
 };
-use fmi_master::scenario::{ManoeuvreSection, Scenario};
+use fmi_master::scenario::{ManoeuvreSection, Scenario, VarRef};
 use manoeuvres::Manoeuvre;
 
 use metrics::Track;
@@ -216,6 +216,32 @@ pub struct CampaignReport {
     pub amplitudes: Vec<(String, f64)>,
     pub manoeuvres: Vec<(String, String)>,
     pub seconds: f64,
+    /// The parameters set on the command line (`harness robustness --set`), as given.
+    pub overrides: Vec<String>,
+}
+
+/// A parameter set on every run of a campaign, after the car's (`harness robustness --set`).
+pub type Override = (VarRef, ParameterValue);
+
+/// The parameters set on every run of a campaign (`harness robustness --set
+/// instance.variable=value`), parsed and as given (for the report).
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    pub parsed: Vec<Override>,
+    pub given: Vec<String>,
+}
+
+impl Overrides {
+    /// `given` parsed as `harness run --set` parses its values; an error names the text.
+    pub fn parse(given: &[String]) -> Result<Self> {
+        Ok(Self {
+            parsed: given
+                .iter()
+                .map(|text| parse_override(text))
+                .collect::<Result<_>>()?,
+            given: given.to_vec(),
+        })
+    }
 }
 
 /// A campaign file with its base scenario and estimator instances resolved.
@@ -224,6 +250,8 @@ pub struct Campaign {
     pub base: Scenario,
     /// Every instance of the base scenario but the vehicle.
     pub estimators: Vec<String>,
+    /// Parameters set on every run after the car's ([`Campaign::with_overrides`]).
+    pub overrides: Vec<Override>,
 }
 
 impl Campaign {
@@ -247,7 +275,32 @@ impl Campaign {
             file,
             base,
             estimators,
+            overrides: Vec::new(),
         })
+    }
+
+    /// The campaign with `overrides` set on every run after the car's parameters; each must
+    /// name an instance of the base scenario (the vehicle or an estimator).
+    pub fn with_overrides(mut self, overrides: &[Override]) -> Result<Self> {
+        for (target, _) in overrides {
+            if !self.base.fmus.iter().any(|f| f.name == target.instance) {
+                bail!(
+                    "--set {}.{}: the campaigns' base scenario {} has no instance {:?}; expected one of {}",
+                    target.instance,
+                    target.variable,
+                    self.file.base,
+                    target.instance,
+                    self.base
+                        .fmus
+                        .iter()
+                        .map(|f| f.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+        }
+        self.overrides = overrides.to_vec();
+        Ok(self)
     }
 
     /// The estimator FMU of the base scenario, loaded to read its parameters.
@@ -299,7 +352,8 @@ impl Campaign {
                 .insert("model".into(), toml::Value::Integer(reference.model));
         }
         scenario.validate()?;
-        let overrides = car::estimator_overrides(car_file, &self.estimators, estimator_fmu)?;
+        let mut overrides = car::estimator_overrides(car_file, &self.estimators, estimator_fmu)?;
+        overrides.extend(self.overrides.iter().cloned());
         let output = run_scenario(scenario, env, &overrides, false, |_| {})
             .with_context(|| format!("campaign row {} on {name}", m.name))?;
         let rows = self
@@ -370,10 +424,16 @@ fn car_name(car_file: &Path) -> String {
 }
 
 /// Runs every manoeuvre on every car of `file` (CSV of every run and, with `plots`, a sideslip
-/// plot per run below `env.out_dir`).
-pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport> {
+/// plot per run below `env.out_dir`), with `overrides` set on every run after the car's
+/// parameters.
+pub fn run(
+    file: &Path,
+    env: &Environment,
+    plots: bool,
+    overrides: &Overrides,
+) -> Result<CampaignReport> {
     let started = Instant::now();
-    let campaign = Campaign::load(file)?;
+    let campaign = Campaign::load(file)?.with_overrides(&overrides.parsed)?;
     let _work = WorkFolder::new(env.work_dir());
     let estimator_fmu = campaign.estimator_fmu(env)?;
     let mut report = CampaignReport {
@@ -387,6 +447,7 @@ pub fn run(file: &Path, env: &Environment, plots: bool) -> Result<CampaignReport
             .map(|m| (m.name.clone(), m.title.clone()))
             .collect(),
         seconds: 0.0,
+        overrides: overrides.given.clone(),
     };
     let file = &campaign.file;
     let runs = file.reference_models.iter().flat_map(|reference| {
@@ -570,8 +631,13 @@ fn row(
 }
 
 /// The shipped campaigns ([`SHIPPED_CAMPAIGNS`]) with the FMUs of `fmu_dir`, output below
-/// `out_dir`.
-pub fn run_shipped(fmu_dir: &Path, out_dir: &Path, plots: bool) -> Result<CampaignReport> {
+/// `out_dir`, `overrides` set on every run.
+pub fn run_shipped(
+    fmu_dir: &Path,
+    out_dir: &Path,
+    plots: bool,
+    overrides: &Overrides,
+) -> Result<CampaignReport> {
     run(
         &scenario_dir().join(SHIPPED_CAMPAIGNS),
         &Environment {
@@ -579,6 +645,7 @@ pub fn run_shipped(fmu_dir: &Path, out_dir: &Path, plots: bool) -> Result<Campai
             out_dir: out_dir.to_path_buf(),
         },
         plots,
+        overrides,
     )
 }
 
@@ -843,6 +910,17 @@ impl CampaignReport {
             self.runs().first().map_or(0, |r| r.len()),
             self.seconds
         ));
+        if !self.overrides.is_empty() {
+            doc.paragraph(format!(
+                "**Not the shipped campaigns**: set on every run after the car's parameters \
+                 (`harness robustness --set`): {}.",
+                self.overrides
+                    .iter()
+                    .map(|text| format!("`{text}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
         doc.list(
             self.manoeuvres
                 .iter()
@@ -966,6 +1044,36 @@ mod tests {
 
     /// `reference_models`: the car files' full vehicle when not given; an empty list is
     /// refused with the file and the field named; labels mark the car in tables and file names.
+    /// `harness robustness --set`: a value for an instance of the base scenario is taken, one
+    /// for an instance it does not have is refused with the instance and the choices named, and
+    /// a text without `=` with the text named.
+    #[test]
+    fn command_line_overrides_must_name_an_instance_of_the_base_scenario() {
+        let shipped = || Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).unwrap();
+        let given = |texts: &[&str]| {
+            Overrides::parse(&texts.iter().map(|t| t.to_string()).collect::<Vec<_>>())
+        };
+        let taken = given(&[
+            "vehicle.gravity_in_accelerometers=true",
+            "EKF_G.ay_gain_std=0.1",
+        ])
+        .unwrap();
+        let campaign = shipped().with_overrides(&taken.parsed).unwrap();
+        assert_eq!(campaign.overrides.len(), 2);
+        assert_eq!(campaign.overrides[1].1, ParameterValue::Real(0.1));
+        let unknown = given(&["EKF_X.ay_gain_std=0.1"]).unwrap();
+        let error = format!(
+            "{:#}",
+            shipped().with_overrides(&unknown.parsed).err().unwrap()
+        );
+        assert!(
+            error.contains("\"EKF_X\"") && error.contains("EKF_G"),
+            "{error}"
+        );
+        let error = format!("{:#}", given(&["EKF_G.ay_gain_std"]).unwrap_err());
+        assert!(error.contains("EKF_G.ay_gain_std"), "{error}");
+    }
+
     #[test]
     fn reference_models_default_to_the_full_vehicle_and_label_the_car() {
         let dir = std::env::temp_dir().join(format!("campaign_file_{}", std::process::id()));
@@ -1064,6 +1172,7 @@ mod tests {
             amplitudes: Vec::new(),
             manoeuvres: Vec::new(),
             seconds: 0.0,
+            overrides: Vec::new(),
         };
         let summaries = report.estimator_summaries();
         let names: Vec<&str> = summaries.iter().map(|e| e.estimator.as_str()).collect();
