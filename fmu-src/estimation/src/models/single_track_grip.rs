@@ -150,9 +150,10 @@ pub const AY_GAIN_TIME_CONSTANT: f64 = 600.0;
 /// same sideslip RMSEs as 300 s to within 0.02° summed per reference model.
 pub const RELAXATION_FACTOR_TIME_CONSTANT: f64 = 300.0;
 
-/// The least standard deviation the relaxation factor is given, so that the covariance stays
-/// positive definite where `ε = 0` fixes the lag at the relaxation length's.
-const RELAXATION_FACTOR_MIN_STD: f64 = 1e-6;
+/// The least standard deviation the relaxation factor and the accelerometer's gain error are
+/// given, so that the covariance stays positive definite where a std of 0 fixes them (`ε = 0`:
+/// the lag at the relaxation length's; `ay_gain_std` 0: no gain error).
+const LEAST_PRIOR_STD: f64 = 1e-6;
 
 /// Standard deviation of each transient slip angle at the start, rad: the start knows the car's
 /// speed and yaw rate, not its slip angles (a few degrees in a corner).
@@ -177,10 +178,10 @@ pub struct GripPrior {
     pub time_constant: f64,
     /// Stationary standard deviation `ε` of the relaxation factor `κ` about 1: the relative
     /// uncertainty of the relaxation length (module docs, **How much lag**); 0 fixes the lag
-    /// at the relaxation length's ([`RELAXATION_FACTOR_MIN_STD`]).
+    /// at the relaxation length's ([`LEAST_PRIOR_STD`]).
     pub relaxation_std: f64,
     /// Stationary standard deviation of the accelerometer's gain error `e` about 0 (module docs,
-    /// **The accelerometer's gain**); 0 fixes it at 0 ([`RELAXATION_FACTOR_MIN_STD`] keeps the
+    /// **The accelerometer's gain**); 0 fixes it at 0 ([`LEAST_PRIOR_STD`] keeps the
     /// covariance positive definite).
     pub ay_gain_std: f64,
 }
@@ -206,19 +207,20 @@ impl GripPrior {
         Ok(())
     }
 
-    /// The relaxation factor's stationary variance, at least [`RELAXATION_FACTOR_MIN_STD`]².
+    /// The relaxation factor's stationary variance, at least [`LEAST_PRIOR_STD`]².
     fn relaxation_variance(&self) -> f64 {
         Self::least_variance(self.relaxation_std)
     }
 
     /// The accelerometer's gain error's stationary variance, at least
-    /// [`RELAXATION_FACTOR_MIN_STD`]².
+    /// [`LEAST_PRIOR_STD`]².
     fn ay_gain_variance(&self) -> f64 {
         Self::least_variance(self.ay_gain_std)
     }
 
+    /// `std²`, at least [`LEAST_PRIOR_STD`]².
     fn least_variance(std: f64) -> f64 {
-        let std = std.max(RELAXATION_FACTOR_MIN_STD);
+        let std = std.max(LEAST_PRIOR_STD);
         std * std
     }
 
@@ -894,8 +896,6 @@ mod tests {
         );
     }
 
-    /// At grip 1 the first five states and the measurement are the speed-anchored model A's to
-    /// the bit; a grip factor relaxes to 1 with `a = exp(−T/τ)`; the stationary std is `σ`.
     /// The `ay` row reads `(1 + e)` times model A's `ay` in a corner (less near 0:
     /// [`AY_GAIN_ONSET`]), the other rows do not see `e`, and `e` is a Gauss-Markov process about
     /// 0 of stationary std `ay_gain_std`.
@@ -956,6 +956,8 @@ mod tests {
         assert!(fixed.ay_gain_variance() > 0.0);
     }
 
+    /// At grip 1 the first five states and the measurement are the speed-anchored model A's to
+    /// the bit; a grip factor relaxes to 1 with `a = exp(−T/τ)`; the stationary std is `σ`.
     #[test]
     fn unit_grip_is_model_a_and_the_grip_is_gauss_markov() {
         let model = grip_model();
