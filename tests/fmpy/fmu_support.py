@@ -12,6 +12,7 @@ import tomllib
 
 import numpy as np
 from fmpy import read_model_description
+from filterpy.kalman import KalmanFilter
 from fmpy.fmi2 import FMU2Slave
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -95,6 +96,22 @@ def rmse(a, b):
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     return float(np.sqrt(np.mean((a - b) ** 2)))
+
+
+def gauss_markov_offset_filter(std, time_constant, step, measurement_variance):
+    """filterpy's Kalman filter of a sensor offset b, a first-order Gauss-Markov process
+    (F = a = exp(-T / tau), Q = std^2 (1 - a^2)) measured directly (H = 1, R =
+    `measurement_variance`), from b = 0 with variance std^2: the oracle of the FMU's offset
+    learners (fmu-src/vehicle-state-estimator/src/gauss_markov.rs)."""
+    decay = np.exp(-step / time_constant)
+    kf = KalmanFilter(dim_x=1, dim_z=1)
+    kf.F = np.array([[decay]])
+    kf.H = np.array([[1.0]])
+    kf.Q = np.array([[std**2 * (1.0 - decay**2)]])
+    kf.R = np.array([[measurement_variance]])
+    kf.x = np.array([[0.0]])
+    kf.P = np.array([[std**2]])
+    return kf
 
 
 class Interface:

@@ -7,7 +7,6 @@ filterpy's KalmanFilter as the oracle, on ay_offset_est. The gyro's own learner 
 (yaw_rate_offset_std 0) so that r is yaw_rate_meas."""
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 import fmu_support as support
 
@@ -54,17 +53,11 @@ def oracle(estimator):
     measurement ay_meas - r vx with R = sigma_ay^2 + (vx sigma_r)^2 + 2 tau_q sigma_q^2 / T, from
     b = 0 with variance sigma_b^2. The first sample only predicts: the quasi-steady test needs
     one sample to compare with."""
-    std = estimator.start("ay_offset_std")
-    decay = np.exp(-STEP / TIME_CONSTANT)
-    kf = KalmanFilter(dim_x=1, dim_z=1)
-    kf.F = np.array([[decay]])
-    kf.H = np.array([[1.0]])
-    kf.Q = np.array([[std**2 * (1.0 - decay**2)]])
-    kf.R = np.array([[estimator.start("measurement_noise_std_ay")**2
-                      + (SPEED * estimator.start("measurement_noise_std_yaw_rate"))**2
-                      + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD**2 / STEP]])
-    kf.x = np.array([[0.0]])
-    kf.P = np.array([[std**2]])
+    kf = support.gauss_markov_offset_filter(
+        estimator.start("ay_offset_std"), TIME_CONSTANT, STEP,
+        estimator.start("measurement_noise_std_ay")**2
+        + (SPEED * estimator.start("measurement_noise_std_yaw_rate"))**2
+        + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD**2 / STEP)
     rows = []
     for k, (yaw_rate, ay) in enumerate(zip(*sensors())):
         kf.predict()

@@ -7,7 +7,6 @@ filterpy's KalmanFilter as the oracle, on yaw_rate_offset_est. With yaw_rate_off
 output stays 0 and yaw_rate_est is the unlearned gyro's."""
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 import fmu_support as support
 
@@ -50,19 +49,13 @@ def oracle(estimator):
     R = sigma_gyro^2 + (sigma_vx tan(delta) / l)^2 + CREEP_REFERENCE_STD^2 (the reference,
     vx tan(delta) / l at the measured speed 0, is 0), from b = 0 with variance sigma_b^2; each
     sample predicts, then updates."""
-    std = estimator.start("yaw_rate_offset_std")
     wheelbase = estimator.start("cog_to_front_axle") + estimator.start("cog_to_rear_axle")
     speed_std = estimator.start("measurement_noise_std_vx")
-    decay = np.exp(-STEP / TIME_CONSTANT)
-    kf = KalmanFilter(dim_x=1, dim_z=1)
-    kf.F = np.array([[decay]])
-    kf.H = np.array([[1.0]])
-    kf.Q = np.array([[std**2 * (1.0 - decay**2)]])
-    kf.R = np.array([[estimator.start("measurement_noise_std_yaw_rate")**2
-                      + (speed_std * np.tan(STEERING) / wheelbase)**2
-                      + CREEP_REFERENCE_STD**2]])
-    kf.x = np.array([[0.0]])
-    kf.P = np.array([[std**2]])
+    kf = support.gauss_markov_offset_filter(
+        estimator.start("yaw_rate_offset_std"), TIME_CONSTANT, STEP,
+        estimator.start("measurement_noise_std_yaw_rate")**2
+        + (speed_std * np.tan(STEERING) / wheelbase)**2
+        + CREEP_REFERENCE_STD**2)
     rows = []
     for z in gyro():
         kf.predict()

@@ -13,7 +13,7 @@ use VehicleStateEstimator::lateral_accelerometer::{
 };
 use VehicleStateEstimator::model_description::{vr, Variables};
 
-use crate::yaw_rate_offset::{largest_sideslip_error, SensorOffset};
+use crate::yaw_rate_offset::{assert_learning_restores, largest_sideslip_error, SensorOffset};
 
 const T: f64 = 0.01;
 const SPEED: f64 = 20.0;
@@ -225,11 +225,7 @@ fn the_grip_filter_learns_the_accelerometer_gain() {
     );
     assert_eq!(none, 0.0);
     assert!((gain - 0.12).abs() < 0.03, "{gain}");
-    assert!(ignored > 2.0 * clean, "{ignored} vs {clean}");
-    assert!(
-        learned - clean < 0.3 * (ignored - clean),
-        "{learned} vs {clean} and {ignored}"
-    );
+    assert_learning_restores([clean, ignored, learned], 2.0, 0.3);
 }
 
 /// `ay_meas` with `offset` and the learner's offset std `std` (its default where `None`).
@@ -254,9 +250,5 @@ fn the_grip_model_s_sideslip_survives_an_offset_accelerometer() {
     );
     assert_eq!(none, 0.0);
     assert!((offset - 0.3).abs() < 0.1, "{offset}");
-    assert!(ignored > 2.0 * clean, "{ignored} vs {clean}");
-    assert!(
-        learned - clean < 0.3 * (ignored - clean),
-        "{learned} vs {clean} and {ignored}"
-    );
+    assert_learning_restores([clean, ignored, learned], 2.0, 0.3);
 }

@@ -213,6 +213,17 @@ pub(crate) fn largest_sideslip_error(case: &SensorOffset) -> (f64, f64, f64) {
     (worst, learned, at_end)
 }
 
+/// The largest sideslip errors `[clean, ignored, learned]` (a clean sensor, its error ignored,
+/// its error learned): ignoring the error multiplies the clean one by more than `worse`, and
+/// learning leaves less than the share `left` of what the error added.
+pub(crate) fn assert_learning_restores([clean, ignored, learned]: [f64; 3], worse: f64, left: f64) {
+    assert!(ignored > worse * clean, "{ignored} vs {clean}");
+    assert!(
+        learned - clean < left * (ignored - clean),
+        "{learned} vs {clean} and {ignored}"
+    );
+}
+
 /// The gyro with `offset` and the learner's std `std` (its default where `None`).
 fn gyro(offset: f64, std: Option<f64>) -> SensorOffset {
     SensorOffset {
@@ -240,9 +251,5 @@ fn the_grip_model_s_sideslip_survives_an_offset_gyro() {
     assert!((offset - OFFSET).abs() < 0.2 * OFFSET, "{offset}");
     // measured 1.03e-3 / 1.98e-3 / 1.07e-3 rad (the offset ignored also misleads the lateral
     // accelerometer's learner, whose reference is r vx): the learner takes 96 % of its effect
-    assert!(ignored > 1.2 * clean, "{ignored} vs {clean}");
-    assert!(
-        learned - clean < 0.2 * (ignored - clean),
-        "{learned} vs {clean} and {ignored}"
-    );
+    assert_learning_restores([clean, ignored, learned], 1.2, 0.2);
 }

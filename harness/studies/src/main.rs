@@ -307,10 +307,7 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             no_plots,
         } => {
             let parsed = Scenario::from_file(&scenario)?;
-            let overrides = set
-                .iter()
-                .map(|s| runner::parse_override(s))
-                .collect::<Result<Vec<_>>>()?;
+            let overrides = harness::campaigns::Overrides::parse(&set)?.parsed;
             let env = Environment {
                 fmu_dir: absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir),
                 out_dir: out.join(&parsed.name),
