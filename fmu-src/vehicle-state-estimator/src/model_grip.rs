@@ -19,6 +19,7 @@ use estimation::models::single_track_grip::{
 };
 use estimation::models::unknown_torques;
 use estimation::registry::{EstimatorChoice, EstimatorSettings};
+use estimation::StateSpaceModel;
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
@@ -124,30 +125,89 @@ const SATURATED_SHARE: f64 = 0.8;
 ///   0.045 / 0.067°; share 0.7 with `0.02²`: the lane changes into the band too but the
 ///   Escort's slow ramp 0.150 → 0.163° and the sines 0.054 / 0.071°; 0.9: no run changes.
 fn sliding_axles(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [bool; 2] {
-    let driver = input.fixed_rows::<INPUT_DIM>(0).into_owned();
-    let outputs = model.vehicle().outputs(&body(state), &driver);
     let torques_unknown = model.takes_zero_torques_as_unknown()
         && unknown_torques::torques_read_zero(&input.data.0[0]);
+    axle_loading(model, state, input).map(|axle| {
+        (torques_unknown && axle.slip.abs() > SLIDING_SLIP) || axle.force_share > SATURATED_SHARE
+    })
+}
+
+/// How hard an axle's tyres work, at an estimate (model A's tyre law at grip 1, 000:
+/// 5.65-5.73).
+struct AxleLoading {
+    /// The wheels' longitudinal slip.
+    slip: f64,
+    /// The axle's side force as a share of its friction potential `f0 FZ` (000: 5.67).
+    force_share: f64,
+}
+
+/// Front and rear [`AxleLoading`] at `state`.
+fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [AxleLoading; 2] {
+    let driver = input.fixed_rows::<INPUT_DIM>(0).into_owned();
+    let outputs = model.vehicle().outputs(&body(state), &driver);
     let chassis = &model.vehicle().vehicle.chassis;
     let tyre = &model.vehicle().tyre.params;
-    let saturated = |force: f64, wheel_load: f64| {
-        let potential = tyre.friction_potential(wheel_load) * wheel_load * WHEELS_PER_AXLE;
-        force.abs() > SATURATED_SHARE * potential
+    let loading = |slip: f64, force: f64, wheel_load: f64| AxleLoading {
+        slip,
+        force_share: force.abs()
+            / (tyre.friction_potential(wheel_load) * wheel_load * WHEELS_PER_AXLE),
     };
     [
-        (
+        loading(
             outputs.slip_front,
             outputs.lateral_force_front,
             chassis.front_wheel_load,
         ),
-        (
+        loading(
             outputs.slip_rear,
             outputs.lateral_force_rear,
             chassis.rear_wheel_load,
         ),
     ]
-    .map(|(slip, force, wheel_load)| {
-        (torques_unknown && slip.abs() > SLIDING_SLIP) || saturated(force, wheel_load)
+}
+
+/// The grip factors' extra variance over the next sample while the axles' side forces change
+/// fast (`grip_transient_time` κ above 0): `grip_std² · 2 κ Δs² / T` per axle, `Δs` the change of
+/// its [`AxleLoading::force_share`] from the estimate to the model's own prediction of the next
+/// sample, both at the sample's input (what the car's motion, `vy`, `r` and `vx`, does to the
+/// slip angles; a steering change reaches it through them). As a rate that is the Gauss-Markov prior's `σ² 2T/τ` with `1/τ` raised by `κ ṡ²`
+/// (`ṡ = Δs/T`): the grip decorrelates within a second in a lane change (the force swings
+/// across the friction potential's share of about 1 in 0.7 s: `ṡ` about 1.4/s) and hardly faster
+/// in a steady corner or a slow ramp (`ṡ` of a tenth per second adds a twentieth of `1/τ`).
+///
+/// Why: the grip factor is the ratio of the car's axle force to model A's, and on a car that
+/// ratio moves with what the single-track model leaves out, the load transfer and the roll
+/// that carries it, which lag the side force and change with it. The prior's 5 s correlation
+/// time held it nearly fixed through a lane change: on the full vehicle's ISO 3888-2 EKF_G's
+/// sideslip std was short of its error by 2.5 times in the swerves (NEES 2.0-2.9, 73-87 %
+/// inside the 95 % bound). The rate enters squared so that a quasi-steady manoeuvre, where the
+/// unobservable direction of the two factors must stay put, gets almost nothing: proportional
+/// to `|Δs|` (a Gauss-Markov process along the tyre curve instead of in time) the slow ramps'
+/// RMSE rose by a quarter. Only variance is added, the prior's decay is left at `τ`, so in a
+/// long slalom the factors' spread can grow past `grip_std` (stationary `σ² (1 + τ κ ṡ²)`).
+/// Measured in fmu-src/vehicle-state-estimator/README.md, "The grip in transients".
+fn transient_grip_variance(
+    model: &ModelGrip,
+    state: &StateGrip,
+    input: &InputVector,
+    filter_input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    v: &Variables,
+) -> [f64; 2] {
+    if v.grip_transient_time <= 0.0 {
+        return [0.0; 2];
+    }
+    let predicted = StateSpaceModel::transition(model, state, filter_input);
+    let now = axle_loading(model, state, input);
+    let next = axle_loading(model, &predicted, input);
+    let scale = v.grip_std * v.grip_std * 2.0 * v.grip_transient_time / v.sample_time;
+    [0, 1].map(|axle| {
+        let change = next[axle].force_share - now[axle].force_share;
+        let variance = scale * change * change;
+        if variance.is_finite() {
+            variance
+        } else {
+            0.0
+        }
     })
 }
 
@@ -184,6 +244,12 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     }
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
+        if !(v.grip_transient_time.is_finite() && v.grip_transient_time >= 0.0) {
+            return Err(format!(
+                "parameter grip_transient_time = {}; expected a finite value >= 0 (0: off)",
+                v.grip_transient_time
+            ));
+        }
         SingleTrackGripModel::new(ModelA::from_parameters(v)?, prior(v)?)
             .and_then(|model| model.with_relaxation_length(v.tyre_relaxation_length))
             // zero torques are unknown ones where the wheels get their extra noise for it
@@ -297,7 +363,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     }
 
     /// Model A's extra wheel noise, `grip_std²` on the grip factor of an axle whose tyres slide
-    /// ([`sliding_axles`]), and while the torques are unknown and `ax` is not measured (missing,
+    /// ([`sliding_axles`]) and the grip factors' share of a fast-changing side force
+    /// ([`transient_grip_variance`]), and while the torques are unknown and `ax` is not measured (missing,
     /// or exactly 0) the unknown longitudinal acceleration's `(a T)²` on `vx`
     /// ([`UNKNOWN_LONGITUDINAL_ACCELERATION`]).
     fn extra_process_noise(
@@ -327,13 +394,13 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             noise[(state_index::VX, state_index::VX)] += step * step;
         }
         let variance = v.grip_std * v.grip_std;
-        for (sliding, grip) in sliding_axles(self, state, input)
+        let transient = transient_grip_variance(self, state, input, filter_input, v);
+        for ((sliding, transient), grip) in sliding_axles(self, state, input)
             .into_iter()
+            .zip(transient)
             .zip(GRIP_FACTORS)
         {
-            if sliding {
-                noise[(grip, grip)] += variance;
-            }
+            noise[(grip, grip)] += if sliding { variance } else { 0.0 } + transient;
         }
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }

@@ -2,10 +2,13 @@
 //! gets the prior's variance `grip_std²` per sample on top of its noise while its wheels slide
 //! longitudinally with the torques unknown (estimated slip beyond 10 %; not when the torques are
 //! told, the model's combined slip then accounts for it) or its side force passes 80 % of its
-//! friction potential; not otherwise.
+//! friction potential; not otherwise. And its variance for a side force that changes fast
+//! (`model_grip::transient_grip_variance`, `grip_transient_time`), which the sliding rule's
+//! tests switch off so as to see the rule alone.
 
 use estimation::models::single_track::{ANCHORED_INPUT_DIM, AX_VALID_INPUT};
 use estimation::models::single_track_grip::{extend_state, GripState, GRIP_FACTORS};
+use estimation::StateSpaceModel;
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::index as input_index;
 use vehicle_models::single_track::state_index;
@@ -38,14 +41,29 @@ fn sliding_sideways(model: &ModelGrip, sideslip: f64) -> GripState {
     extend_state(&body)
 }
 
-/// The extra process noise of the front and rear grip factors.
+/// The extra process noise of the front and rear grip factors, the sliding rule alone
+/// (`grip_transient_time` 0).
 fn grip_noise(model: &ModelGrip, state: &GripState, input: &InputVector) -> [f64; 2] {
+    let variables = Variables {
+        grip_transient_time: 0.0,
+        ..Variables::default()
+    };
+    grip_noise_with(model, state, input, &variables)
+}
+
+/// The extra process noise of the front and rear grip factors with the parameters `v`.
+fn grip_noise_with(
+    model: &ModelGrip,
+    state: &GripState,
+    input: &InputVector,
+    v: &Variables,
+) -> [f64; 2] {
     // With `ax` measured (`ax_valid` 1), as the grip factors' noise does not depend on it.
     let mut filter_input = SVector::<f64, ANCHORED_INPUT_DIM>::zeros();
     filter_input.fixed_rows_mut::<4>(0).copy_from(input);
     filter_input[AX_VALID_INPUT] = 1.0;
     let noise = model
-        .extra_process_noise(state, input, &filter_input, &Variables::default())
+        .extra_process_noise(state, input, &filter_input, v)
         .unwrap_or_else(SMatrix::zeros);
     GRIP_FACTORS.map(|i| noise[(i, i)])
 }
@@ -94,5 +112,47 @@ fn a_saturated_axle_relearns_its_grip_whatever_the_torques() {
             &input,
         );
         assert_eq!(saturated, [variance, variance]);
+    }
+}
+
+/// The grip factors' transient variance: none driving straight, where no side force changes;
+/// where one does (a sideslip of 1° without the yaw rate to hold it, 0.2 s on, when the tyres
+/// have built their force over 4 m of rolling and it turns the car), proportional to
+/// `grip_transient_time` and below the sliding rule's whole `grip_std²` (a sample's share of
+/// the prior).
+#[test]
+fn a_fast_changing_side_force_loosens_the_grip_in_proportion_to_the_transient_time() {
+    let model = model();
+    let with_time = |time: f64| Variables {
+        grip_transient_time: time,
+        ..Variables::default()
+    };
+    let unknown = InputVector::zeros();
+    let straight = driving(&model, [0.0, 0.0]);
+    assert_eq!(
+        grip_noise_with(&model, &straight, &unknown, &with_time(0.5)),
+        [0.0, 0.0]
+    );
+    let mut filter_input = SVector::<f64, ANCHORED_INPUT_DIM>::zeros();
+    filter_input[AX_VALID_INPUT] = 1.0;
+    let swerving = (0..200).fold(sliding_sideways(&model, 1_f64.to_radians()), |state, _| {
+        StateSpaceModel::transition(&model, &state, &filter_input)
+    });
+    let off = grip_noise_with(&model, &swerving, &unknown, &with_time(0.0));
+    let half = grip_noise_with(&model, &swerving, &unknown, &with_time(0.5));
+    let one = grip_noise_with(&model, &swerving, &unknown, &with_time(1.0));
+    let prior = Variables::default().grip_std.powi(2);
+    assert_eq!(off, [0.0, 0.0]);
+    for axle in 0..2 {
+        assert!(half[axle] > 0.0 && half[axle] < prior, "{half:?}");
+        assert!(
+            (one[axle] / half[axle] - 2.0).abs() < 1e-12,
+            "{one:?} {half:?}"
+        );
+    }
+    // Refused: a negative or non-finite time.
+    for bad in [-0.1, f64::NAN, f64::INFINITY] {
+        let error = ModelGrip::from_parameters(&with_time(bad)).unwrap_err();
+        assert!(error.contains("grip_transient_time"), "{error}");
     }
 }
