@@ -124,10 +124,10 @@ const SATURATED_SHARE: f64 = 0.8;
 ///   1.12 / 91 %, its lane change 0.072 → 0.068°, the Escort's and BMW's sines 0.041 / 0.057 →
 ///   0.045 / 0.067°; share 0.7 with `0.02²`: the lane changes into the band too but the
 ///   Escort's slow ramp 0.150 → 0.163° and the sines 0.054 / 0.071°; 0.9: no run changes.
-fn sliding_axles(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [bool; 2] {
+fn sliding_axles(model: &ModelGrip, loading: &[AxleLoading; 2], input: &InputVector) -> [bool; 2] {
     let torques_unknown = model.takes_zero_torques_as_unknown()
         && unknown_torques::torques_read_zero(&input.data.0[0]);
-    axle_loading(model, state, input).map(|axle| {
+    loading.each_ref().map(|axle| {
         (torques_unknown && axle.slip.abs() > SLIDING_SLIP) || axle.force_share > SATURATED_SHARE
     })
 }
@@ -167,13 +167,14 @@ fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [A
 }
 
 /// The grip factors' extra variance over the next sample while the axles' side forces change
-/// fast (`grip_transient_time` κ above 0): `grip_std² · 2 κ Δs² / T` per axle, `Δs` the change of
-/// its [`AxleLoading::force_share`] from the estimate to the model's own prediction of the next
-/// sample, both at the sample's input (what the car's motion, `vy`, `r` and `vx`, does to the
-/// slip angles; a steering change reaches it through them). As a rate that is the Gauss-Markov prior's `σ² 2T/τ` with `1/τ` raised by `κ ṡ²`
-/// (`ṡ = Δs/T`): the grip decorrelates within a second in a lane change (the force swings
-/// across the friction potential's share of about 1 in 0.7 s: `ṡ` about 1.4/s) and hardly faster
-/// in a steady corner or a slow ramp (`ṡ` of a tenth per second adds a twentieth of `1/τ`).
+/// fast (`grip_transient_time` κ above 0): `grip_std² · 2 κ Δs² / T` per axle, `Δs` the change
+/// of its [`AxleLoading::force_share`] from the estimate (`now`) to the model's own prediction
+/// of the next sample, both at the sample's input (what the car's motion, `vy`, `r` and `vx`,
+/// does to the slip angles; a steering change reaches it through them). As a rate that is the
+/// Gauss-Markov prior's `σ² 2T/τ` with `1/τ` raised by `κ ṡ²` (`ṡ = Δs/T`): the grip
+/// decorrelates within a second in a lane change (the force swings across the friction
+/// potential's share of about 1 in 0.7 s: `ṡ` about 1.4/s) and hardly faster in a steady corner
+/// or a slow ramp (`ṡ` of a tenth per second adds a twentieth of `1/τ`).
 ///
 /// Why: the grip factor is the ratio of the car's axle force to model A's, and on a car that
 /// ratio moves with what the single-track model leaves out, the load transfer and the roll
@@ -183,21 +184,21 @@ fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [A
 /// inside the 95 % bound). The rate enters squared so that a quasi-steady manoeuvre, where the
 /// unobservable direction of the two factors must stay put, gets almost nothing: proportional
 /// to `|Δs|` (a Gauss-Markov process along the tyre curve instead of in time) the slow ramps'
-/// RMSE rose by a quarter. Only variance is added, the prior's decay is left at `τ`, so in a
-/// long slalom the factors' spread can grow past `grip_std` (stationary `σ² (1 + τ κ ṡ²)`).
+/// RMSE rose by a sixth to a quarter. Only variance is added, the prior's decay is left at `τ`,
+/// so in a long slalom the factors' spread can grow past `grip_std` (stationary
+/// `σ² (1 + τ κ ṡ²)`).
 /// Measured in fmu-src/vehicle-state-estimator/README.md, "The grip in transients".
 fn transient_grip_variance(
     model: &ModelGrip,
+    now: &[AxleLoading; 2],
     state: &StateGrip,
-    input: &InputVector,
-    filter_input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    (input, filter_input): (&InputVector, &SVector<f64, ANCHORED_INPUT_DIM>),
     v: &Variables,
 ) -> [f64; 2] {
     if v.grip_transient_time <= 0.0 {
         return [0.0; 2];
     }
     let predicted = StateSpaceModel::transition(model, state, filter_input);
-    let now = axle_loading(model, state, input);
     let next = axle_loading(model, &predicted, input);
     let scale = v.grip_std * v.grip_std * 2.0 * v.grip_transient_time / v.sample_time;
     [0, 1].map(|axle| {
@@ -364,8 +365,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
 
     /// Model A's extra wheel noise, `grip_std²` on the grip factor of an axle whose tyres slide
     /// ([`sliding_axles`]) and the grip factors' share of a fast-changing side force
-    /// ([`transient_grip_variance`]), and while the torques are unknown and `ax` is not measured (missing,
-    /// or exactly 0) the unknown longitudinal acceleration's `(a T)²` on `vx`
+    /// ([`transient_grip_variance`]), and while the torques are unknown and `ax` is not measured
+    /// (missing, or exactly 0) the unknown longitudinal acceleration's `(a T)²` on `vx`
     /// ([`UNKNOWN_LONGITUDINAL_ACCELERATION`]).
     fn extra_process_noise(
         &self,
@@ -394,8 +395,9 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             noise[(state_index::VX, state_index::VX)] += step * step;
         }
         let variance = v.grip_std * v.grip_std;
-        let transient = transient_grip_variance(self, state, input, filter_input, v);
-        for ((sliding, transient), grip) in sliding_axles(self, state, input)
+        let loading = axle_loading(self, state, input);
+        let transient = transient_grip_variance(self, &loading, state, (input, filter_input), v);
+        for ((sliding, transient), grip) in sliding_axles(self, &loading, input)
             .into_iter()
             .zip(transient)
             .zip(GRIP_FACTORS)
