@@ -119,7 +119,7 @@ fn a_saturated_axle_relearns_its_grip_whatever_the_torques() {
 /// where one does (a sideslip of 1° without the yaw rate to hold it, 0.2 s on, when the tyres
 /// have built their force over 4 m of rolling and it turns the car), proportional to
 /// `grip_transient_time` and below the sliding rule's whole `grip_std²` (a sample's share of
-/// the prior).
+/// the prior); none below 5 m/s.
 #[test]
 fn a_fast_changing_side_force_loosens_the_grip_in_proportion_to_the_transient_time() {
     let model = model();
@@ -150,6 +150,22 @@ fn a_fast_changing_side_force_loosens_the_grip_in_proportion_to_the_transient_ti
             "{one:?} {half:?}"
         );
     }
+    // Off below 5 m/s (`model_grip::TRANSIENT_MIN_SPEED`): the same state at a fifth of the
+    // speed, 4 m/s.
+    let mut slow = swerving;
+    for index in [
+        state_index::VX,
+        state_index::VY,
+        state_index::YAW_RATE,
+        state_index::OMEGA_FRONT,
+        state_index::OMEGA_REAR,
+    ] {
+        slow[index] *= 0.2;
+    }
+    assert_eq!(
+        grip_noise_with(&model, &slow, &unknown, &with_time(1.0)),
+        [0.0, 0.0]
+    );
     // Refused: a negative or non-finite time.
     for bad in [-0.1, f64::NAN, f64::INFINITY] {
         let error = ModelGrip::from_parameters(&with_time(bad)).unwrap_err();
