@@ -85,6 +85,27 @@ pub trait StateSpaceModel<const N: usize, const M: usize, const U: usize> {
         input: &SVector<f64, U>,
     ) -> SMatrix<f64, M, U>;
 
+    /// States that enter `f` and `h` linearly, or nearly so, given the others, and whose own
+    /// transition is linear in themselves alone: a particle filter may keep them as a Kalman
+    /// mean and covariance per particle instead of sampling them (the marginalised particle
+    /// filter, Schön, Gustafsson and Nordlund, IEEE Trans. Signal Processing 53(7), 2005).
+    /// None by default.
+    fn conditionally_linear_states(&self) -> &'static [usize] {
+        &[]
+    }
+
+    /// `f(x, u)` and the columns of `∂f/∂x` at [`Self::conditionally_linear_states`] (the other
+    /// columns may hold anything): what the marginalised particle filter needs of every
+    /// particle. A model whose Jacobian comes from dual numbers overrides it to seed only those
+    /// directions.
+    fn transition_and_linear_columns(
+        &self,
+        state: &SVector<f64, N>,
+        input: &SVector<f64, U>,
+    ) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        self.transition_and_jacobian(state, input)
+    }
+
     /// Process noise covariance `Q` of the discrete model.
     fn process_noise(&self) -> SMatrix<f64, N, N>;
 

@@ -850,6 +850,9 @@ fn seed003_method(doc: &mut Document, outcome: &Outcome) {
         Proposal::LinearisedOptimal => {
             "the linearised optimal proposal instead of the seed's bootstrap (with 50 particles and Ξ far wider than Θ the bootstrap's effective sample size is about 1)".to_string()
         }
+        Proposal::Marginalised => {
+            "the marginalised linearised optimal proposal instead of the seed's bootstrap".to_string()
+        }
     };
     let schedule = match config.schedule {
         EmSchedule::ParameterWise => {

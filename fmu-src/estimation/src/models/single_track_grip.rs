@@ -91,7 +91,7 @@ use vehicle_models::{
     AxleSlipKinematics, HsriTyre, LateralTyreStates, Scalar, SingleTrackModel, TyreModel,
 };
 
-use super::dual_passes::{input_pass, state_pass};
+use super::dual_passes::{columns_pass, input_pass, state_pass};
 use super::unknown_torques;
 
 use super::single_track::{
@@ -124,6 +124,10 @@ pub const TRANSIENT_SLIP_REAR: usize = STATE_DIM + 3;
 /// Index of the relaxation factor `κ`, the share of the lag of the relaxation length that the
 /// tyres have (module docs, **How much lag**).
 pub const RELAXATION_FACTOR: usize = STATE_DIM + 4;
+
+/// The states a marginalised particle filter keeps per particle as a Gaussian
+/// ([`StateSpaceModel::conditionally_linear_states`]).
+const CONDITIONALLY_LINEAR_STATES: [usize; 3] = [GRIP_FRONT, GRIP_REAR, RELAXATION_FACTOR];
 
 /// Index of the lateral accelerometer's gain error `e` (module docs, **The accelerometer's
 /// gain**).
@@ -626,6 +630,16 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
         state_pass(state, input, |x, u| self.step(x, u))
     }
 
+    fn transition_and_linear_columns(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, ANCHORED_INPUT_DIM>,
+    ) -> (GripState, SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>) {
+        columns_pass(state, input, CONDITIONALLY_LINEAR_STATES, |x, u| {
+            self.step(x, u)
+        })
+    }
+
     fn transition_input_jacobian(
         &self,
         state: &GripState,
@@ -669,6 +683,16 @@ impl<T: TyreModel> StateSpaceModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANC
         input_pass(state, input, Some(AX_VALID_INPUT), |x, u| {
             self.observe(x, u)
         })
+    }
+
+    /// The grip factors and the relaxation factor, the model's slowly varying parameters
+    /// (which a particle filter that samples them learns only by the chance of its resampling):
+    /// each grip factor scales its axle's side force, which enters `vy`, `r` and `ay` linearly;
+    /// the relaxation factor moves the slip angle linearly (the tyre law then bends it); each
+    /// follows its own Gauss-Markov process. Not the accelerometer's gain, which multiplies the
+    /// grip factors in the `ay` row.
+    fn conditionally_linear_states(&self) -> &'static [usize] {
+        &CONDITIONALLY_LINEAR_STATES
     }
 
     /// Model A's `Q`, per grip factor `σ² (1 − a²)` (Brown and Hwang, §2.9), per transient slip
@@ -789,6 +813,13 @@ mod tests {
                 model.transition_and_jacobian(&x, &u).0,
                 model.transition(&x, &u)
             );
+            // the marginalised particle filter's pass: the same value and linear columns
+            let (value, columns) = model.transition_and_linear_columns(&x, &u);
+            let (_, full) = model.transition_and_jacobian(&x, &u);
+            assert_eq!(value, model.transition(&x, &u));
+            for &state in model.conditionally_linear_states() {
+                assert_eq!(columns.column(state), full.column(state));
+            }
         }
     }
 

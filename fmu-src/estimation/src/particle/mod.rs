@@ -22,6 +22,10 @@ use crate::estimator::{Estimator, FilterIssue, MeasurementMask, UpdateReport};
 use crate::model::StateSpaceModel;
 use crate::snapshot::{SnapshotError, SnapshotSink, SnapshotSource};
 
+mod marginalised;
+
+use marginalised::{condition_on_measurement, MarginalisedStates};
+
 /// How a weighted particle set is turned into an equally weighted one (003: A.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ResamplingScheme {
@@ -58,6 +62,13 @@ pub enum Proposal {
     /// definite process noise. Much larger effective sample size when the measurement is far
     /// more precise than the process noise; not in the seed.
     LinearisedOptimal,
+    /// The linearised optimal proposal with the model's conditionally linear states
+    /// ([`StateSpaceModel::conditionally_linear_states`]) kept per particle as a Kalman mean and
+    /// covariance instead of being sampled: the marginalised (Rao-Blackwellised) particle filter
+    /// of Schön, Gustafsson and Nordlund (2005), with the weight `N(y; h(f), H P Hᵀ + R)` of
+    /// each particle's joint prediction (module `marginalised`). On a model without such
+    /// states it is [`Proposal::LinearisedOptimal`]. Not in the seed.
+    Marginalised,
 }
 
 /// Settings of a particle filter. The particle count is a run-time value (the FMU sets it).
@@ -109,12 +120,16 @@ pub enum ParticleFilterError {
 
 /// The linearised optimal proposal conditions each particle's Gaussian prediction, whose
 /// covariance is the process noise, on the measurement; it takes that covariance's Cholesky
-/// factor, so the process noise must be positive definite.
+/// factor, so the process noise must be positive definite. The marginalised proposal draws
+/// with a semi-definite square root and needs no more than the other settings.
 fn check_proposal<const N: usize>(
     proposal: Proposal,
     process_noise: &SMatrix<f64, N, N>,
+    marginalises: bool,
 ) -> Result<(), ParticleFilterError> {
-    if proposal == Proposal::LinearisedOptimal && process_noise.cholesky().is_none() {
+    let plain_optimal = proposal == Proposal::LinearisedOptimal
+        || (proposal == Proposal::Marginalised && !marginalises);
+    if plain_optimal && process_noise.cholesky().is_none() {
         return Err(ParticleFilterError::NotPositiveSemiDefinite(
             "process noise (must be positive definite for the linearised optimal proposal)",
             0.0,
@@ -141,6 +156,15 @@ pub struct ParticleFilterSnapshot<const N: usize> {
     pub predicted_means: Vec<SVector<f64, N>>,
     /// The linearised optimal proposal predicted and waits for the measurement to draw noise.
     pub noise_pending: bool,
+    /// The marginalised proposal's covariances of the conditionally linear states, L×L per
+    /// particle (column-major); empty when nothing is marginalised.
+    pub linear_covariances: Vec<f64>,
+    /// The columns of each particle's transition Jacobian at the linear states (N×L); only
+    /// meaningful while `noise_pending`.
+    pub linear_columns: Vec<f64>,
+    /// Process noise the host added to the pending prediction; only meaningful while
+    /// `noise_pending`.
+    pub pending_extra: SMatrix<f64, N, N>,
     pub estimate: SVector<f64, N>,
     pub covariance: SMatrix<f64, N, N>,
     pub effective_sample_size: f64,
@@ -345,6 +369,10 @@ pub struct ParticleFilter<Model, const N: usize, const M: usize, const U: usize>
     /// `f(x_{t-1}^i, u)` while the noise draw waits for the measurement (optimal proposal).
     predicted_means: Vec<SVector<f64, N>>,
     noise_pending: bool,
+    /// The marginalised proposal's per-particle Gaussians of the linear states.
+    marginal: MarginalisedStates<N>,
+    /// Process noise added to the pending prediction by the host ([`Self::inflate_pending`]).
+    pending_extra: SMatrix<f64, N, N>,
     process_noise: SMatrix<f64, N, N>,
     process_noise_root: SMatrix<f64, N, N>,
     measurement_noise: SMatrix<f64, M, M>,
@@ -384,7 +412,8 @@ where
         let process_noise_root = covariance_square_root(&model.process_noise(), "process noise")?;
         let measurement_noise = model.measurement_noise();
         let process_noise = model.process_noise();
-        check_proposal(config.proposal, &process_noise)?;
+        let marginal = marginal_storage(&model, config.proposal, config.particle_count);
+        check_proposal(config.proposal, &process_noise, marginal.is_active())?;
         let count = config.particle_count;
         let mut filter = Self {
             model,
@@ -399,6 +428,8 @@ where
             predicted_measurements: vec![SVector::zeros(); count],
             predicted_means: vec![initial_state; count],
             noise_pending: false,
+            marginal,
+            pending_extra: SMatrix::zeros(),
             process_noise,
             process_noise_root,
             measurement_noise,
@@ -407,8 +438,21 @@ where
             effective_sample_size: count as f64,
             resampled_in_last_update: false,
         };
-        for particle in filter.particles.iter_mut() {
-            *particle = initial_state + initial_root * standard_normal_vector(&mut filter.rng);
+        for (i, particle) in filter.particles.iter_mut().enumerate() {
+            if filter.marginal.is_active() {
+                // The sampled states drawn, the linear ones conditioned on them.
+                let (drawn, linear_covariance) = filter
+                    .marginal
+                    .conditional_draw(&initial_state, &initial_covariance, &mut filter.rng)
+                    .ok_or(ParticleFilterError::NotPositiveSemiDefinite(
+                        "initial state",
+                        f64::NAN,
+                    ))?;
+                *particle = drawn;
+                filter.marginal.set(i, &linear_covariance);
+            } else {
+                *particle = initial_state + initial_root * standard_normal_vector(&mut filter.rng);
+            }
         }
         filter.refresh_estimate();
         Ok(filter)
@@ -445,9 +489,14 @@ where
     }
 
     /// Chooses the proposal (default: the seed's bootstrap). The linearised optimal proposal
-    /// needs a positive definite process noise.
+    /// needs a positive definite process noise. Switching to the marginalised proposal keeps the
+    /// particles as they are, each with a zero covariance of its linear states.
     pub fn with_proposal(mut self, proposal: Proposal) -> Result<Self, ParticleFilterError> {
-        check_proposal(proposal, &self.process_noise)?;
+        let marginal = marginal_storage(&self.model, proposal, self.config.particle_count);
+        check_proposal(proposal, &self.process_noise, marginal.is_active())?;
+        if marginal.is_active() != self.marginal.is_active() {
+            self.marginal = marginal;
+        }
         self.config.proposal = proposal;
         Ok(self)
     }
@@ -478,14 +527,22 @@ where
                     }
                 }
             }
-            Proposal::LinearisedOptimal => {
-                for ((particle, mean), log_weight) in self
+            Proposal::LinearisedOptimal | Proposal::Marginalised => {
+                for (i, ((particle, mean), log_weight)) in self
                     .particles
                     .iter_mut()
                     .zip(self.predicted_means.iter_mut())
                     .zip(self.log_weights.iter_mut())
+                    .enumerate()
                 {
-                    *mean = self.model.transition(particle, input);
+                    *mean = if self.marginal.is_active() {
+                        let (mean, jacobian) =
+                            self.model.transition_and_linear_columns(particle, input);
+                        self.marginal.store_columns(i, &jacobian);
+                        mean
+                    } else {
+                        self.model.transition(particle, input)
+                    };
                     *particle = *mean;
                     if mean.iter().any(|value| !value.is_finite()) {
                         *log_weight = f64::NEG_INFINITY;
@@ -501,15 +558,71 @@ where
         }
         self.refresh_estimate();
         if self.noise_pending {
-            self.covariance += self.process_noise;
+            self.covariance += self.pending_spread();
         }
         Ok(())
+    }
+
+    /// The covariance the pending draw adds to the spread of the predicted means: `Q`, and with
+    /// the marginalised proposal the linear states' uncertainty carried through `F`.
+    fn pending_spread(&self) -> SMatrix<f64, N, N> {
+        if self.marginal.is_active() {
+            self.marginal
+                .weighted_predicted_covariance(&self.weights, &self.pending_process_noise())
+        } else {
+            self.process_noise
+        }
+    }
+
+    /// `Q` of the pending prediction, with what the host added ([`Self::inflate_pending`]).
+    fn pending_process_noise(&self) -> SMatrix<f64, N, N> {
+        self.process_noise + self.pending_extra
+    }
+
+    /// Adds `extra` (symmetric positive semi-definite) to the process noise of the prediction
+    /// whose draw is pending, as a state-dependent process noise the host sizes from the
+    /// estimate. Only the marginalised proposal takes it (each particle's prediction is a
+    /// Gaussian it conditions anyway); the other proposals draw with the fixed `Q` and return
+    /// `false`, changing nothing.
+    pub fn inflate_pending(&mut self, extra: &SMatrix<f64, N, N>) -> bool {
+        if !(self.marginal.is_active() && self.noise_pending) {
+            return false;
+        }
+        self.pending_extra += extra;
+        self.covariance += extra;
+        true
     }
 
     /// A predict without a following update (no measurement row present): the deferred noise
     /// of the optimal proposal is drawn from the prior, i.e. a bootstrap step.
     fn draw_pending_noise_from_prior(&mut self) {
         if !self.noise_pending {
+            return;
+        }
+        if self.marginal.is_active() {
+            for i in 0..self.particles.len() {
+                let mean = self.predicted_means[i];
+                let prediction = self
+                    .marginal
+                    .predicted_covariance(i, &self.pending_process_noise());
+                let drawn = self
+                    .marginal
+                    .conditional_draw(&mean, &prediction, &mut self.rng);
+                // Not positive semi-definite only through a non-finite Jacobian: that particle
+                // keeps its mean and its weight goes.
+                let (particle, linear_covariance) = drawn.unwrap_or_else(|| {
+                    self.log_weights[i] = f64::NEG_INFINITY;
+                    (mean, SMatrix::zeros())
+                });
+                self.particles[i] = particle;
+                self.marginal.set(i, &linear_covariance);
+            }
+            self.noise_pending = false;
+            self.pending_extra = SMatrix::zeros();
+            if normalise_log_weights(&mut self.log_weights, &mut self.weights).is_none() {
+                self.reset_around_estimate();
+            }
+            self.refresh_estimate();
             return;
         }
         for (particle, mean) in self.particles.iter_mut().zip(&self.predicted_means) {
@@ -581,17 +694,8 @@ where
                     .sum::<f64>();
             let deviation = *particle - mean;
             let log_transition = -0.5 * deviation.dot(&process_cholesky.solve(&deviation));
-            let mut residual = measurement - self.model.measurement(particle, input);
-            for (row, &flag) in used.iter().enumerate() {
-                if !flag {
-                    residual[row] = 0.0;
-                }
-            }
-            let whitened = noise_cholesky
-                .l_dirty()
-                .solve_lower_triangular(&residual)
-                .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
-            let log_likelihood = -0.5 * whitened.norm_squared();
+            let predicted = self.model.measurement(particle, input);
+            let log_likelihood = log_likelihood(measurement, &predicted, used, noise_cholesky);
             let increment = log_likelihood + log_transition - log_proposal;
             *log_weight += if increment.is_nan() || particle.iter().any(|v| !v.is_finite()) {
                 f64::NEG_INFINITY
@@ -600,6 +704,65 @@ where
             };
         }
         self.noise_pending = false;
+    }
+
+    /// The marginalised proposal's draw and weight of every particle (module `marginalised`):
+    /// its joint prediction `N(f, F E Fᵀ + Q)` conditioned on the used rows of `y`, the weight
+    /// times `N(y; h(f), S)`, the sampled states drawn and the linear ones conditioned on them.
+    /// Without a pending prediction (an update that follows an update, such as the first) only
+    /// the linear states are uncertain: each particle's Kalman update of them, nothing drawn.
+    fn draw_marginalised(
+        &mut self,
+        measurement: &SVector<f64, M>,
+        input: &SVector<f64, U>,
+        used: &MeasurementMask<M>,
+    ) {
+        for i in 0..self.particles.len() {
+            if !self.log_weights[i].is_finite() {
+                continue;
+            }
+            let (mean, prediction) = if self.noise_pending {
+                (
+                    self.predicted_means[i],
+                    self.marginal
+                        .predicted_covariance(i, &self.pending_process_noise()),
+                )
+            } else {
+                (self.particles[i], self.marginal.embedded(i))
+            };
+            let pending = self.noise_pending;
+            let drawn = condition_on_measurement(
+                &self.model,
+                (&mean, &prediction),
+                measurement,
+                input,
+                used,
+                &self.measurement_noise,
+            )
+            .and_then(|(conditioned_mean, conditioned, log_likelihood)| {
+                if !pending {
+                    return Some((conditioned_mean, conditioned, log_likelihood));
+                }
+                let (particle, linear_covariance) = self.marginal.conditional_draw(
+                    &conditioned_mean,
+                    &conditioned,
+                    &mut self.rng,
+                )?;
+                Some((particle, linear_covariance, log_likelihood))
+            });
+            match drawn {
+                Some((particle, linear_covariance, log_likelihood))
+                    if log_likelihood.is_finite() && particle.iter().all(|v| v.is_finite()) =>
+                {
+                    self.particles[i] = particle;
+                    self.marginal.set(i, &linear_covariance);
+                    self.log_weights[i] += log_likelihood;
+                }
+                _ => self.log_weights[i] = f64::NEG_INFINITY,
+            }
+        }
+        self.noise_pending = false;
+        self.pending_extra = SMatrix::zeros();
     }
 
     /// `log w_i += log N(y; h(x_i, u), R)` over the used rows, up to a constant shared by all
@@ -628,17 +791,7 @@ where
             .iter()
             .zip(self.log_weights.iter_mut())
         {
-            let mut residual = measurement - predicted;
-            for (row, &flag) in used.iter().enumerate() {
-                if !flag {
-                    residual[row] = 0.0;
-                }
-            }
-            let whitened = noise_cholesky
-                .l_dirty()
-                .solve_lower_triangular(&residual)
-                .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
-            let log_likelihood = -0.5 * whitened.norm_squared();
+            let log_likelihood = log_likelihood(measurement, predicted, used, noise_cholesky);
             *log_weight += if log_likelihood.is_nan() {
                 f64::NEG_INFINITY
             } else {
@@ -694,7 +847,7 @@ where
             // The particles are still the noise-free predictions: add the process noise seen
             // through the measurement.
             let jacobian = self.model.measurement_jacobian(&self.estimate, input);
-            innovation_covariance += jacobian * self.process_noise * jacobian.transpose();
+            innovation_covariance += jacobian * self.pending_spread() * jacobian.transpose();
         }
         let mut innovation = measurement - predicted_mean;
         for (row, &flag) in used.iter().enumerate() {
@@ -710,7 +863,9 @@ where
             .filter(|value| value.is_finite())
             .unwrap_or(0.0);
 
-        if self.noise_pending {
+        if self.marginal.is_active() {
+            self.draw_marginalised(measurement, input, &used);
+        } else if self.noise_pending {
             self.draw_from_optimal_proposal(measurement, input, &used, &noise_cholesky);
         } else {
             self.weigh_by_likelihood(measurement, input, &used, &noise_cholesky, false);
@@ -755,6 +910,9 @@ where
             *target = self.particles[ancestor];
         }
         std::mem::swap(&mut self.particles, &mut self.resampled);
+        if self.marginal.is_active() {
+            self.marginal.resample(&self.ancestors);
+        }
         let count = self.config.particle_count as f64;
         self.weights.fill(1.0 / count);
         self.log_weights.fill(-count.ln());
@@ -778,6 +936,9 @@ where
             ancestors: self.ancestors.clone(),
             predicted_means: self.predicted_means.clone(),
             noise_pending: self.noise_pending,
+            linear_covariances: self.marginal.covariances().to_vec(),
+            linear_columns: self.marginal.columns().to_vec(),
+            pending_extra: self.pending_extra,
             estimate: self.estimate,
             covariance: self.covariance,
             effective_sample_size: self.effective_sample_size,
@@ -807,6 +968,27 @@ where
                 });
             }
         }
+        let (covariance_size, column_size) = self.marginal.sizes_per_particle();
+        for (what, found, size) in [
+            (
+                "linear-state covariances",
+                snapshot.linear_covariances.len(),
+                covariance_size,
+            ),
+            (
+                "linear-state Jacobian columns",
+                snapshot.linear_columns.len(),
+                column_size,
+            ),
+        ] {
+            if found != expected * size {
+                return Err(ParticleFilterError::SnapshotSize {
+                    what,
+                    found: found / size.max(1),
+                    expected,
+                });
+            }
+        }
         if let Some(&bad) = snapshot.ancestors.iter().find(|&&a| a >= expected) {
             return Err(ParticleFilterError::SnapshotAncestor(bad));
         }
@@ -821,6 +1003,9 @@ where
         self.predicted_means
             .copy_from_slice(&snapshot.predicted_means);
         self.noise_pending = snapshot.noise_pending;
+        self.marginal
+            .restore(&snapshot.linear_covariances, &snapshot.linear_columns);
+        self.pending_extra = snapshot.pending_extra;
         self.estimate = snapshot.estimate;
         self.covariance = snapshot.covariance;
         self.effective_sample_size = snapshot.effective_sample_size;
@@ -828,8 +1013,13 @@ where
         Ok(())
     }
 
+    /// The weighted mean and spread of the particles; with the marginalised proposal (and no
+    /// draw pending) plus the linear states' own covariances `Σ wᵢ Eᵢ`.
     fn refresh_estimate(&mut self) {
-        let (mean, covariance) = weighted_moments(&self.particles, &self.weights);
+        let (mean, mut covariance) = weighted_moments(&self.particles, &self.weights);
+        if self.marginal.is_active() && !self.noise_pending {
+            covariance += self.marginal.weighted_covariance(&self.weights);
+        }
         if mean.iter().all(|value| value.is_finite())
             && covariance.iter().all(|value| value.is_finite())
         {
@@ -841,10 +1031,13 @@ where
     /// Every weight vanished: keep the finite particles, redraw the others around the last
     /// (finite) estimate with the process noise, and make all weights equal.
     fn reset_around_estimate(&mut self) {
-        for particle in self.particles.iter_mut() {
+        for (i, particle) in self.particles.iter_mut().enumerate() {
             if particle.iter().any(|value| !value.is_finite()) {
                 let noise = self.process_noise_root * standard_normal_vector::<N, _>(&mut self.rng);
                 *particle = self.estimate + noise;
+                if self.marginal.is_active() {
+                    self.marginal.set(i, &self.covariance);
+                }
             }
         }
         let count = self.config.particle_count as f64;
@@ -852,6 +1045,45 @@ where
         self.log_weights.fill(-count.ln());
         self.effective_sample_size = count;
         self.refresh_estimate();
+    }
+}
+
+/// `log N(y; ŷ, R)` over the used rows, up to a constant shared by all particles (003: 2.60);
+/// `noise_cholesky` is that of `R` restricted to them ([`masked_covariance`]).
+fn log_likelihood<const M: usize>(
+    measurement: &SVector<f64, M>,
+    predicted: &SVector<f64, M>,
+    used: &MeasurementMask<M>,
+    noise_cholesky: &nalgebra::Cholesky<f64, nalgebra::Const<M>>,
+) -> f64 {
+    let mut residual = measurement - predicted;
+    for (row, &flag) in used.iter().enumerate() {
+        if !flag {
+            residual[row] = 0.0;
+        }
+    }
+    let whitened = noise_cholesky
+        .l_dirty()
+        .solve_lower_triangular(&residual)
+        .unwrap_or_else(|| SVector::repeat(f64::INFINITY));
+    -0.5 * whitened.norm_squared()
+}
+
+/// Storage for the marginalised proposal's linear states, where `proposal` asks for it and the
+/// model has such states; none otherwise.
+fn marginal_storage<Model, const N: usize, const M: usize, const U: usize>(
+    model: &Model,
+    proposal: Proposal,
+    count: usize,
+) -> MarginalisedStates<N>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    let indices = model.conditionally_linear_states();
+    if proposal == Proposal::Marginalised && !indices.is_empty() {
+        MarginalisedStates::new(indices, count)
+    } else {
+        MarginalisedStates::none()
     }
 }
 
@@ -1031,7 +1263,8 @@ where
 
 /// Layout of a particle filter's stored state; a state written with another layout is refused
 /// by name instead of being misread.
-pub const SNAPSHOT_LAYOUT: u8 = 1;
+/// Layout 2 (2026-12-05) added the marginalised proposal's linear-state covariances.
+pub const SNAPSHOT_LAYOUT: u8 = 2;
 
 /// In the registry: the particle filter stores its whole running state ([`ParticleFilterSnapshot`],
 /// random generator position included), compactly: ancestors as u32 (an FMU allows at most
@@ -1050,6 +1283,12 @@ where
     // optimal proposal and the reported innovation covariance; the same for every particle (the
     // host sizes it from the estimate).
     crate::kalman::update_with_r_plus_extra!();
+
+    /// The marginalised proposal takes a state-dependent process noise into its pending draw
+    /// ([`ParticleFilter::inflate_pending`]); the others do not.
+    fn inflate_covariance(&mut self, extra: &SMatrix<f64, N, N>) -> bool {
+        self.inflate_pending(extra)
+    }
 
     fn save(&self, sink: &mut dyn SnapshotSink) {
         let snapshot = self.snapshot();
@@ -1071,6 +1310,11 @@ where
         sink.bool(snapshot.noise_pending);
         if snapshot.noise_pending {
             sink.f64s(&flat(&snapshot.predicted_means));
+        }
+        sink.f64s(&snapshot.linear_covariances);
+        if snapshot.noise_pending {
+            sink.f64s(&snapshot.linear_columns);
+            sink.f64s(snapshot.pending_extra.as_slice());
         }
         sink.f64s(snapshot.estimate.as_slice());
         sink.f64s(snapshot.covariance.as_slice());
@@ -1137,6 +1381,24 @@ where
         // Not read before the next propagation overwrites them: keep the filter's own.
         filter.predicted_means.clone()
     };
+    let (covariance_size, column_size) = filter.marginal.sizes_per_particle();
+    let linear_covariances =
+        source.f64s("particle linear-state covariances", count * covariance_size)?;
+    let linear_columns = if noise_pending {
+        source.f64s(
+            "particle linear-state Jacobian columns",
+            count * column_size,
+        )?
+    } else {
+        filter.marginal.columns().to_vec()
+    };
+    let mut pending_extra = SMatrix::<f64, N, N>::zeros();
+    if noise_pending {
+        source.f64s_into(
+            pending_extra.as_mut_slice(),
+            "particle pending process noise",
+        )?;
+    }
     let mut estimate = SVector::<f64, N>::zeros();
     source.f64s_into(estimate.as_mut_slice(), "particle estimate")?;
     let mut covariance = SMatrix::<f64, N, N>::zeros();
@@ -1151,6 +1413,9 @@ where
         ancestors,
         predicted_means,
         noise_pending,
+        linear_covariances,
+        linear_columns,
+        pending_extra,
         estimate,
         covariance,
         effective_sample_size: source.f64("particle effective sample size")?,
