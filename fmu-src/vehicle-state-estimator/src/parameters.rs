@@ -93,6 +93,7 @@ pub fn particle_config(v: &Variables) -> Result<ParticleFilterConfig, SettingsEr
     {
         ParticleProposal::Bootstrap => Proposal::Bootstrap,
         ParticleProposal::LinearisedOptimal => Proposal::LinearisedOptimal,
+        ParticleProposal::Marginalised => Proposal::Marginalised,
     };
     Ok(ParticleFilterConfig {
         particle_count,

@@ -662,10 +662,12 @@ fn cornering_stiffness_scales_act_on_model_a() {
 /// The particle filter's FMU state is compact: per particle its 5 states, log weight and weight
 /// (f64) and its ancestor (u32), 60 bytes per particle on model A with the bootstrap proposal;
 /// the linearised optimal proposal keeps each particle's prediction (5 f64 more) while its draw
-/// waits for the next sample's measurement, as it does between doSteps.
+/// waits for the next sample's measurement, as it does between doSteps. Model A has no
+/// conditionally linear state, so the marginalised proposal stores what the linearised optimal
+/// one does.
 #[test]
 fn particle_filter_states_take_60_bytes_per_particle() {
-    for (proposal, bytes) in [(1, 60), (2, 100)] {
+    for (proposal, bytes) in [(1, 60), (2, 100), (3, 100)] {
         let serialized_size = |particles: i32| {
             let mut s = slave();
             s.set_integer(vr::ESTIMATOR, EstimatorKind::ParticleFilter as i32);

@@ -215,19 +215,27 @@ fn the_luenberger_observer_on_the_grip_model_is_model_a_s_without_lag() {
     assert_eq!(largest, 0.0, "largest sideslip difference {largest} rad");
 }
 
+/// The UKF's state, and the marginalised particle filter's (the default proposal: each
+/// particle's grip Gaussian and its pending prediction) through fmi2SerializeFMUstate and back.
 #[test]
 fn a_grip_model_state_continues_bit_identically() {
-    let mut s = instance(EstimatorModel::SingleTrackGrip, EstimatorKind::Ukf);
-    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
-    let mut truth = two_track();
-    run(&mut s, &mut truth, 0, 150);
-    let (status, mut state) = s.get_state();
-    assert_eq!(status, Fmi2Status::Ok);
-    let saved_truth = truth.clone();
-    let (first, _) = run(&mut s, &mut truth, 150, 100);
-    assert_eq!(s.set_state(&state), Fmi2Status::Ok);
-    let mut truth = saved_truth;
-    let (again, _) = run(&mut s, &mut truth, 150, 100);
-    assert_eq!(first, again);
-    assert_eq!(s.free_state(&mut state), Fmi2Status::Ok);
+    for estimator in [EstimatorKind::Ukf, EstimatorKind::ParticleFilter] {
+        let mut s = instance(EstimatorModel::SingleTrackGrip, estimator);
+        assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+        let mut truth = two_track();
+        run(&mut s, &mut truth, 0, 150);
+        let (status, mut state) = s.get_state();
+        assert_eq!(status, Fmi2Status::Ok);
+        let bytes = s.serialize(&state).expect("serialize");
+        let (status, mut read_back) = s.deserialize(&bytes);
+        assert_eq!(status, Fmi2Status::Ok, "{:?}", s.log.last());
+        let saved_truth = truth.clone();
+        let (first, _) = run(&mut s, &mut truth, 150, 100);
+        assert_eq!(s.set_state(&read_back), Fmi2Status::Ok);
+        let mut truth = saved_truth;
+        let (again, _) = run(&mut s, &mut truth, 150, 100);
+        assert_eq!(first, again, "{estimator:?}");
+        assert_eq!(s.free_state(&mut state), Fmi2Status::Ok);
+        assert_eq!(s.free_state(&mut read_back), Fmi2Status::Ok);
+    }
 }
