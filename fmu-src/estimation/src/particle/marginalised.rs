@@ -159,14 +159,11 @@ impl<const N: usize> MarginalisedStates<N> {
         total
     }
 
-    /// `Σ wᵢ Pᵢ` of the pending prediction.
-    pub(crate) fn weighted_predicted_covariance(
-        &self,
-        weights: &[f64],
-        process_noise: &SMatrix<f64, N, N>,
-    ) -> SMatrix<f64, N, N> {
+    /// `Σ wᵢ Fᵢ Eᵢ Fᵢᵀ` of the pending prediction: what the linear states' uncertainty adds to
+    /// the process noise, on average over the particles.
+    pub(crate) fn weighted_linear_spread(&self, weights: &[f64]) -> SMatrix<f64, N, N> {
         let zero = SMatrix::<f64, N, N>::zeros();
-        let mut total = *process_noise;
+        let mut total = zero;
         for (i, &weight) in weights.iter().enumerate() {
             if weight > 0.0 {
                 total += self.predicted_covariance(i, &zero) * weight;

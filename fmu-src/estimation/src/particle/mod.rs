@@ -373,6 +373,9 @@ pub struct ParticleFilter<Model, const N: usize, const M: usize, const U: usize>
     marginal: MarginalisedStates<N>,
     /// Process noise added to the pending prediction by the host ([`Self::inflate_pending`]).
     pending_extra: SMatrix<f64, N, N>,
+    /// `Σ wᵢ Fᵢ Eᵢ Fᵢᵀ` of the pending prediction (marginalised proposal), computed once per
+    /// prediction; derived again from the particles on restore.
+    pending_linear_spread: SMatrix<f64, N, N>,
     process_noise: SMatrix<f64, N, N>,
     process_noise_root: SMatrix<f64, N, N>,
     measurement_noise: SMatrix<f64, M, M>,
@@ -430,6 +433,7 @@ where
             noise_pending: false,
             marginal,
             pending_extra: SMatrix::zeros(),
+            pending_linear_spread: SMatrix::zeros(),
             process_noise,
             process_noise_root,
             measurement_noise,
@@ -558,17 +562,24 @@ where
         }
         self.refresh_estimate();
         if self.noise_pending {
+            self.refresh_pending_linear_spread();
             self.covariance += self.pending_spread();
         }
         Ok(())
+    }
+
+    /// [`Self::pending_linear_spread`] for the current weights and stored Jacobian columns.
+    fn refresh_pending_linear_spread(&mut self) {
+        if self.marginal.is_active() {
+            self.pending_linear_spread = self.marginal.weighted_linear_spread(&self.weights);
+        }
     }
 
     /// The covariance the pending draw adds to the spread of the predicted means: `Q`, and with
     /// the marginalised proposal the linear states' uncertainty carried through `F`.
     fn pending_spread(&self) -> SMatrix<f64, N, N> {
         if self.marginal.is_active() {
-            self.marginal
-                .weighted_predicted_covariance(&self.weights, &self.pending_process_noise())
+            self.pending_linear_spread + self.pending_process_noise()
         } else {
             self.process_noise
         }
@@ -601,21 +612,8 @@ where
         }
         if self.marginal.is_active() {
             for i in 0..self.particles.len() {
-                let mean = self.predicted_means[i];
-                let prediction = self
-                    .marginal
-                    .predicted_covariance(i, &self.pending_process_noise());
-                let drawn = self
-                    .marginal
-                    .conditional_draw(&mean, &prediction, &mut self.rng);
-                // Not positive semi-definite only through a non-finite Jacobian: that particle
-                // keeps its mean and its weight goes.
-                let (particle, linear_covariance) = drawn.unwrap_or_else(|| {
-                    self.log_weights[i] = f64::NEG_INFINITY;
-                    (mean, SMatrix::zeros())
-                });
-                self.particles[i] = particle;
-                self.marginal.set(i, &linear_covariance);
+                let prediction = self.pending_prediction(i);
+                self.draw_particle(i, prediction, 0.0);
             }
             self.noise_pending = false;
             self.pending_extra = SMatrix::zeros();
@@ -722,40 +720,28 @@ where
                 continue;
             }
             let (mean, prediction) = if self.noise_pending {
-                (
-                    self.predicted_means[i],
-                    self.marginal
-                        .predicted_covariance(i, &self.pending_process_noise()),
-                )
+                self.pending_prediction(i)
             } else {
                 (self.particles[i], self.marginal.embedded(i))
             };
-            let pending = self.noise_pending;
-            let drawn = condition_on_measurement(
+            let conditioned = condition_on_measurement(
                 &self.model,
                 (&mean, &prediction),
                 measurement,
                 input,
                 used,
                 &self.measurement_noise,
-            )
-            .and_then(|(conditioned_mean, conditioned, log_likelihood)| {
-                if !pending {
-                    return Some((conditioned_mean, conditioned, log_likelihood));
+            );
+            match conditioned {
+                Some((conditioned_mean, conditioned, log_likelihood)) if self.noise_pending => {
+                    self.draw_particle(i, (conditioned_mean, conditioned), log_likelihood);
                 }
-                let (particle, linear_covariance) = self.marginal.conditional_draw(
-                    &conditioned_mean,
-                    &conditioned,
-                    &mut self.rng,
-                )?;
-                Some((particle, linear_covariance, log_likelihood))
-            });
-            match drawn {
-                Some((particle, linear_covariance, log_likelihood))
-                    if log_likelihood.is_finite() && particle.iter().all(|v| v.is_finite()) =>
+                Some((conditioned_mean, conditioned, log_likelihood))
+                    if log_likelihood.is_finite()
+                        && conditioned_mean.iter().all(|v| v.is_finite()) =>
                 {
-                    self.particles[i] = particle;
-                    self.marginal.set(i, &linear_covariance);
+                    self.particles[i] = conditioned_mean;
+                    self.marginal.set(i, &conditioned);
                     self.log_weights[i] += log_likelihood;
                 }
                 _ => self.log_weights[i] = f64::NEG_INFINITY,
@@ -763,6 +749,45 @@ where
         }
         self.noise_pending = false;
         self.pending_extra = SMatrix::zeros();
+    }
+
+    /// Particle `i`'s pending joint prediction `(f, F E Fᵀ + Q)` (marginalised proposal).
+    fn pending_prediction(&self, i: usize) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        (
+            self.predicted_means[i],
+            self.marginal
+                .predicted_covariance(i, &self.pending_process_noise()),
+        )
+    }
+
+    /// Particle `i` drawn from `gaussian` (its sampled states, the linear ones conditioned on
+    /// them), its log weight raised by `log_likelihood`. A failed or non-finite draw (only
+    /// through a non-finite Jacobian or measurement) keeps the Gaussian's mean and loses the
+    /// particle's weight.
+    fn draw_particle(
+        &mut self,
+        i: usize,
+        gaussian: (SVector<f64, N>, SMatrix<f64, N, N>),
+        log_likelihood: f64,
+    ) {
+        let (mean, covariance) = gaussian;
+        match self
+            .marginal
+            .conditional_draw(&mean, &covariance, &mut self.rng)
+        {
+            Some((particle, linear_covariance))
+                if log_likelihood.is_finite() && particle.iter().all(|v| v.is_finite()) =>
+            {
+                self.particles[i] = particle;
+                self.marginal.set(i, &linear_covariance);
+                self.log_weights[i] += log_likelihood;
+            }
+            _ => {
+                self.particles[i] = mean;
+                self.marginal.set(i, &SMatrix::zeros());
+                self.log_weights[i] = f64::NEG_INFINITY;
+            }
+        }
     }
 
     /// `log w_i += log N(y; h(x_i, u), R)` over the used rows, up to a constant shared by all
@@ -1006,6 +1031,9 @@ where
         self.marginal
             .restore(&snapshot.linear_covariances, &snapshot.linear_columns);
         self.pending_extra = snapshot.pending_extra;
+        if self.noise_pending {
+            self.refresh_pending_linear_spread();
+        }
         self.estimate = snapshot.estimate;
         self.covariance = snapshot.covariance;
         self.effective_sample_size = snapshot.effective_sample_size;
