@@ -35,7 +35,9 @@
 //! as a block of their own may be left without feedback ([`ObserverDesign::open_loop`]) where
 //! their own dynamics are stable: model B's `ay`, which its model computes from the tyre forces
 //! ([`crate::models::two_track::TwoTrackEstimationModel::default_observer_design`]), and the
-//! grip model's grip factors and transient slip angles.
+//! grip model's grip factors and transient slip angles. A design may place its gain at another
+//! point than the one it runs at ([`ObserverDesign::placement_state`]): the grip model's at
+//! the relaxation factor 0, the quasi-static tyre, where its gain is model A's.
 //!
 //! Numerics: with a short sample time `A ≈ I`, so the rows `cᵀAʲ` of the observability matrix are
 //! nearly equal. Ackermann is applied instead to `Ã = (A - I)/h` with poles `(zᵢ - 1)/h`
@@ -102,6 +104,14 @@ pub struct ObserverDesign {
     /// the others (model B's `ay`). The design is accepted only where their open-loop part of
     /// `A` is stable (see [`blockwise_observer_gain`]).
     pub open_loop: Vec<usize>,
+    /// States set to these values in the linearisation the gain is placed on, not in the one
+    /// the observer propagates its error covariance with (empty: the gain is placed at the
+    /// operating point itself). For states through which the outputs see the others only after
+    /// a lag, such as the grip model's relaxation factor: placed at 0 (the quasi-static tyre)
+    /// the gain is model A's ([`crate::models::single_track_grip`]). The gain is taken only
+    /// where the operating point's own error map `(I - L C) A` is stable with it, else it is
+    /// placed at the operating point ([`design_gain`]).
+    pub placement_state: Vec<(usize, f64)>,
 }
 
 impl ObserverDesign {
@@ -114,6 +124,7 @@ impl ObserverDesign {
                 poles,
             }],
             open_loop: Vec::new(),
+            placement_state: Vec::new(),
         }
     }
 
@@ -286,6 +297,47 @@ fn starting_gain<const N: usize, const M: usize, const U: usize>(
     })
 }
 
+/// The gain `rule` places for `design` on the observer's linearisation `linear`, at the
+/// design's placement state ([`ObserverDesign::placement_state`]) where it has one: `rule`
+/// applied to the model linearised there (same input), the gain kept where the error map of
+/// `linear` itself, `(I - L C) A`, is stable with it; otherwise `rule` applied to `linear`, the
+/// placement without that state.
+fn design_gain<Model, const N: usize, const M: usize, const U: usize>(
+    model: &Model,
+    linear: &LinearisedModel<N, M, U>,
+    design: &ObserverDesign,
+    rule: fn(
+        &LinearisedModel<N, M, U>,
+        &ObserverDesign,
+    ) -> Result<SMatrix<f64, N, M>, SettingsError>,
+) -> Result<SMatrix<f64, N, M>, SettingsError>
+where
+    Model: StateSpaceModel<N, M, U>,
+{
+    if design.placement_state.is_empty() {
+        return rule(linear, design);
+    }
+    check_design::<N, M>(design)?;
+    let mut state = linear.state;
+    for &(index, value) in &design.placement_state {
+        state[index] = value;
+    }
+    let placed = LinearisedModel::about(model, &state, &linear.input).and_then(|placement| {
+        let gain = rule(&placement, design)?;
+        let error_map =
+            (SMatrix::<f64, N, N>::identity() - gain * linear.output_matrix) * linear.transition;
+        let radius = spectral_radius(&error_map);
+        if radius < 1.0 {
+            Ok(gain)
+        } else {
+            Err(SettingsError(format!(
+                "observer design: the gain placed at the placement state leaves the error dynamics unstable (spectral radius {radius})"
+            )))
+        }
+    });
+    placed.or_else(|_| rule(linear, design))
+}
+
 /// Relative rounding margin of [`scheduled_observer_gain`]'s open-loop stability test.
 const STABILITY_MARGIN: f64 = 1e-9;
 
@@ -403,6 +455,15 @@ fn check_design<const N: usize, const M: usize>(
             )));
         }
     }
+    if let Some((index, value)) = design
+        .placement_state
+        .iter()
+        .find(|(index, value)| *index >= N || !value.is_finite())
+    {
+        return Err(SettingsError(format!(
+            "observer design: placement state {index} = {value} must name one of the {N} states and be finite"
+        )));
+    }
     for &s in &design.open_loop {
         if s >= N || covered[s] {
             return Err(SettingsError(format!(
@@ -485,7 +546,7 @@ where
         check_covariance("the measurement noise covariance R", &measurement_noise)
             .map_err(SettingsError)?;
         let linear = LinearisedModel::about(&model, operating_state, operating_input)?;
-        let gain = starting_gain(&linear, design)?;
+        let gain = design_gain(&model, &linear, design, starting_gain)?;
         Ok(Self {
             model,
             linear,
@@ -661,7 +722,7 @@ where
         let Ok(linear) = LinearisedModel::about(&self.model, &self.state, input) else {
             return false;
         };
-        match scheduled_observer_gain(&linear, &self.design) {
+        match design_gain(&self.model, &linear, &self.design, scheduled_observer_gain) {
             Ok(gain) => {
                 self.linear = linear;
                 self.gain = gain;
@@ -683,7 +744,7 @@ where
         let linear = restored_linearisation(&self.model, &self.linear, source)?;
         self.since_schedule = source.u64("samples since the last re-schedule")?;
         if linear != self.linear {
-            self.gain = scheduled_observer_gain(&linear, &self.design)
+            self.gain = design_gain(&self.model, &linear, &self.design, scheduled_observer_gain)
                 .map_err(|error| SnapshotError(error.0))?;
             self.linear = linear;
         }

@@ -130,6 +130,7 @@ fn block_design_places_every_eigenvalue_of_the_error_dynamics() {
             },
         ],
         open_loop: Vec::new(),
+        placement_state: Vec::new(),
     };
     let observer = LuenbergerObserver::new(
         block_model(),
@@ -184,6 +185,7 @@ fn single_output_design_on_the_coupled_system() {
             },
         ],
         open_loop: Vec::new(),
+        placement_state: Vec::new(),
     };
     let refused = LuenbergerObserver::new(
         model.clone(),
@@ -236,6 +238,7 @@ fn the_estimation_error_follows_the_placed_error_dynamics() {
             },
         ],
         open_loop: Vec::new(),
+        placement_state: Vec::new(),
     };
     let mut observer = LuenbergerObserver::new(
         model.clone(),
@@ -278,6 +281,7 @@ fn open_loop_states_keep_their_own_dynamics() {
             poles: lateral.to_vec(),
         }],
         open_loop: vec![2, 3],
+        placement_state: Vec::new(),
     };
     let build = |model: LinearModel<4, 2, 1>, design: &ObserverDesign| {
         LuenbergerObserver::new(
@@ -312,8 +316,136 @@ fn open_loop_states_keep_their_own_dynamics() {
 
     let overlapping = ObserverDesign {
         open_loop: vec![1, 2, 3],
+        placement_state: Vec::new(),
         ..design
     };
     let err = build(stable, &overlapping).unwrap_err();
     assert!(err.to_string().contains("also in a block"), "{err}");
+}
+
+/// A state `x` seen by the output only after a first-order lag `x'`, weighted by a third state
+/// `k` (the grip model's structure: `y = k x' + (1 - k) x`, its relaxation factor `k`):
+/// `x⁺ = a x`, `x'⁺ = x' + s (x - x')`, `k⁺ = 1 + d (k - 1)` (a Gauss-Markov step about 1).
+#[derive(Debug, Clone)]
+struct LaggedOutput {
+    decay: f64,
+    lag_share: f64,
+}
+
+const WEIGHT_DECAY: f64 = 0.999;
+
+impl estimation::StateSpaceModel<3, 1, 1> for LaggedOutput {
+    fn state_names(&self) -> [&'static str; 3] {
+        ["x", "lagged x", "lag weight"]
+    }
+    fn measurement_names(&self) -> [&'static str; 1] {
+        ["y"]
+    }
+    fn transition(&self, state: &SVector<f64, 3>, _: &Vector1<f64>) -> SVector<f64, 3> {
+        let lagged = state[1] + self.lag_share * (state[0] - state[1]);
+        let weight = 1.0 + WEIGHT_DECAY * (state[2] - 1.0);
+        SVector::<f64, 3>::new(self.decay * state[0], lagged, weight)
+    }
+    fn transition_jacobian(&self, _: &SVector<f64, 3>, _: &Vector1<f64>) -> SMatrix<f64, 3, 3> {
+        let s = self.lag_share;
+        SMatrix::<f64, 3, 3>::new(
+            self.decay,
+            0.0,
+            0.0,
+            s,
+            1.0 - s,
+            0.0,
+            0.0,
+            0.0,
+            WEIGHT_DECAY,
+        )
+    }
+    fn transition_input_jacobian(
+        &self,
+        _: &SVector<f64, 3>,
+        _: &Vector1<f64>,
+    ) -> SMatrix<f64, 3, 1> {
+        SMatrix::zeros()
+    }
+    fn measurement(&self, state: &SVector<f64, 3>, _: &Vector1<f64>) -> Vector1<f64> {
+        Vector1::new(state[2] * state[1] + (1.0 - state[2]) * state[0])
+    }
+    fn measurement_jacobian(
+        &self,
+        state: &SVector<f64, 3>,
+        _: &Vector1<f64>,
+    ) -> SMatrix<f64, 1, 3> {
+        SMatrix::<f64, 1, 3>::new(1.0 - state[2], state[2], state[1] - state[0])
+    }
+    fn measurement_input_jacobian(
+        &self,
+        _: &SVector<f64, 3>,
+        _: &Vector1<f64>,
+    ) -> SMatrix<f64, 1, 1> {
+        SMatrix::zeros()
+    }
+    fn process_noise(&self) -> SMatrix<f64, 3, 3> {
+        SMatrix::<f64, 3, 3>::from_diagonal_element(1e-6)
+    }
+    fn measurement_noise(&self) -> SMatrix<f64, 1, 1> {
+        SMatrix::<f64, 1, 1>::new(1e-4)
+    }
+}
+
+/// `ObserverDesign::placement_state`: the gain is the one placed on the linearisation at the
+/// placement state (here the lag weight 0, the output seeing `x` directly), the observer keeps
+/// the operating point's own linearisation for its covariance, and the error map there is
+/// stable with that gain. Where it would not be, the gain is placed at the operating point
+/// instead; an index outside the state is refused.
+#[test]
+fn a_placement_state_moves_only_the_point_the_gain_is_placed_at() {
+    let model = LaggedOutput {
+        decay: 0.99,
+        lag_share: 0.36,
+    };
+    let design = |pole: f64, placement_state: Vec<(usize, f64)>| ObserverDesign {
+        blocks: vec![DesignBlock {
+            states: vec![0],
+            output: 0,
+            poles: vec![Complex::new(pole, 0.0)],
+        }],
+        open_loop: vec![1, 2],
+        placement_state,
+    };
+    let start = InitialEstimate::diagonal(SVector::<f64, 3>::zeros(), SVector::repeat(1.0));
+    let build = |at: [f64; 3], design: &ObserverDesign| {
+        LuenbergerObserver::new(
+            model.clone(),
+            &SVector::from(at),
+            &Vector1::zeros(),
+            design,
+            &start,
+        )
+    };
+    let lagged_point = [0.0, 0.0, 1.0];
+    let quasi_static_point = [0.0, 0.0, 0.0];
+    let placed = build(lagged_point, &design(0.67, vec![(2, 0.0)])).unwrap();
+    let at_placement = build(quasi_static_point, &design(0.67, Vec::new())).unwrap();
+    let at_operating_point = build(lagged_point, &design(0.67, Vec::new())).unwrap();
+    assert_eq!(placed.gain(), at_placement.gain());
+    // the quasi-static gain: (a - z) / a of the output's direct view of x
+    assert!((placed.gain()[(0, 0)] - (0.99 - 0.67) / 0.99).abs() < 1e-12);
+    // placed through the lag (C A sees x by s = 0.36 only), the gain is 1 / 0.36 times larger
+    let ratio = at_operating_point.gain()[(0, 0)] / placed.gain()[(0, 0)];
+    assert!((ratio - 0.99 / 0.36).abs() < 1e-9, "{ratio}");
+    assert_eq!(placed.linearisation().state, SVector::from(lagged_point));
+    let radius = |observer: &LuenbergerObserver<LaggedOutput, 3, 1, 1>| {
+        DMatrix::from_iterator(3, 3, observer.error_dynamics().iter().copied())
+            .complex_eigenvalues()
+            .iter()
+            .fold(0.0f64, |m, z| m.max(z.norm()))
+    };
+    assert!(radius(&placed) < 1.0, "{}", radius(&placed));
+    // At the lag weight 1.55 the output sees x by only (1 - k) a + k s = 0.0135, so the gain
+    // placed there is 24, and the error map is unstable with it (at the placement state and at
+    // the operating point: trace -6.9): the observer places its gain at the operating point.
+    let unstable = build(lagged_point, &design(0.67, vec![(2, 1.55)])).unwrap();
+    assert_eq!(unstable.gain(), at_operating_point.gain());
+    let err = build(lagged_point, &design(0.67, vec![(3, 0.0)])).unwrap_err();
+    assert!(err.to_string().contains("placement state 3"), "{err}");
 }

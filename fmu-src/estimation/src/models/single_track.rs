@@ -145,6 +145,7 @@ impl<T: TyreModel> SingleTrackEstimationModel<T> {
                 ),
             ],
             open_loop: Vec::new(),
+            placement_state: Vec::new(),
         }
     }
 }

@@ -190,6 +190,7 @@ impl<T: TyreModel> TwoTrackEstimationModel<T> {
                 ),
             ],
             open_loop: vec![state_index::LATERAL_ACCELERATION],
+            placement_state: Vec::new(),
         }
     }
 
