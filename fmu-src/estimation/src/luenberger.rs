@@ -567,7 +567,9 @@ where
         &self.gain
     }
 
-    /// The a-posteriori error map `(I - L C) A` whose eigenvalues were placed.
+    /// The a-posteriori error map `(I - L C) A` at the operating point, whose eigenvalues were
+    /// placed (with a [`ObserverDesign::placement_state`] they were placed at that state, and
+    /// here they are only stable).
     pub fn error_dynamics(&self) -> SMatrix<f64, N, N> {
         (SMatrix::<f64, N, N>::identity() - self.gain * self.linear.output_matrix)
             * self.linear.transition
