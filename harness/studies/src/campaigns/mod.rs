@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
+use rayon::prelude::*;
 use serde::Deserialize;
 
 use fmi_master::cosim::{ParameterValue, RunResult};
@@ -220,6 +221,14 @@ pub struct CampaignReport {
     pub overrides: Vec<String>,
 }
 
+/// What one car on one reference model contributes to a [`CampaignReport`].
+#[derive(Default)]
+struct CarOutcome {
+    rows: Vec<Row>,
+    plots: Vec<(String, PathBuf)>,
+    amplitudes: Vec<(String, f64)>,
+}
+
 /// A parameter set on every run of a campaign, after the car's (`harness robustness --set`).
 pub type Override = (VarRef, ParameterValue);
 
@@ -378,6 +387,49 @@ impl Campaign {
             })
     }
 
+    /// Every manoeuvre of the campaign on the car of `car_file` on `reference`, in the file's
+    /// order ([`run`]'s task).
+    fn run_car(
+        &self,
+        reference: &ReferenceModel,
+        car_file: &Path,
+        env: &Environment,
+        estimator_fmu: &LoadedFmu,
+        plots: bool,
+    ) -> Result<CarOutcome> {
+        let mut outcome = CarOutcome::default();
+        let mut angles_at_03g: HashMap<String, f64> = HashMap::new();
+        for m in &self.file.manoeuvres {
+            let (section, amplitude) = manoeuvre_section(m, &angles_at_03g)?;
+            if let Some(amplitude) = amplitude {
+                outcome
+                    .amplitudes
+                    .push((reference.car_label(car_file), amplitude.to_degrees()));
+            }
+            let (output, rows) =
+                self.run_one(reference, car_file, m, section, env, estimator_fmu)?;
+            let is_source = self
+                .file
+                .manoeuvres
+                .iter()
+                .any(|o| o.amplitude_from.as_ref() == Some(&m.name));
+            if is_source {
+                angles_at_03g.insert(m.name.clone(), angle_at_03g(&output.result, "vehicle.ay")?);
+            }
+            if plots {
+                outcome.plots.push(draw(
+                    &output,
+                    &rows,
+                    &m.title,
+                    &reference.car_label(car_file),
+                    &env.out_dir,
+                )?);
+            }
+            outcome.rows.extend(rows);
+        }
+        Ok(outcome)
+    }
+
     /// Manoeuvre `name` on the car of `car_file` as [`run`] runs it: a sine with dwell after the
     /// manoeuvre its amplitude comes from (whose rows are dropped). One [`Row`] per estimator.
     pub fn run_as_listed(
@@ -450,41 +502,29 @@ pub fn run(
         overrides: overrides.given.clone(),
     };
     let file = &campaign.file;
-    let runs = file.reference_models.iter().flat_map(|reference| {
-        file.cars
-            .iter()
-            .map(move |car| (reference, file.dir.join(car)))
-    });
-    for (reference, car_file) in runs {
-        let mut angles_at_03g: HashMap<String, f64> = HashMap::new();
-        for m in &campaign.file.manoeuvres {
-            let (section, amplitude) = manoeuvre_section(m, &angles_at_03g)?;
-            if let Some(amplitude) = amplitude {
-                report
-                    .amplitudes
-                    .push((reference.car_label(&car_file), amplitude.to_degrees()));
-            }
-            let (output, rows) =
-                campaign.run_one(reference, &car_file, m, section, env, &estimator_fmu)?;
-            let is_source = campaign
-                .file
-                .manoeuvres
+    let runs: Vec<(&ReferenceModel, PathBuf)> = file
+        .reference_models
+        .iter()
+        .flat_map(|reference| {
+            file.cars
                 .iter()
-                .any(|o| o.amplitude_from.as_ref() == Some(&m.name));
-            if is_source {
-                angles_at_03g.insert(m.name.clone(), angle_at_03g(&output.result, "vehicle.ay")?);
-            }
-            if plots {
-                report.plots.push(draw(
-                    &output,
-                    &rows,
-                    &m.title,
-                    &reference.car_label(&car_file),
-                    &env.out_dir,
-                )?);
-            }
-            report.rows.extend(rows);
-        }
+                .map(move |car| (reference, file.dir.join(car)))
+        })
+        .collect();
+    // One car on one reference model per task: its manoeuvres run in order (a sine with dwell
+    // takes its amplitude from the slow ramp before it), the tasks on rayon's threads. Every run
+    // is seeded by its scenario alone and the results are collected in the order of `runs`, so
+    // the report is the same with any number of threads.
+    let outcomes = runs
+        .par_iter()
+        .map(|(reference, car_file)| {
+            campaign.run_car(reference, car_file, env, &estimator_fmu, plots)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    for outcome in outcomes {
+        report.amplitudes.extend(outcome.amplitudes);
+        report.plots.extend(outcome.plots);
+        report.rows.extend(outcome.rows);
     }
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
