@@ -202,7 +202,7 @@ fn ekf_and_ukf_track_the_high_ramp_and_the_lkf_does_not() {
 fn the_gain_scheduled_lkf_tracks_the_high_ramp_as_the_ekf_does() {
     // Linearised once about straight driving (seed 000) the LKF is off by more than 1e-2 m/s
     // (above); re-linearised about its estimate whenever the linear model errs there by more
-    // than one noise std (schedule_threshold 1, coarser than the default 0.02), it follows the
+    // than one noise std (schedule_threshold 1, coarser than the default 0.001), it follows the
     // tyres into the nonlinear range and stays a linear filter in between. Measured:
     // 2.2e-4 m/s, as the EKF.
     let (scheduled, status) = track_scheduled(EstimatorKind::Lkf as i32, 8.0, 1.0);

@@ -225,7 +225,7 @@ fn kalman_estimators_on_model_b_track_the_sideslip_of_the_two_track_vehicle() {
 #[test]
 fn the_gain_scheduled_lkf_on_model_b_tracks_as_the_ekf_does() {
     // Seed 001's finding holds for the LKF linearised once (above); re-linearised about its
-    // estimate (schedule_threshold 1, coarser than the default 0.02) it is within 10 % of the
+    // estimate (schedule_threshold 1, coarser than the default 0.001) it is within 10 % of the
     // EKF.
     let scheduled = sideslip_rmse_scheduled(EstimatorKind::Lkf as i32, 1.0);
     let ekf = sideslip_rmse(EstimatorKind::Ekf as i32);
