@@ -255,6 +255,11 @@ impl<const N: usize> CholeskyFactor<N> {
         })
     }
 
+    /// `ln det A = 2 Σ ln Lᵢᵢ`.
+    pub fn log_determinant(&self) -> f64 {
+        -2.0 * self.inverse_diagonal.iter().map(|d| d.ln()).sum::<f64>()
+    }
+
     /// `L` (zero above the diagonal).
     pub fn lower(&self) -> &SMatrix<f64, N, N> {
         &self.lower

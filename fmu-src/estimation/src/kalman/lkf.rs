@@ -110,6 +110,7 @@ where
             measurement,
             mask,
         );
+        let outcome = outcome.map(|(report, repaired, _)| (report, repaired));
         conclude_update(&mut self.last_report, outcome)
     }
 

@@ -354,10 +354,12 @@ macro_rules! update_with_r_plus_extra {
 }
 pub(crate) use update_with_r_plus_extra;
 
-/// A posterior step common to the LKF and EKF: gain, state correction and Joseph-form
-/// covariance (004) from the prediction `ŷ` and the measurement matrix `H` at the prior. Returns
-/// the report and whether the covariance needed a repair; leaves state and covariance untouched
-/// when no row is usable.
+/// A posterior step common to the LKF, the EKF and the marginalised particle filter's
+/// particles: gain, state correction and Joseph-form covariance (004) from the prediction `ŷ` and
+/// the measurement matrix `H` at the prior. Returns the report, whether the covariance needed a
+/// repair, and `ln det S` of the innovation covariance over the used rows (0 when none is),
+/// which with the NIS gives the predictive likelihood `ln N(y; ŷ, S) = -½ (NIS + ln det S)` up
+/// to a constant. Leaves state and covariance untouched when no row is usable.
 #[inline]
 pub(crate) fn linearised_update<const N: usize, const M: usize>(
     state: &mut SVector<f64, N>,
@@ -367,11 +369,11 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
     noise: &MeasurementNoise<M>,
     measurement: &SVector<f64, M>,
     mask: &MeasurementMask<M>,
-) -> Result<(UpdateReport<M>, bool), FilterIssue> {
+) -> Result<(UpdateReport<M>, bool, f64), FilterIssue> {
     let used = usable_rows(measurement, predicted_measurement, mask);
     let rows_used = used.iter().filter(|&&u| u).count();
     if rows_used == 0 {
-        return Ok((UpdateReport::skipped(), false));
+        return Ok((UpdateReport::skipped(), false, 0.0));
     }
     let previous_state = *state;
     let previous_covariance = *covariance;
@@ -395,8 +397,8 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
             mask,
         ),
     };
-    let report = match outcome {
-        Ok(report) => report,
+    let (report, log_det) = match outcome {
+        Ok(outcome) => outcome,
         Err(issue) => {
             *state = previous_state;
             *covariance = previous_covariance;
@@ -410,7 +412,7 @@ pub(crate) fn linearised_update<const N: usize, const M: usize>(
         *covariance = previous_covariance;
         return Err(FilterIssue::StateReset);
     }
-    Ok((report, repaired == Some(true)))
+    Ok((report, repaired == Some(true), log_det))
 }
 
 /// The update for a diagonal `R`, one measurement row after the other (sequential processing):
@@ -431,10 +433,12 @@ fn sequential_update<const N: usize, const M: usize>(
     variances: &SVector<f64, M>,
     measurement: &SVector<f64, M>,
     used: &MeasurementMask<M>,
-) -> Result<UpdateReport<M>, FilterIssue> {
+) -> Result<(UpdateReport<M>, f64), FilterIssue> {
     let prior_state = *state;
     let mut innovation = SVector::<f64, M>::zeros();
     let mut nis = 0.0;
+    // ln det S: S's pivots are the rows' innovation variances in turn.
+    let mut log_det = 0.0;
     for row in 0..M {
         if !used[row] {
             continue;
@@ -453,6 +457,7 @@ fn sequential_update<const N: usize, const M: usize>(
         let gain = cross * inverse_variance;
         *state += gain * running_innovation;
         nis += running_innovation * running_innovation * inverse_variance;
+        log_det += variance.ln();
         // (I - k hᵀ) P = P - k (P h)ᵀ, then times (I - k hᵀ)ᵀ: minus ((I - k hᵀ) P h) kᵀ.
         let left = *covariance - gain * cross.transpose();
         let left_h = product(&left, &h);
@@ -462,12 +467,13 @@ fn sequential_update<const N: usize, const M: usize>(
         });
     }
     let rows_used = used.iter().filter(|&&u| u).count();
-    Ok(UpdateReport {
+    let report = UpdateReport {
         innovation,
         nis,
         rows_used,
         used: *used,
-    })
+    };
+    Ok((report, log_det))
 }
 
 /// The update with a full `R`: gain from `P⁻ Hᵀ` and `S = H P⁻ Hᵀ + R` ([`masked_gain`]), state
@@ -481,7 +487,7 @@ fn batch_update<const N: usize, const M: usize>(
     measurement_noise: &SMatrix<f64, M, M>,
     measurement: &SVector<f64, M>,
     mask: &MeasurementMask<M>,
-) -> Result<UpdateReport<M>, FilterIssue> {
+) -> Result<(UpdateReport<M>, f64), FilterIssue> {
     let cross = product_transpose(covariance, output_matrix);
     let innovation_covariance = symmetric_product(output_matrix, &cross) + measurement_noise;
     let Some(step) = masked_gain(
@@ -492,7 +498,7 @@ fn batch_update<const N: usize, const M: usize>(
         mask,
     )?
     else {
-        return Ok(UpdateReport::skipped());
+        return Ok((UpdateReport::skipped(), 0.0));
     };
     let gain = step.gain();
     *state += product(&gain, &step.report.innovation);
@@ -518,7 +524,8 @@ fn batch_update<const N: usize, const M: usize>(
             measurement_noise,
         )
     };
-    Ok(step.report)
+    // The skipped rows' unit diagonal adds nothing to ln det S.
+    Ok((step.report, step.factor.log_determinant()))
 }
 
 /// Records the outcome of an update as the filter's last report and turns a repaired covariance
@@ -620,14 +627,22 @@ mod tests {
         ] {
             let run = |noise: &MeasurementNoise<3>| {
                 let (mut x, mut p) = (state, covariance);
-                let (report, repaired) =
+                let (report, repaired, log_det) =
                     linearised_update(&mut x, &mut p, &predicted, &output_matrix, noise, &y, &mask)
                         .unwrap();
                 assert!(!repaired);
-                (x, p, report)
+                (x, p, report, log_det)
             };
-            let (x_seq, p_seq, report_seq) = run(&sequential);
-            let (x_batch, p_batch, report_batch) = run(&batch);
+            let (x_seq, p_seq, report_seq, log_det_seq) = run(&sequential);
+            let (x_batch, p_batch, report_batch, log_det_batch) = run(&batch);
+            // ln det S over the used rows, from nalgebra's determinant of that block
+            let rows: Vec<usize> = (0..3).filter(|&r| report_batch.used[r]).collect();
+            let s = output_matrix * covariance * output_matrix.transpose() + noise;
+            let block =
+                nalgebra::DMatrix::from_fn(rows.len(), rows.len(), |i, j| s[(rows[i], rows[j])]);
+            let expected = block.determinant().ln();
+            assert!((log_det_seq - expected).abs() < 1e-12, "{mask:?}");
+            assert!((log_det_batch - expected).abs() < 1e-12, "{mask:?}");
             assert_eq!(report_seq.used, report_batch.used);
             assert_eq!(report_seq.innovation, report_batch.innovation);
             assert!((report_seq.nis - report_batch.nis).abs() < 1e-13 * report_batch.nis);

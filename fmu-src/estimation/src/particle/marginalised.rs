@@ -26,8 +26,9 @@
 use nalgebra::{SMatrix, SVector};
 use rand::Rng;
 
-use super::{covariance_square_root, masked_covariance, standard_normal_vector};
+use super::{covariance_square_root, standard_normal_vector};
 use crate::estimator::MeasurementMask;
+use crate::kalman::{linearised_update, MeasurementNoise};
 use crate::model::StateSpaceModel;
 
 /// The covariances of the conditionally linear states of every particle, and what the pending
@@ -227,47 +228,33 @@ impl<const N: usize> MarginalisedStates<N> {
 }
 
 /// Step 2: the Gaussian `N(mean, covariance)` conditioned on the used rows of `measurement`, the
-/// measurement function linearised at `mean`; returns the conditioned mean and covariance and
-/// `log N(y; h(mean), S)` up to the constant shared by all particles. `None` where `S` is not
-/// positive definite.
+/// measurement function linearised at `mean`: the Kalman update the LKF and EKF make
+/// ([`linearised_update`]: gain, Joseph form, covariance kept positive definite, as
+/// the draw needs). Returns the conditioned mean and covariance and `ln N(y; h(mean), S) =
+/// -½ (NIS + ln det S)` up to the constant shared by all particles; `None` where the update
+/// failed (`S` not positive definite, a non-finite result).
 pub(crate) fn condition_on_measurement<Model, const N: usize, const M: usize, const U: usize>(
     model: &Model,
     prediction: (&SVector<f64, N>, &SMatrix<f64, N, N>),
     measurement: &SVector<f64, M>,
     input: &SVector<f64, U>,
     used: &MeasurementMask<M>,
-    measurement_noise: &SMatrix<f64, M, M>,
+    measurement_noise: &MeasurementNoise<M>,
 ) -> Option<(SVector<f64, N>, SMatrix<f64, N, N>, f64)>
 where
     Model: StateSpaceModel<N, M, U>,
 {
-    let (mean, covariance) = prediction;
-    let (predicted, mut jacobian) = model.measurement_and_jacobian(mean, input);
-    let mut innovation = measurement - predicted;
-    for (row, &flag) in used.iter().enumerate() {
-        if !flag {
-            jacobian.row_mut(row).fill(0.0);
-            innovation[row] = 0.0;
-        }
-    }
-    let p_ht = covariance * jacobian.transpose();
-    let innovation_covariance = masked_covariance(&(jacobian * p_ht + measurement_noise), used);
-    let cholesky = innovation_covariance.cholesky()?;
-    // log N(ν; 0, S) = -½ νᵀ S⁻¹ ν - Σ log Lᵢᵢ (+ a constant); unused rows have Lᵢᵢ = 1.
-    let whitened = cholesky.l_dirty().solve_lower_triangular(&innovation)?;
-    let log_likelihood = -0.5 * whitened.norm_squared()
-        - cholesky
-            .l_dirty()
-            .diagonal()
-            .iter()
-            .map(|d| d.ln())
-            .sum::<f64>();
-    let gain = p_ht * cholesky.inverse();
-    let conditioned_mean = mean + gain * innovation;
-    // Joseph form: positive semi-definite however the rounding falls, as the draw needs.
-    let keep = SMatrix::<f64, N, N>::identity() - gain * jacobian;
-    let conditioned =
-        keep * covariance * keep.transpose() + gain * measurement_noise * gain.transpose();
-    let conditioned = (conditioned + conditioned.transpose()) * 0.5;
-    Some((conditioned_mean, conditioned, log_likelihood))
+    let (mut mean, mut covariance) = (*prediction.0, *prediction.1);
+    let (predicted, jacobian) = model.measurement_and_jacobian(&mean, input);
+    let (report, _, log_det) = linearised_update(
+        &mut mean,
+        &mut covariance,
+        &predicted,
+        &jacobian,
+        measurement_noise,
+        measurement,
+        used,
+    )
+    .ok()?;
+    Some((mean, covariance, -0.5 * (report.nis + log_det)))
 }

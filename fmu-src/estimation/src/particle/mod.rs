@@ -19,6 +19,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use crate::estimator::{Estimator, FilterIssue, MeasurementMask, UpdateReport};
+use crate::kalman::MeasurementNoise;
 use crate::model::StateSpaceModel;
 use crate::snapshot::{SnapshotError, SnapshotSink, SnapshotSource};
 
@@ -715,6 +716,7 @@ where
         input: &SVector<f64, U>,
         used: &MeasurementMask<M>,
     ) {
+        let measurement_noise = MeasurementNoise::new(self.measurement_noise);
         for i in 0..self.particles.len() {
             if !self.log_weights[i].is_finite() {
                 continue;
@@ -730,7 +732,7 @@ where
                 measurement,
                 input,
                 used,
-                &self.measurement_noise,
+                &measurement_noise,
             );
             match conditioned {
                 Some((conditioned_mean, conditioned, log_likelihood)) if self.noise_pending => {
