@@ -338,3 +338,37 @@ fn escort_grip_ekf_row(manoeuvre: &str) -> Row {
         .find(|r| r.estimator == "EKF_G")
         .expect("the campaigns run EKF_G")
 }
+
+/// The campaigns run their cars on rayon's threads (one car on one reference model per task):
+/// the rows are the same, in the same order, with one thread and with two. A campaign of the
+/// shipped base scenario, the Escort's step steer on the full vehicle and on model 1.
+#[test]
+fn a_campaign_gives_the_same_rows_on_one_thread_and_on_two() {
+    let scratch = Scratch::new("campaign-threads");
+    let env = environment(&scratch);
+    let campaigns = scenario_dir().join("campaigns");
+    let file = scratch.0.join("two_runs.toml");
+    let text = format!(
+        "base = {base:?}\ncars = [{car:?}]\n\
+         reference_models = [{{ model = 3 }}, {{ model = 1, label = \"model 1\" }}]\n\
+         [[manoeuvre]]\nname = \"step_steer\"\ntitle = \"step steer\"\n\
+         section = {{ library = \"seed001_step_steer_40deg\" }}\n",
+        base = campaigns.join("base.toml"),
+        car = campaigns.join("../../../fmu-src/reference-vehicle/cars/ford_escort.ssv"),
+    );
+    std::fs::write(&file, text).expect("campaign file");
+    let rows = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        pool.install(|| {
+            harness::campaigns::run(&file, &env, false, &Default::default())
+                .expect("the campaign runs")
+                .rows
+        })
+    };
+    let one = rows(1);
+    assert_eq!(one.len(), 2 * 18, "two runs of 18 estimators");
+    assert_eq!(one, rows(2));
+}
