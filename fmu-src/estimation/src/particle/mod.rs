@@ -612,8 +612,9 @@ where
             return;
         }
         if self.marginal.is_active() {
+            let process_noise = self.pending_process_noise();
             for i in 0..self.particles.len() {
-                let prediction = self.pending_prediction(i);
+                let prediction = self.pending_prediction(i, &process_noise);
                 self.draw_particle(i, prediction, 0.0);
             }
             self.noise_pending = false;
@@ -717,12 +718,13 @@ where
         used: &MeasurementMask<M>,
     ) {
         let measurement_noise = MeasurementNoise::new(self.measurement_noise);
+        let process_noise = self.pending_process_noise();
         for i in 0..self.particles.len() {
             if !self.log_weights[i].is_finite() {
                 continue;
             }
             let (mean, prediction) = if self.noise_pending {
-                self.pending_prediction(i)
+                self.pending_prediction(i, &process_noise)
             } else {
                 (self.particles[i], self.marginal.embedded(i))
             };
@@ -753,12 +755,16 @@ where
         self.pending_extra = SMatrix::zeros();
     }
 
-    /// Particle `i`'s pending joint prediction `(f, F E Fᵀ + Q)` (marginalised proposal).
-    fn pending_prediction(&self, i: usize) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+    /// Particle `i`'s pending joint prediction `(f, F E Fᵀ + Q)` (marginalised proposal);
+    /// `process_noise` is [`Self::pending_process_noise`], formed once per update by the caller.
+    fn pending_prediction(
+        &self,
+        i: usize,
+        process_noise: &SMatrix<f64, N, N>,
+    ) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
         (
             self.predicted_means[i],
-            self.marginal
-                .predicted_covariance(i, &self.pending_process_noise()),
+            self.marginal.predicted_covariance(i, process_noise),
         )
     }
 
