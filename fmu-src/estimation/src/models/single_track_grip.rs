@@ -323,19 +323,6 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         }
     }
 
-    /// The grip factors and (with a relaxation length) the slip angles the tyre law is
-    /// evaluated at, of `state` with the driver input `driver`, as model A's equations take them
-    /// ([`SingleTrackModel::outputs_with_lateral_states`]).
-    pub fn lateral_states_of(
-        &self,
-        state: &GripState,
-        driver: &SVector<f64, INPUT_DIM>,
-    ) -> LateralTyreStates<f64> {
-        let x = &state.data.0[0];
-        let driver = &driver.data.0[0];
-        self.lateral_states(x, &self.kinematic_slip(x, driver))
-    }
-
     /// Model A with the speed anchor, without the grip states.
     pub fn anchored(&self) -> &SpeedAnchoredModel<T> {
         &self.anchored
@@ -532,10 +519,10 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
 
     /// While the torques are unknown ([`Self::with_unknown_torques`]), model A's states of `x`
     /// with both wheels at free rolling; otherwise `None`.
-    fn rolling_body<S: Scalar>(
+    fn rolling_body<S: Scalar, const K: usize>(
         &self,
         x: &[S; GRIP_STATE_DIM],
-        u: &[S; ANCHORED_INPUT_DIM],
+        u: &[S; K],
     ) -> Option<[S; STATE_DIM]> {
         (self.unknown_torques && unknown_torques::torques_read_zero(u)).then(|| {
             let body: [S; STATE_DIM] = core::array::from_fn(|i| x[i]);
@@ -557,21 +544,46 @@ impl<T: TyreModel> SingleTrackGripModel<T> {
         forces
     }
 
+    /// Model A's measurement with the grip factors and transient slip angles, its tyre forces
+    /// at [`Self::force_state`] (freely rolling wheels while the torques are unknown): the
+    /// sensors' rows before the accelerometer's gain error, generic over the scalar.
+    fn body_measurement<S: Scalar, const K: usize>(
+        &self,
+        x: &[S; GRIP_STATE_DIM],
+        u: &[S; K],
+    ) -> [S; MEASUREMENT_DIM] {
+        let forces = Self::force_state(x, self.rolling_body(x, u).as_ref());
+        let body: [S; STATE_DIM] = core::array::from_fn(|i| forces[i]);
+        let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
+        self.vehicle().measurement_with_lateral_states(
+            &body,
+            &driver,
+            Some(self.lateral_states(x, &self.kinematic_slip(x, u))),
+        )
+    }
+
+    /// The lateral acceleration of the centre of gravity at `(state, input)`: the `ay` the
+    /// model's `ay` row predicts before the accelerometer's gain error, from the same tyre
+    /// forces (with the torques unknown, those of freely rolling wheels, not of the wheel
+    /// states, which keep the wheels' measured slip). `input` is any input that begins with the
+    /// driver input and the rear drive torque (the anchored model's, the FMU runner's).
+    pub fn lateral_acceleration<const K: usize>(
+        &self,
+        state: &GripState,
+        input: &SVector<f64, K>,
+    ) -> f64 {
+        self.body_measurement(&state.data.0[0], &input.data.0[0])
+            [measurement_index::LATERAL_ACCELERATION]
+    }
+
     /// The measurement, generic over the scalar: model A's with the grip factors and transient
-    /// slip angles, and `vx`.
+    /// slip angles ([`Self::body_measurement`]), the accelerometer's gain error, and `vx`.
     fn observe<S: Scalar>(
         &self,
         x: &[S; GRIP_STATE_DIM],
         u: &[S; ANCHORED_INPUT_DIM],
     ) -> [S; ANCHORED_MEASUREMENT_DIM] {
-        let forces = Self::force_state(x, self.rolling_body(x, u).as_ref());
-        let body: [S; STATE_DIM] = core::array::from_fn(|i| forces[i]);
-        let driver: [S; INPUT_DIM] = core::array::from_fn(|j| u[j]);
-        let y = self.vehicle().measurement_with_lateral_states(
-            &body,
-            &driver,
-            Some(self.lateral_states(x, &self.kinematic_slip(x, u))),
-        );
+        let y = self.body_measurement(x, u);
         core::array::from_fn(|i| match i {
             // the wheel rows measure the wheel states themselves
             measurement_index::OMEGA_FRONT => x[state_index::OMEGA_FRONT],
@@ -872,6 +884,32 @@ mod tests {
         for j in columns {
             assert!((analytic.column(j) - numeric.column(j)).amax() < 1e-5 * numeric.amax());
         }
+    }
+
+    /// The lateral acceleration the outputs report is the `ay` row's prediction before the
+    /// accelerometer's gain error: with the torques unknown it does not depend on the wheel
+    /// states either, and with a gain error the row reads it through the gain.
+    #[test]
+    fn the_lateral_acceleration_is_the_ay_row_s_before_the_accelerometer_s_gain() {
+        let model = grip_model()
+            .with_relaxation_length(0.4)
+            .unwrap()
+            .with_unknown_torques(true);
+        let (mut x, u) = torques_unknown_case();
+        let ay = measurement_index::LATERAL_ACCELERATION;
+        let driver = u.fixed_rows::<4>(0).into_owned();
+        x[AY_GAIN] = 0.0;
+        let lateral = model.lateral_acceleration(&x, &u);
+        assert_eq!(lateral, model.measurement(&x, &u)[ay]);
+        // the runner's input (driver and rear drive torque) gives the same
+        assert_eq!(model.lateral_acceleration(&x, &driver), lateral);
+        let mut spun = x;
+        spun[state_index::OMEGA_FRONT] *= 0.5;
+        spun[state_index::OMEGA_REAR] = 0.0;
+        assert_eq!(model.lateral_acceleration(&spun, &u), lateral);
+        x[AY_GAIN] = 0.05;
+        assert_eq!(model.lateral_acceleration(&x, &u), lateral);
+        assert_eq!(model.measurement(&x, &u)[ay], read_ay(lateral, 0.05));
     }
 
     /// With the torques unknown the tyre forces are those of freely rolling wheels, whatever the
