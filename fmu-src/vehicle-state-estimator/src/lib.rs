@@ -269,9 +269,11 @@ impl CoSimulationModel for VehicleStateEstimator {
     }
 
     fn initialize(&mut self, start_time: f64) -> Result<(), String> {
-        self.runner = Some(ModelRunner::build(&self.variables, start_time)?);
+        let mut runner = ModelRunner::build(&self.variables, start_time)?;
+        let sensors = Sensors::of(&self.variables);
+        self.variables.status = on_runner!(&mut runner, r => r.initialisation_bits(&sensors));
+        self.runner = Some(runner);
         self.applied = Some(Box::new(self.variables.clone()));
-        self.variables.status = 0;
         self.defer_publish();
         self.status_awaits_publish = true;
         // Initialisation is not the hot path: publish at once.

@@ -1008,6 +1008,19 @@ where
         adaptation_bits(scaling.observe(report))
     }
 
+    /// Status bits of the outputs of initialisation, before any sample is processed: while
+    /// the filter waits for its measured start (`start_from_measurements`), those outputs are
+    /// the held ones of the sensors set so far (the measured speed, the steering geometry's
+    /// sideslip with a std that says it is a guess), not the parameters' start (`vx_initial`)
+    /// with its confident std, and `status` says the filter is initialising (issue 12, point 7).
+    pub fn initialisation_bits(&mut self, sensors: &Sensors) -> i32 {
+        if self.started {
+            0
+        } else {
+            self.hold(sensors, status::INITIALISING)
+        }
+    }
+
     /// A sample on which the filter holds its estimate.
     fn hold(&mut self, sensors: &Sensors, bits: i32) -> i32 {
         self.nis = 0.0;

@@ -622,6 +622,40 @@ fn the_fmu_waits_for_a_measured_speed_before_it_starts_on(model: EstimatorModel)
     assert!((vx - 27.5).abs() < 0.1, "{vx}");
 }
 
+/// The outputs of initialisation, before the first doStep (issue 12, point 7): while the filter
+/// waits for its measured start they say so (status 512) and give the speed measured so far with
+/// the steering geometry's sideslip, not the parameters' start. Before 2026-12-06 they were
+/// `vx_initial` (18 m/s) with its start std and status 0, whatever the sensors
+/// read.
+#[test]
+fn the_outputs_of_initialisation_say_initialising_and_give_the_measured_speed() {
+    for model in MODELS {
+        println!("model {model:?}");
+        the_outputs_of_initialisation_say_initialising_and_give_the_measured_speed_on(model);
+    }
+}
+
+fn the_outputs_of_initialisation_say_initialising_and_give_the_measured_speed_on(
+    model: EstimatorModel,
+) {
+    let mut measured = estimator_with(EstimatorKind::Ekf as i32, |s| {
+        on(model)(s);
+        assert_eq!(
+            s.set_reals(&SENSORS, &[0.0, 0.0, 80.0, 80.0, 0.0, 27.5]),
+            Fmi2Status::Ok
+        );
+    });
+    assert_ne!(measured.get_integer(vr::STATUS).1 & status::INITIALISING, 0);
+    let [vx, sideslip, sideslip_std] =
+        [vr::VX_EST, vr::SIDESLIP_EST, vr::SIDESLIP_STD].map(|r| measured.get_real(r).1);
+    assert_eq!(vx, 27.5);
+    assert_eq!(sideslip, 0.0);
+    assert!(sideslip_std >= 0.1, "{sideslip_std}");
+    // nothing measured yet: still initialising
+    let mut unset = estimator(model, EstimatorKind::Ekf as i32);
+    assert_ne!(unset.get_integer(vr::STATUS).1 & status::INITIALISING, 0);
+}
+
 #[test]
 fn model_b_gates_glitches_and_starts_from_the_measurements_too() {
     let model_b = |s: &mut Slave| {
