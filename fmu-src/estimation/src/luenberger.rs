@@ -254,8 +254,7 @@ fn blockwise_observer_gain<const N: usize, const M: usize, const U: usize>(
     design: &ObserverDesign,
 ) -> Result<SMatrix<f64, N, M>, SettingsError> {
     let (gain, open_loop) = place_gain(linear, design, false)?;
-    let error_map =
-        (SMatrix::<f64, N, N>::identity() - gain * linear.output_matrix) * linear.transition;
+    let error_map = error_map(linear, &gain);
     let placed = design.poles().iter().fold(0.0f64, |m, z| m.max(z.norm()));
     // The fed-back states' part of the error map (all of it without open-loop states): no
     // slower than the slowest placed pole. A relative margin for the eigenvalue routine's
@@ -324,9 +323,7 @@ where
     }
     let placed = LinearisedModel::about(model, &state, &linear.input).and_then(|placement| {
         let gain = rule(&placement, design)?;
-        let error_map =
-            (SMatrix::<f64, N, N>::identity() - gain * linear.output_matrix) * linear.transition;
-        let radius = spectral_radius(&error_map);
+        let radius = spectral_radius(&error_map(linear, &gain));
         if radius < 1.0 {
             Ok(gain)
         } else {
@@ -336,6 +333,14 @@ where
         }
     });
     placed.or_else(|_| rule(linear, design))
+}
+
+/// The a-posteriori error map `(I - L C) A` of `gain` on `linear` (module docs).
+fn error_map<const N: usize, const M: usize, const U: usize>(
+    linear: &LinearisedModel<N, M, U>,
+    gain: &SMatrix<f64, N, M>,
+) -> SMatrix<f64, N, N> {
+    (SMatrix::<f64, N, N>::identity() - gain * linear.output_matrix) * linear.transition
 }
 
 /// Relative rounding margin of [`scheduled_observer_gain`]'s open-loop stability test.
@@ -571,8 +576,7 @@ where
     /// placed (with a [`ObserverDesign::placement_state`] they were placed at that state, and
     /// here they are only stable).
     pub fn error_dynamics(&self) -> SMatrix<f64, N, N> {
-        (SMatrix::<f64, N, N>::identity() - self.gain * self.linear.output_matrix)
-            * self.linear.transition
+        error_map(&self.linear, &self.gain)
     }
 
     /// The linear model the observer runs on.
