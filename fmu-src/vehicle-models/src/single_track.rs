@@ -378,9 +378,21 @@ fn kinematic_tan_slip_angle<S: Scalar>(lateral_velocity: S, inverse_divisor: S) 
     -lateral_velocity * inverse_divisor
 }
 
+/// A wheel's longitudinal slip `(ω r − v) / v` (000: 5.65) from the reciprocal of its guarded
+/// speed ([`guarded_speed`]), which the axle shares with its slip angle.
+#[inline(always)]
+pub fn longitudinal_slip<S: Scalar>(
+    omega: S,
+    wheel_radius: f64,
+    wheel_velocity: S,
+    inverse_divisor: S,
+) -> S {
+    (omega * wheel_radius - wheel_velocity) * inverse_divisor
+}
+
 /// `v` if `|v|` is at least `guard`, else the constant `guard` (see the module docs).
 #[inline(always)]
-pub(crate) fn guarded_speed<S: Scalar>(speed: S, guard: f64) -> S {
+pub fn guarded_speed<S: Scalar>(speed: S, guard: f64) -> S {
     if speed.value().abs() < guard {
         S::constant(guard)
     } else {
@@ -430,8 +442,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
         // the tyre's lagged slip angle where one is given, else the kinematic one
         let tan_slip_angle = transient_tan_slip_angle
             .unwrap_or_else(|| kinematic_tan_slip_angle(wheel_lateral_velocity, inverse_divisor));
-        // (000: 5.65)
-        let slip = (omega * wheel_radius - wheel_velocity) * inverse_divisor;
+        let slip = longitudinal_slip(omega, wheel_radius, wheel_velocity, inverse_divisor);
         let kinematics = TyreKinematics {
             slip,
             tan_slip_angle,

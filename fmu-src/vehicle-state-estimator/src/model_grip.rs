@@ -448,7 +448,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 nis: sample.nis,
                 rows_used: sample.rows_used,
                 holding: sample.holding,
-                held_speed: sample.held_speed,
+                held: sample.held,
                 covariance_scale: sample.covariance_scale,
                 yaw_rate_offset: sample.yaw_rate_offset,
                 ay_calibration: sample.ay_calibration,

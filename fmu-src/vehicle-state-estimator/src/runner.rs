@@ -15,6 +15,7 @@ use estimation::{FilterIssue, UpdateReport};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
+use vehicle_models::single_track::{guarded_speed, longitudinal_slip, SingleTrackParams};
 
 use crate::lateral_accelerometer::{AySample, LateralAccelerometer};
 use crate::model_description::{EstimatorModel, RealOutputs, Variables};
@@ -290,8 +291,8 @@ pub struct OutputSample<const N: usize, Extra> {
     pub rows_used: i32,
     /// The filter held its estimate in this sample (low speed, or waiting for a measured speed).
     pub holding: bool,
-    /// The speed the sensors measured in a held sample, if any.
-    pub held_speed: Option<MeasuredSpeed>,
+    /// What the sensors measured in a held sample.
+    pub held: HeldMeasurements,
     /// The factor on everything the estimator reports of its uncertainty, `covariance` and the
     /// consider terms: the Luenberger observer's innovation scaling, 1 for the other estimators.
     pub covariance_scale: f64,
@@ -300,6 +301,34 @@ pub struct OutputSample<const N: usize, Extra> {
     /// The lateral accelerometer's offset and gain error taken off `ay_meas` in this sample (0
     /// without the learner).
     pub ay_calibration: [f64; 2],
+}
+
+/// What the sensors measured in a held sample, without the filter: what its outputs report in
+/// place of the stale estimate (issue 12, points 4 and 7), each `None` where not measured.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HeldMeasurements {
+    pub speed: Option<MeasuredSpeed>,
+    /// `yaw_rate_meas` less the gyro's offset learned so far, and the gyro's noise std, rad/s.
+    pub yaw_rate: Option<(f64, f64)>,
+    /// `[omega_front_meas, omega_rear_meas]` and their noise stds, rad/s.
+    pub wheel_speeds: [Option<(f64, f64)>; 2],
+}
+
+impl HeldMeasurements {
+    pub fn of(sensors: &Sensors, v: &Variables, yaw_rate_offset: f64) -> Self {
+        let finite = |value: f64, std: f64| value.is_finite().then_some((value, std));
+        Self {
+            speed: MeasuredSpeed::of(sensors, v),
+            yaw_rate: finite(
+                sensors.yaw_rate - yaw_rate_offset,
+                v.measurement_noise_std_yaw_rate,
+            ),
+            wheel_speeds: [
+                finite(sensors.omega_front, v.measurement_noise_std_omega_front),
+                finite(sensors.omega_rear, v.measurement_noise_std_omega_rear),
+            ],
+        }
+    }
 }
 
 /// A speed as the sensors measure it, without the filter: what a held sample reports as vx_est.
@@ -627,8 +656,8 @@ where
     /// The last sample held the estimate (for its outputs; not part of the FMU state, whose
     /// outputs are published before it is taken).
     holding: bool,
-    /// The measured speed of the last held sample (for its outputs, like `holding`).
-    held_speed: Option<MeasuredSpeed>,
+    /// What the sensors measured in the last held sample (for its outputs, like `holding`).
+    held: HeldMeasurements,
     gate: Option<Gate>,
     /// `schedule_threshold` (the LKF) or `observer_schedule_threshold` (the Luenberger
     /// observer): the linear estimators re-linearise when their linearisation errs at the
@@ -731,7 +760,7 @@ where
             nis: 0.0,
             rows_used: 0,
             holding: false,
-            held_speed: None,
+            held: HeldMeasurements::default(),
             gate,
             schedule_threshold: schedule_threshold(v, choice)?,
             gated_samples: [0; M],
@@ -1026,7 +1055,8 @@ where
         self.nis = 0.0;
         self.rows_used = 0;
         self.holding = true;
-        self.held_speed = MeasuredSpeed::of(sensors, &self.parameters);
+        let offset = self.yaw_rate_offset.map_or(0.0, |offset| offset.offset);
+        self.held = HeldMeasurements::of(sensors, &self.parameters, offset);
         bits
     }
 
@@ -1169,7 +1199,7 @@ where
             nis: self.nis,
             rows_used: self.rows_used,
             holding: self.holding,
-            held_speed: self.held_speed,
+            held: self.held,
             covariance_scale: self.covariance_scale(),
             yaw_rate_offset: self.yaw_rate_offset.map_or(0.0, |offset| offset.offset),
             ay_calibration: self
@@ -1235,17 +1265,57 @@ where
         }
     }
 
-    /// A held sample's estimate is stale and its stds overconfident (issue 12, point 4): the
-    /// sideslip of the steering geometry with a std that says it is a guess, and the measured
-    /// speed (0 standing, negative reversing) with at least the measurement's std.
+    /// A held sample's estimate is stale and its stds overconfident (issue 12, points 4 and 7):
+    /// the car's motion as the sensors measure it, rolling without tyre slip. The sideslip of
+    /// the steering geometry with a std that says it is a guess; the measured speed (0
+    /// standing, negative reversing) with at least the measurement's std; the measured yaw rate
+    /// and wheel speeds with theirs (a wheel not measured rolls at the speed); the wheels' slip
+    /// from those; slip angles of 0 (the geometry's sideslip is that of tyres without slip
+    /// angle) and the steady turn's `ay = vx r`. Where nothing is measured the value stays.
     fn honest_held_outputs(&self, held: &OutputSample<N, Model::Extra>, values: &mut RealOutputs) {
+        let measured = held.held;
         values.sideslip_est = kinematic_sideslip(held.input[0], &self.parameters);
         values.sideslip_std = LOW_SPEED_SIDESLIP_STD;
-        if let Some(measured) = held.held_speed {
-            values.vx_est = measured.speed;
-            values.vx_std = values.vx_std.max(measured.std);
-            values.vy_est = measured.speed * values.sideslip_est.tan();
+        values.slip_angle_front_est = 0.0;
+        values.slip_angle_rear_est = 0.0;
+        if let Some(speed) = measured.speed {
+            values.vx_est = speed.speed;
+            values.vx_std = values.vx_std.max(speed.std);
+            values.vy_est = speed.speed * values.sideslip_est.tan();
         }
+        if let Some((yaw_rate, std)) = measured.yaw_rate {
+            values.yaw_rate_est = yaw_rate;
+            values.yaw_rate_std = std;
+        }
+        // Every point of the body moves at vx along its axis; the front wheel, steered by δ and
+        // without slip angle, rolls at vx / cos δ.
+        let along_front = 1.0 / held.input[0].cos();
+        let radii = WheelRadii::of(&self.parameters);
+        let axles = [(along_front, radii.front), (1.0, radii.rear)];
+        let [front, rear] = [0, 1].map(|axle| {
+            let (along, radius) = axles[axle];
+            let rolling = measured
+                .speed
+                .map(|speed| (speed.speed * along / radius, speed.std * along / radius));
+            measured.wheel_speeds[axle].or(rolling)
+        });
+        if let Some((omega, std)) = front {
+            values.omega_front_est = omega;
+            values.omega_front_std = std;
+        }
+        if let Some((omega, std)) = rear {
+            values.omega_rear_est = omega;
+            values.omega_rear_std = std;
+        }
+        let guard = SingleTrackParams::default().low_speed_guard;
+        let slip = |omega: f64, (along, radius): (f64, f64)| {
+            let wheel_velocity = values.vx_est * along;
+            let divisor = guarded_speed(wheel_velocity, guard);
+            longitudinal_slip(omega, radius, wheel_velocity, 1.0 / divisor)
+        };
+        values.slip_front_est = slip(values.omega_front_est, axles[0]);
+        values.slip_rear_est = slip(values.omega_rear_est, axles[1]);
+        values.ay_est = values.vx_est * values.yaw_rate_est;
     }
 
     /// Forgets the outputs not yet computed (they were published before a state was taken).

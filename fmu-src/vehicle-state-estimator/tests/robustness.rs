@@ -641,7 +641,7 @@ fn the_outputs_of_initialisation_say_initialising_and_give_the_measured_speed_on
     let mut measured = estimator_with(EstimatorKind::Ekf as i32, |s| {
         on(model)(s);
         assert_eq!(
-            s.set_reals(&SENSORS, &[0.0, 0.0, 80.0, 80.0, 0.0, 27.5]),
+            s.set_reals(&SENSORS, &[0.05, 0.0, 80.0, 85.0, 0.0, 27.5]),
             Fmi2Status::Ok
         );
     });
@@ -651,6 +651,37 @@ fn the_outputs_of_initialisation_say_initialising_and_give_the_measured_speed_on
     assert_eq!(vx, 27.5);
     assert_eq!(sideslip, 0.0);
     assert!(sideslip_std >= 0.1, "{sideslip_std}");
+    // The rest as measured too, not the *_initial parameters (omega_initial 60 rad/s read as a
+    // wheel slip of 0.147 on a car with 0.344 m wheels): the gyro, the wheels and their slip,
+    // tyres without slip angle and the steady turn's ay.
+    let outputs = measured.reals(&[
+        vr::YAW_RATE_EST,
+        vr::OMEGA_FRONT_EST,
+        vr::OMEGA_REAR_EST,
+        vr::SLIP_FRONT_EST,
+        vr::SLIP_REAR_EST,
+        vr::SLIP_ANGLE_FRONT_EST,
+        vr::SLIP_ANGLE_REAR_EST,
+        vr::AY_EST,
+    ]);
+    let radius = measured.get_real(vr::WHEEL_RADIUS_REAR).1;
+    let rear_slip = (85.0 * radius - 27.5) / 27.5;
+    let expected = [
+        0.05,
+        80.0,
+        85.0,
+        (80.0 * radius - 27.5) / 27.5,
+        rear_slip,
+        0.0,
+        0.0,
+        1.375,
+    ];
+    for (got, want) in outputs.iter().zip(expected) {
+        assert!(
+            (got - want).abs() < 1e-12,
+            "{outputs:?} against {expected:?}"
+        );
+    }
     // nothing measured yet: still initialising
     let mut unset = estimator(model, EstimatorKind::Ekf as i32);
     assert_ne!(unset.get_integer(vr::STATUS).1 & status::INITIALISING, 0);
@@ -745,6 +776,9 @@ fn standing_and_reversing_report_the_measured_speed_as_uncertain_and_pulling_awa
             assert!(held, "t = {t}");
             assert!(vx.abs() < 1e-9 && vx_std >= 0.1, "t = {t}: {vx} ± {vx_std}");
             assert!(sideslip_std >= 5f64.to_radians(), "t = {t}: {sideslip_std}");
+            // the wheels stand too, not the estimate of the last sample above min_speed
+            let wheels = s.reals(&[vr::OMEGA_FRONT_EST, vr::OMEGA_REAR_EST, vr::SLIP_REAR_EST]);
+            assert!(wheels.iter().all(|w| w.abs() < 1e-9), "t = {t}: {wheels:?}");
             stood = true;
         }
         reversed |= (8.5..10.0).contains(&t) && held && (vx + 2.0).abs() < 1e-9;
