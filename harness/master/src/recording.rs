@@ -22,6 +22,23 @@ pub fn write_csv(result: &RunResult, path: &Path) -> Result<()> {
     written
 }
 
+/// Writes `contents` (a report, a table) to `path` as [`write_csv`] writes a run: under
+/// [`partial_name`] first, renamed when complete, so that a failed write leaves the file that
+/// was there before, not a truncated one.
+pub fn write_whole(path: &Path, contents: &str) -> Result<()> {
+    let partial = partial_name(path);
+    let written = std::fs::write(&partial, contents)
+        .with_context(|| format!("writing {}", partial.display()))
+        .and_then(|()| {
+            std::fs::rename(&partial, path)
+                .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
+        });
+    if written.is_err() {
+        let _ = std::fs::remove_file(&partial);
+    }
+    written
+}
+
 /// `<path>.partial`, where a file is written before it is complete.
 pub fn partial_name(path: &Path) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
@@ -94,5 +111,28 @@ mod tests {
         assert!(write_csv(&result(), &blocked).is_err());
         assert!(!partial_name(&blocked).exists());
         assert!(blocked.join("inside").is_dir());
+    }
+
+    #[test]
+    fn a_whole_file_replaces_the_old_one_only_when_complete() {
+        let scratch = crate::runner::WorkFolder::new(
+            std::env::temp_dir().join(format!("recording-whole-test-{}", std::process::id())),
+        );
+        let dir = scratch.path();
+        std::fs::create_dir_all(dir).unwrap();
+        let path = dir.join("report.md");
+        write_whole(&path, "old").unwrap();
+        write_whole(&path, "new").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
+        assert!(!partial_name(&path).exists());
+        let blocked = dir.join("blocked.md");
+        std::fs::create_dir_all(blocked.join("inside")).unwrap();
+        let message = format!("{:#}", write_whole(&blocked, "text").unwrap_err());
+        assert!(message.contains("blocked.md"), "{message}");
+        assert!(!partial_name(&blocked).exists());
+        assert!(blocked.join("inside").is_dir());
+        let nowhere = dir.join("no such folder").join("report.md");
+        let message = format!("{:#}", write_whole(&nowhere, "text").unwrap_err());
+        assert!(message.contains("no such folder"), "{message}");
     }
 }

@@ -28,6 +28,7 @@ use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
 use crate::mismatch::{self, MismatchReport};
 use crate::robustness::{RealCars, REAL_CARS_STUDY};
 use fmi_master::plot::{self, Panel, Series};
+use fmi_master::recording::write_whole;
 use fmi_master::report::Document;
 use fmi_master::runner::{self, Environment, RunOutput};
 use fmi_master::scenario::Scenario;
@@ -517,12 +518,11 @@ fn write_report(
         )),
     }
 
-    let md = doc.to_markdown();
-    std::fs::write(out.join("report.md"), md)
-        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
-    let html = doc.to_html("Vehicle state estimation: seed experiments");
-    std::fs::write(out.join("report.html"), html)
-        .with_context(|| format!("writing {}", out.join("report.html").display()))?;
+    write_whole(&out.join("report.md"), &doc.to_markdown())?;
+    write_whole(
+        &out.join("report.html"),
+        &doc.to_html("Vehicle state estimation: seed experiments"),
+    )?;
     Ok(())
 }
 

@@ -23,6 +23,7 @@ use serde::Deserialize;
 
 use fmi_master::cosim::{ParameterValue, RunResult};
 use fmi_master::plot;
+use fmi_master::recording::write_whole;
 use fmi_master::report::Document;
 use fmi_master::runner::{run_scenario, scenario_dir, Environment, WorkFolder};
 use fmi_master::scenario::{ManoeuvreSection, OverrideSection, Scenario, VarRef};
@@ -638,11 +639,7 @@ pub fn run_and_report(
             doc.to_html("Robustness and mismatch campaigns"),
         ),
     ] {
-        let path = out.join(name);
-        let partial = out.join(format!("{name}.partial"));
-        std::fs::write(&partial, text).with_context(|| format!("writing {}", partial.display()))?;
-        std::fs::rename(&partial, &path)
-            .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))?;
+        write_whole(&out.join(name), &text)?;
     }
     Ok(both.summary())
 }
