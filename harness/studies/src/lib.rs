@@ -11,6 +11,7 @@ pub mod expression;
 pub mod findings;
 pub mod identify;
 pub mod mismatch;
+pub mod population;
 pub mod replay;
 pub mod robustness;
 pub mod seed003;

@@ -196,6 +196,30 @@ enum Command {
         #[arg(long = "set", value_name = "INST.VAR=VALUE")]
         set: Vec<String>,
     },
+    /// Issue 17 point 3 over a population of cars: every campaign car file drawn N times with
+    /// each axle's tyre side force scaled by a factor from N(1, spread²); the campaign's
+    /// manoeuvres and estimators on each; the NEES and RMSE over the cars
+    Population {
+        /// Output folder (report.md, report.html, population.csv).
+        #[arg(long, default_value = "out/population")]
+        out: PathBuf,
+        /// Cars drawn per car file.
+        #[arg(long, default_value_t = harness::population::PopulationStudy::shipped().draws)]
+        draws: usize,
+        /// Standard deviation of each axle's side-force factor about 1 (default: the grip
+        /// model's grip_std).
+        #[arg(long, default_value_t = harness::population::PopulationStudy::shipped().spread)]
+        spread: f64,
+        /// Seed of the draws.
+        #[arg(long, default_value_t = harness::population::PopulationStudy::shipped().seed)]
+        seed: u64,
+        /// Campaign manoeuvres to run (comma-separated; default: all of them).
+        #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+        manoeuvres: Vec<String>,
+        /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
     /// Check an .fmu and list its variables
     Inspect {
         fmu: PathBuf,
@@ -277,10 +301,7 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             Ok(())
         }
         Command::Mismatch { out, fmu_dir } => {
-            let custom_dir = fmu_dir.is_some();
-            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
-            // As `demo`: the project's own FMUs are packaged when missing or stale.
-            demo::ensure_fmus(&fmu_dir, !custom_dir)?;
+            let fmu_dir = packaged_fmus(fmu_dir)?;
             let report = harness::mismatch::run_shipped(&fmu_dir, &out)?;
             write!(stdout, "{}", report.summary())?;
             writeln!(stdout, "csv: {}", out.display())?;
@@ -288,13 +309,34 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
         }
         Command::Robustness { out, fmu_dir, set } => {
             let overrides = harness::campaigns::Overrides::parse(&set)?;
-            let custom_dir = fmu_dir.is_some();
-            let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
-            demo::ensure_fmus(&fmu_dir, !custom_dir)?;
+            let fmu_dir = packaged_fmus(fmu_dir)?;
             write!(
                 stdout,
                 "{}",
                 harness::robustness::run_and_report(&fmu_dir, &out, &overrides)?
+            )?;
+            writeln!(stdout, "report: {}", out.join("report.md").display())?;
+            Ok(())
+        }
+        Command::Population {
+            out,
+            draws,
+            spread,
+            seed,
+            manoeuvres,
+            fmu_dir,
+        } => {
+            let study = harness::population::PopulationStudy {
+                draws,
+                spread,
+                seed,
+                manoeuvres,
+            };
+            let fmu_dir = packaged_fmus(fmu_dir)?;
+            write!(
+                stdout,
+                "{}",
+                harness::population::run_and_report(&study, &fmu_dir, &out)?
             )?;
             writeln!(stdout, "report: {}", out.join("report.md").display())?;
             Ok(())
@@ -544,6 +586,15 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The FMU folder of a study: the one given (used as it is), else the project's own, packaged
+/// first when missing or stale, as `demo` does.
+fn packaged_fmus(fmu_dir: Option<PathBuf>) -> Result<PathBuf> {
+    let custom_dir = fmu_dir.is_some();
+    let fmu_dir = absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir);
+    demo::ensure_fmus(&fmu_dir, !custom_dir)?;
+    Ok(fmu_dir)
 }
 
 /// An FMU folder given on the command line is relative to the working directory, not to the

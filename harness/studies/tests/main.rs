@@ -5,6 +5,7 @@
 mod identify_cli;
 mod mismatch;
 mod mismatch_identification;
+mod population;
 mod replay;
 mod robustness;
 // The scratch folder of fmi-master's tests (removed at the end of a test, KEEP_TEST_DIRS=1 keeps

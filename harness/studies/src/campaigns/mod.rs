@@ -36,7 +36,7 @@ use metrics::Track;
 /// The campaign file of the demo, below `harness/scenarios`.
 pub const SHIPPED_CAMPAIGNS: &str = "campaigns/campaigns.toml";
 /// The ReferenceVehicle instance of the base scenario; every other instance is an estimator.
-const VEHICLE: &str = "vehicle";
+pub const VEHICLE: &str = "vehicle";
 /// A filter whose speed estimate leaves the truth by more than half (a run-away vx, issue 12's
 /// failure) or whose output is not finite has diverged.
 const DIVERGED_SPEED_ERROR: f64 = 0.5;
@@ -1006,7 +1006,11 @@ impl CampaignReport {
              baseline (below 1: better than reporting zero), how often it is the best of a run, its rows worse \
              than reporting zero, and where its reported std stands: in issue 17 point 3's band (NEES 0.5-2, at \
              least 90 % inside the 95 % bound), conservative (NEES below 0.5, at least 90 % inside) or short of \
-             its error (NEES above 2 or fewer than 90 % inside).",
+             its error (NEES above 2 or fewer than 90 % inside). A row is one car: where the \
+             sensors do not see the tyres' level (a steady corner), an honest filter's NEES on \
+             a car is about chi-square(1), in the band for a third of the cars; whether the std \
+             can be believed is measured over a population of cars by `harness population` \
+             (fmu-src/vehicle-state-estimator/README.md, \"Honest over a population of cars\").",
             self.runs().len()
         ));
         doc.table(
