@@ -216,6 +216,9 @@ enum Command {
         /// Campaign manoeuvres to run (comma-separated; default: all of them).
         #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
         manoeuvres: Vec<String>,
+        /// Keep every run's CSV below <out>/runs/<car>_draw<NN>/ (about 0.8 MB a run).
+        #[arg(long)]
+        keep_runs: bool,
         /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
         #[arg(long)]
         fmu_dir: Option<PathBuf>,
@@ -324,6 +327,7 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             spread,
             seed,
             manoeuvres,
+            keep_runs,
             fmu_dir,
         } => {
             let study = harness::population::PopulationStudy {
@@ -331,6 +335,7 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
                 spread,
                 seed,
                 manoeuvres,
+                keep_runs,
             };
             let fmu_dir = packaged_fmus(fmu_dir)?;
             write!(

@@ -69,6 +69,9 @@ pub struct PopulationStudy {
     pub seed: u64,
     /// The campaign manoeuvres to run, by name; all of them when empty.
     pub manoeuvres: Vec<String>,
+    /// Keep every run's CSV (every recorded signal) below `<out>/runs/<car>_draw<NN>/`; by
+    /// default they are removed with the run (about 0.8 MB each).
+    pub keep_runs: bool,
 }
 
 impl PopulationStudy {
@@ -79,6 +82,7 @@ impl PopulationStudy {
             spread: 0.1,
             seed: 1,
             manoeuvres: Vec::new(),
+            keep_runs: false,
         }
     }
 
@@ -229,18 +233,25 @@ pub fn run(study: &PopulationStudy, env: &Environment) -> Result<PopulationRepor
     let cars = draw_cars(study, &car_files)?;
     let _work = WorkFolder::new(env.work_dir());
     // Each drawn car's runs write their CSVs (named by manoeuvre and car file, the same for
-    // every draw) into a folder of their own, removed at the end: the rows keep the figures,
-    // and 180 runs of 18 estimators would leave 170 MB.
-    let runs = WorkFolder::new(env.out_dir.join(".runs"));
+    // every draw) into a folder of their own, removed at the end unless kept: the rows keep
+    // the figures, and 180 runs of 18 estimators leave 170 MB.
+    let runs_dir = env
+        .out_dir
+        .join(if study.keep_runs { "runs" } else { ".runs" });
+    let _runs = (!study.keep_runs).then(|| WorkFolder::new(runs_dir.clone()));
     let estimator_fmu = campaign.estimator_fmu(env)?;
     let per_car = cars
         .par_iter()
-        .enumerate()
-        .map(|(index, car)| -> Result<Vec<PopulationRow>> {
+        .map(|car| -> Result<Vec<PopulationRow>> {
             let drawn = Campaign::load(&file)?.with_overrides(&car_overrides(car)?)?;
+            let stem = car
+                .car_file
+                .file_stem()
+                .unwrap_or_default()
+                .to_string_lossy();
             let car_env = Environment {
                 fmu_dir: env.fmu_dir.clone(),
-                out_dir: runs.path().join(format!("car{index:03}")),
+                out_dir: runs_dir.join(format!("{stem}_draw{:02}", car.draw)),
             };
             let mut rows = Vec::new();
             for manoeuvre in &manoeuvres {
@@ -673,9 +684,8 @@ mod tests {
     fn the_draws_are_seeded_clipped_and_in_a_fixed_order() {
         let study = PopulationStudy {
             draws: 200,
-            spread: 0.1,
             seed: 5,
-            manoeuvres: Vec::new(),
+            ..PopulationStudy::shipped()
         };
         let files = [PathBuf::from("a.ssv"), PathBuf::from("b.ssv")];
         let cars = draw_cars(&study, &files).unwrap();
