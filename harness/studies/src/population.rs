@@ -219,8 +219,22 @@ pub fn run(study: &PopulationStudy, env: &Environment) -> Result<PopulationRepor
             .map(|m| m.name.clone())
             .collect()
     } else {
-        for name in &study.manoeuvres {
-            campaign.manoeuvre(name)?;
+        let known: Vec<&str> = campaign
+            .file
+            .manoeuvres
+            .iter()
+            .map(|m| m.name.as_str())
+            .collect();
+        if let Some(unknown) = study
+            .manoeuvres
+            .iter()
+            .find(|m| !known.contains(&m.as_str()))
+        {
+            bail!(
+                "--manoeuvres {unknown}: not a manoeuvre of {}; expected one of {}",
+                file.display(),
+                known.join(", ")
+            );
         }
         study.manoeuvres.clone()
     };
@@ -678,6 +692,25 @@ mod tests {
         };
         let message = format!("{:#}", car_overrides(&missing).unwrap_err());
         assert!(message.contains("base.toml"), "{message}");
+    }
+
+    #[test]
+    fn an_unknown_manoeuvre_is_named_with_the_campaign_s_own() {
+        let study = PopulationStudy {
+            manoeuvres: vec!["step_steer".into(), "nope".into()],
+            ..PopulationStudy::shipped()
+        };
+        // refused before any FMU is loaded
+        let env = Environment {
+            fmu_dir: PathBuf::from("no FMUs here"),
+            out_dir: std::env::temp_dir().join("population-unknown-manoeuvre"),
+        };
+        let message = format!("{:#}", run(&study, &env).unwrap_err());
+        assert!(
+            message.starts_with("--manoeuvres nope: not a manoeuvre of")
+                && message.contains("step_steer, iso3888_2"),
+            "{message}"
+        );
     }
 
     #[test]
