@@ -50,8 +50,8 @@ const PEAK_SLIP: f64 = 0.15;
 /// 11°: beyond it a passenger car spins; with ESC the sideslip stays within a few degrees, van
 /// Zanten, Bosch ESP Systems: 5 Years of Experience, SAE 2000-01-1633). Beyond it model A's own
 /// estimate is more often lost than the car: on drawn cars that did not spin (`harness
-/// population`, lane changes and slow ramps) keeping up to 1.2 rad made model A's LKF, EKF and
-/// UKFs worse on 3-5 runs each (EKF 5.5° → 12.2° summed over 3).
+/// population`, lane changes and slow ramps) keeping up to 1.2 rad made model A's EKF and UKFs
+/// worse on 3-5 runs each (EKF 5.5° → 12.2° summed over 3).
 const MAX_KEPT_SIDESLIP: f64 = 0.2;
 
 /// Below this speed a start from the measurements takes its lateral speed from the rear axle's
