@@ -1,9 +1,10 @@
 //! FMU log messages. The `fmi` crate forwards every fmi2CallbackLogger call to the `log` crate
 //! with the instance name as target; this logger keeps the last messages of each instance so that
 //! an error from an FMI call can quote what the FMU said, and prints warnings and errors. A
-//! message an instance repeats word for word (an out-of-range input clamped at every doStep) is
-//! printed [`PRINTED_REPEATS`] times and then once more with a note that further repeats are
-//! not printed; they are still kept for [`take_recent`].
+//! message an instance repeats, word for word or with only its numbers changed (an out-of-range
+//! input clamped at every doStep names the value it got each time), is printed
+//! [`PRINTED_REPEATS`] times and then once more with a note that further repeats are not
+//! printed; they are still kept for [`take_recent`].
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Mutex, Once};
@@ -38,10 +39,11 @@ impl RepeatFilter {
 
     fn admit(&mut self, instance: &str, message: &str) -> Printing {
         let counts = self.counts.entry(instance.to_string()).or_default();
-        if !counts.contains_key(message) && counts.len() >= COUNTED_PER_INSTANCE {
+        let shape = shape(message);
+        if !counts.contains_key(&shape) && counts.len() >= COUNTED_PER_INSTANCE {
             return Printing::Print;
         }
-        let count = counts.entry(message.to_string()).or_insert(0);
+        let count = counts.entry(shape).or_insert(0);
         *count = count.saturating_add(1);
         match (*count).cmp(&PRINTED_REPEATS) {
             std::cmp::Ordering::Less => Printing::Print,
@@ -49,6 +51,25 @@ impl RepeatFilter {
             std::cmp::Ordering::Greater => Printing::Suppress,
         }
     }
+}
+
+/// `message` with every number (a run of digits and the points between them) replaced by `#`:
+/// what makes two messages repeats of one another.
+fn shape(message: &str) -> String {
+    let mut shaped = String::with_capacity(message.len());
+    let mut in_number = false;
+    for c in message.chars() {
+        if c.is_ascii_digit() || (in_number && c == '.') {
+            if !in_number {
+                shaped.push('#');
+            }
+            in_number = true;
+        } else {
+            shaped.push(c);
+            in_number = false;
+        }
+    }
+    shaped
 }
 
 struct FmuLogger {
@@ -81,7 +102,7 @@ impl log::Log for FmuLogger {
             match printing {
                 Printing::Print => eprintln!("[FMU {}] {message}", record.target()),
                 Printing::PrintLast => eprintln!(
-                    "[FMU {}] {message} (repeated {PRINTED_REPEATS} times; further repeats not printed)",
+                    "[FMU {}] {message} (repeated {PRINTED_REPEATS} times, numbers aside; further repeats not printed)",
                     record.target()
                 ),
                 Printing::Suppress => {}
@@ -155,10 +176,45 @@ mod tests {
     }
 
     #[test]
+    fn a_message_repeated_with_other_numbers_is_a_repeat() {
+        let mut filter = RepeatFilter::new();
+        let clamped = |value: f64| {
+            format!(
+                "WARN: fmi2SetReal: variable 'drive_torque' (valueReference 2): value {value} is \
+                 outside its range [-10000, 10000]; clamped to 10000"
+            )
+        };
+        let seen: Vec<Printing> = [11203.26, 11150.2, 10998.0, 10500.5]
+            .map(|value| filter.admit("vehicle", &clamped(value)))
+            .to_vec();
+        assert_eq!(
+            seen,
+            [
+                Printing::Print,
+                Printing::Print,
+                Printing::PrintLast,
+                Printing::Suppress
+            ]
+        );
+        // other words are another message
+        let other = "WARN: fmi2SetReal: variable 'brake_torque' (valueReference 3): value 1.5e5";
+        assert_eq!(filter.admit("vehicle", other), Printing::Print);
+        assert_eq!(shape("a 1.5e-5 b 42."), "a #e-# b #");
+    }
+
+    #[test]
     fn beyond_the_counted_messages_new_ones_are_printed_uncounted() {
         let mut filter = RepeatFilter::new();
         for k in 0..COUNTED_PER_INSTANCE {
-            assert_eq!(filter.admit("PF", &format!("message {k}")), Printing::Print);
+            // distinct words, not numbers (those would be repeats of one message)
+            let word: String = format!("{k:b}")
+                .chars()
+                .map(|bit| if bit == '0' { 'a' } else { 'b' })
+                .collect();
+            assert_eq!(
+                filter.admit("PF", &format!("message {word}")),
+                Printing::Print
+            );
         }
         for _ in 0..5 {
             assert_eq!(filter.admit("PF", "one more"), Printing::Print);
