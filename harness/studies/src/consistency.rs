@@ -432,7 +432,13 @@ pub fn run(study: &ConsistencyStudy, env: &Environment) -> Result<ConsistencyRep
         .file_name()
         .map(|folder| Path::new(folder).join("consistency.png"));
     Ok(ConsistencyReport {
-        scenario: study.scenario.display().to_string(),
+        // relative to the workspace, as the report is read on other machines
+        scenario: study
+            .scenario
+            .strip_prefix(fmi_master::runner::workspace_root())
+            .unwrap_or(&study.scenario)
+            .display()
+            .to_string(),
         runs: study.runs,
         nees_band,
         states,
