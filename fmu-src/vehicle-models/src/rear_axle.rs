@@ -108,7 +108,7 @@ impl Default for RearAxleParams {
             wheelbase: 2.69,
             cog_height: 0.5,
             gravity: crate::GRAVITY,
-            low_speed_guard: 1.0,
+            low_speed_guard: crate::single_track::DEFAULT_LOW_SPEED_GUARD,
         }
     }
 }

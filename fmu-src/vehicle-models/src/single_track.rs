@@ -231,7 +231,7 @@ impl Default for SingleTrackParams {
     fn default() -> Self {
         Self {
             chassis: Chassis::default(),
-            low_speed_guard: 1.0,
+            low_speed_guard: DEFAULT_LOW_SPEED_GUARD,
             cornering_stiffness_scale_front: 1.0,
             cornering_stiffness_scale_rear: 1.0,
         }
@@ -377,6 +377,10 @@ pub type SingleTrackHsri = SingleTrackModel<HsriTyre>;
 fn kinematic_tan_slip_angle<S: Scalar>(lateral_velocity: S, inverse_divisor: S) -> S {
     -lateral_velocity * inverse_divisor
 }
+
+/// The default speed, m/s, below which the slip divisions use the guard instead (see the
+/// module docs); the single-track, two-track and rear-axle models share it.
+pub const DEFAULT_LOW_SPEED_GUARD: f64 = 1.0;
 
 /// A wheel's longitudinal slip `(ω r − v) / v` (000: 5.65) from the reciprocal of its guarded
 /// speed ([`guarded_speed`]), which the axle shares with its slip angle.

@@ -124,7 +124,7 @@ impl Default for TwoTrackParams {
             cog_height: 0.55,
             front_roll_moment_share: 0.6,
             load_transfer_rounds: 2,
-            low_speed_guard: 1.0,
+            low_speed_guard: crate::single_track::DEFAULT_LOW_SPEED_GUARD,
             cornering_stiffness_scale_front: 1.0,
             cornering_stiffness_scale_rear: 1.0,
         }

@@ -15,7 +15,7 @@ use estimation::{FilterIssue, UpdateReport};
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
-use vehicle_models::single_track::{guarded_speed, longitudinal_slip, SingleTrackParams};
+use vehicle_models::single_track::{guarded_speed, longitudinal_slip, DEFAULT_LOW_SPEED_GUARD};
 
 use crate::lateral_accelerometer::{AySample, LateralAccelerometer};
 use crate::model_description::{EstimatorModel, RealOutputs, Variables};
@@ -1307,10 +1307,10 @@ where
             values.omega_rear_est = omega;
             values.omega_rear_std = std;
         }
-        let guard = SingleTrackParams::default().low_speed_guard;
+        // model A's guard (its parameters take the default)
         let slip = |omega: f64, (along, radius): (f64, f64)| {
             let wheel_velocity = values.vx_est * along;
-            let divisor = guarded_speed(wheel_velocity, guard);
+            let divisor = guarded_speed(wheel_velocity, DEFAULT_LOW_SPEED_GUARD);
             longitudinal_slip(omega, radius, wheel_velocity, 1.0 / divisor)
         };
         values.slip_front_est = slip(values.omega_front_est, axles[0]);

@@ -257,7 +257,7 @@ pub fn run(study: &PopulationStudy, env: &Environment) -> Result<PopulationRepor
     let per_car = cars
         .par_iter()
         .map(|car| -> Result<Vec<PopulationRow>> {
-            let drawn = Campaign::load(&file)?.with_overrides(&car_overrides(car)?)?;
+            let drawn = campaign.clone().with_overrides(&car_overrides(car)?)?;
             let stem = car
                 .car_file
                 .file_stem()
@@ -427,35 +427,51 @@ impl PopulationReport {
         text
     }
 
-    /// Every row as CSV: the drawn car, the estimator and its figures (angles in degrees).
-    pub fn csv(&self) -> String {
-        let mut text = String::from(
-            "car,draw,factor_front,factor_rear,noise_seed,manoeuvre,estimator,model,\
-             sideslip_rmse_deg,max_error_deg,zero_baseline_deg,peak_sideslip_deg,spun,mean_nees,\
-             share_inside\n",
-        );
+    /// Every row as CSV (quoted where a name needs it): the drawn car, the estimator and its
+    /// figures (angles in degrees).
+    pub fn csv(&self) -> Result<String> {
+        let mut writer = csv::Writer::from_writer(Vec::new());
+        writer.write_record([
+            "car",
+            "draw",
+            "factor_front",
+            "factor_rear",
+            "noise_seed",
+            "manoeuvre",
+            "estimator",
+            "model",
+            "sideslip_rmse_deg",
+            "max_error_deg",
+            "zero_baseline_deg",
+            "peak_sideslip_deg",
+            "spun",
+            "mean_nees",
+            "share_inside",
+        ])?;
         for population_row in &self.rows {
             let PopulationRow { car, row } = population_row;
-            text.push_str(&format!(
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-                row.car,
-                car.draw,
-                car.factors[0],
-                car.factors[1],
-                car.noise_seed,
-                row.manoeuvre,
-                row.estimator,
-                row.model,
-                row.rmse.to_degrees(),
-                row.max_error.to_degrees(),
-                row.zero_baseline.to_degrees(),
-                row.peak_sideslip.to_degrees(),
-                population_row.spun(),
-                row.mean_nees,
-                row.share_inside
-            ));
+            writer.write_record([
+                row.car.clone(),
+                car.draw.to_string(),
+                car.factors[0].to_string(),
+                car.factors[1].to_string(),
+                car.noise_seed.to_string(),
+                row.manoeuvre.clone(),
+                row.estimator.clone(),
+                row.model.to_string(),
+                row.rmse.to_degrees().to_string(),
+                row.max_error.to_degrees().to_string(),
+                row.zero_baseline.to_degrees().to_string(),
+                row.peak_sideslip.to_degrees().to_string(),
+                population_row.spun().to_string(),
+                row.mean_nees.to_string(),
+                row.share_inside.to_string(),
+            ])?;
         }
-        text
+        let bytes = writer
+            .into_inner()
+            .map_err(|e| anyhow!("population.csv: {}", e.error()))?;
+        Ok(String::from_utf8(bytes)?)
     }
 
     /// The report's section.
@@ -586,7 +602,7 @@ pub fn run_and_report(study: &PopulationStudy, fmu_dir: &Path, out: &Path) -> Re
     for (name, text) in [
         ("report.md", doc.to_markdown()),
         ("report.html", doc.to_html("Population of cars")),
-        ("population.csv", report.csv()),
+        ("population.csv", report.csv()?),
     ] {
         write_whole(&out.join(name), &text)?;
     }

@@ -254,6 +254,7 @@ impl Overrides {
 }
 
 /// A campaign file with its base scenario and estimator instances resolved.
+#[derive(Debug, Clone)]
 pub struct Campaign {
     pub file: CampaignFile,
     pub base: Scenario,
