@@ -19,3 +19,4 @@ pub mod runner;
 pub mod scenario;
 pub mod scoring;
 pub mod ssv;
+pub mod yardstick;
