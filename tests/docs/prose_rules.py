@@ -13,7 +13,7 @@ import re
 HISTORY = [
     (re.compile(r"\b(?:19|20)\d\d-\d\d-\d\d\b"), "a date"),
     (re.compile(r"\b(?:issues?|PR|pull request)\s*#?\d+", re.IGNORECASE), "an issue number"),
-    (re.compile(r"(?<![\w-])#\d{2,}\b"), "an issue number"),
+    (re.compile(r"(?<![\w(-])#\d{2,}\b(?!-)"), "an issue number"),
     (re.compile(r"\b(?=[0-9a-f]*\d)(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b"), "a commit hash"),
     (re.compile(r"\b(?:since|before|until|after)\s+(?:(?:19|20)\d\d|the (?:last|previous) "
                 r"(?:wave|change|commit|release)|commit|issue)", re.IGNORECASE), "a moment of change"),

@@ -3,7 +3,7 @@
 The code cites the equations and experiments it implements as ``(000: 5.42)`` (seed 000,
 equation 5.42), ``(001: eqs 6-11)``, ``(003: §3.2)``, ``(000: table 5.1)``, ``(000: ch. 7)`` and
 ``SPEC §7``. Their targets are written out, in the project's own words, in
-``fmu-src/vehicle-models/README.md``, ``fmu-src/estimation/README.md`` and the FMU documentation
+``docs/explanation/models.md``, ``docs/explanation/estimators.md`` and the FMU documentation
 under ``packaging/doc/``. Each target carries an HTML anchor whose id encodes the key:
 
 ===============================  ==============================================
@@ -44,8 +44,8 @@ SKIPPED_DIRECTORIES = {"target", ".venv", "out", ".git", "__pycache__", "node_mo
 
 # The documents whose anchors are citation targets.
 THEORY_DOCS = [
-    ROOT / "fmu-src" / "vehicle-models" / "README.md",
-    ROOT / "fmu-src" / "estimation" / "README.md",
+    ROOT / "docs" / "explanation" / "models.md",
+    ROOT / "docs" / "explanation" / "estimators.md",
 ]
 THEORY_DOC_FOLDER = ROOT / "packaging" / "doc"
 
