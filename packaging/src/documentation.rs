@@ -1,12 +1,13 @@
 //! `documentation/index.html` of an FMU: hand-written prose about the models and filters, followed
-//! by interface tables generated from the model description, so the tables cannot drift from the
-//! variables the binary actually exposes.
+//! by the variable reference that `model_description::docs` generates from the model description
+//! (the same tables as the repository's `docs/reference/<model>.md`), so neither can drift from
+//! the variables the binary actually exposes.
 
 use std::fmt::Write as _;
 
 use quick_xml::escape::escape;
 
-use crate::description::{ModelDescription, ScalarVariable};
+use crate::description::ModelDescription;
 
 fn text(value: &str) -> String {
     escape(value).into_owned()
@@ -16,95 +17,17 @@ fn optional(value: Option<&str>) -> String {
     value.map(text).unwrap_or_default()
 }
 
-/// How a variable's unit reads in the table: "rad (display: deg)".
-fn unit_cell(description: &ModelDescription, variable: &ScalarVariable) -> String {
-    match (
-        description.effective_unit(variable),
-        description.effective_display_unit(variable),
-    ) {
-        (Some(unit), Some(display)) if display != unit => {
-            format!(
-                "{} <small>(display {})</small>",
-                text(&unit),
-                text(&display)
-            )
-        }
-        (Some(unit), _) => text(&unit),
-        (None, _) => String::new(),
-    }
-}
-
-/// The type cell; enumerations list their items so the page explains the numbers.
-fn type_cell(description: &ModelDescription, variable: &ScalarVariable) -> String {
-    let declared = variable
-        .declared_type
-        .as_deref()
-        .and_then(|name| description.simple_type(name));
-    match declared {
-        Some(simple_type) if !simple_type.items.is_empty() => {
-            let mut cell = format!(
-                "{} <code>{}</code><ul>",
-                variable.type_name,
-                text(&simple_type.name)
-            );
-            for item in &simple_type.items {
-                let _ = write!(
-                    cell,
-                    "<li>{} = <code>{}</code>{}</li>",
-                    text(&item.value),
-                    text(&item.name),
-                    item.description
-                        .as_deref()
-                        .map(|d| format!(": {}", text(d)))
-                        .unwrap_or_default()
-                );
-            }
-            cell.push_str("</ul>");
-            cell
-        }
-        Some(simple_type) => format!(
-            "{} <code>{}</code>",
-            variable.type_name,
-            text(&simple_type.name)
+/// The generated variable reference of the model description at `description.file`. Packaging
+/// has parsed and validated that file just before, with the same parser; should it have changed
+/// on disk since, the page says so instead of showing stale tables.
+fn reference_tables(description: &ModelDescription) -> String {
+    match model_description::parse_file(&description.file) {
+        Ok(parsed) => model_description::docs::reference_html(&parsed),
+        Err(error) => format!(
+            "<p><strong>The variable reference could not be generated: {}</strong></p>\n",
+            text(&error.to_string())
         ),
-        None => variable.type_name.clone(),
     }
-}
-
-fn variable_table(
-    out: &mut String,
-    description: &ModelDescription,
-    title: &str,
-    intro: &str,
-    variables: &[&ScalarVariable],
-) {
-    if variables.is_empty() {
-        return;
-    }
-    let _ = writeln!(out, "<h3>{} ({})</h3>", text(title), variables.len());
-    let _ = writeln!(out, "<p>{}</p>", text(intro));
-    out.push_str(
-        "<table>\n<thead><tr><th>Name</th><th>VR</th><th>Type</th><th>Unit</th><th>Start</th>\
-         <th>Min</th><th>Max</th><th>Variability</th><th>Description</th></tr></thead>\n<tbody>\n",
-    );
-    for variable in variables {
-        let _ = writeln!(
-            out,
-            "<tr id=\"var-{}\"><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
-             <td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            text(&variable.name),
-            text(&variable.name),
-            variable.value_reference,
-            type_cell(description, variable),
-            unit_cell(description, variable),
-            optional(variable.start.as_deref()),
-            optional(variable.min.as_deref()),
-            optional(variable.max.as_deref()),
-            text(&variable.variability),
-            optional(variable.description.as_deref()),
-        );
-    }
-    out.push_str("</tbody>\n</table>\n");
 }
 
 const STYLE: &str =
@@ -181,91 +104,11 @@ pub fn index_html(description: &ModelDescription, prose_html: &str) -> String {
 
     out.push_str("<h2>Interface</h2>\n");
     out.push_str(
-        "<p>Generated from <code>modelDescription.xml</code>. All values are SI on the interface; \
-         display units only change how tools show them. VR is the value reference used with \
-         <code>fmi2GetReal</code>/<code>fmi2SetReal</code> etc. Axes follow ISO 8855 (x forward, \
-         y left, z up; yaw rate and steering angle positive to the left).</p>\n",
+        "<p>Generated from <code>modelDescription.xml</code> by the same code that writes the \
+         repository's <code>docs/reference/</code>. VR is the value reference used with \
+         <code>fmi2GetReal</code>/<code>fmi2SetReal</code> etc.</p>\n",
     );
-    let group = |causality: &str| -> Vec<&ScalarVariable> {
-        description
-            .variables
-            .iter()
-            .filter(|variable| variable.causality == causality)
-            .collect()
-    };
-    variable_table(
-        &mut out,
-        description,
-        "Inputs",
-        "Set before each fmi2DoStep; held constant over the communication step.",
-        &group("input"),
-    );
-    variable_table(
-        &mut out,
-        description,
-        "Outputs",
-        "Valid after fmi2ExitInitializationMode and after every fmi2DoStep.",
-        &group("output"),
-    );
-    variable_table(
-        &mut out,
-        description,
-        "Parameters",
-        "Fixed parameters are set between fmi2Instantiate and fmi2ExitInitializationMode; \
-         tunable ones may also change between steps.",
-        &group("parameter"),
-    );
-    variable_table(
-        &mut out,
-        description,
-        "Calculated parameters",
-        "Computed by the FMU during initialisation.",
-        &group("calculatedParameter"),
-    );
-    variable_table(
-        &mut out,
-        description,
-        "Local variables",
-        "Internal quantities exposed for inspection.",
-        &group("local"),
-    );
-
-    if !description.type_definitions.is_empty() {
-        out.push_str(
-            "<h3>Type definitions</h3>\n<table>\n<thead><tr><th>Name</th><th>Kind</th>\
-                      <th>Unit</th><th>Items / description</th></tr></thead>\n<tbody>\n",
-        );
-        for simple_type in &description.type_definitions {
-            let items: Vec<String> = simple_type
-                .items
-                .iter()
-                .map(|item| {
-                    format!(
-                        "{} = <code>{}</code>{}",
-                        text(&item.value),
-                        text(&item.name),
-                        item.description
-                            .as_deref()
-                            .map(|d| format!(": {}", text(d)))
-                            .unwrap_or_default()
-                    )
-                })
-                .collect();
-            let detail = if items.is_empty() {
-                optional(simple_type.description.as_deref())
-            } else {
-                items.join("<br>")
-            };
-            let _ = writeln!(
-                out,
-                "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{detail}</td></tr>",
-                text(&simple_type.name),
-                text(&simple_type.kind),
-                optional(simple_type.unit.as_deref()),
-            );
-        }
-        out.push_str("</tbody>\n</table>\n");
-    }
+    out.push_str(&reference_tables(description));
 
     if !description.unit_definitions.is_empty() {
         out.push_str(

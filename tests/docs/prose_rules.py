@@ -14,7 +14,7 @@ HISTORY = [
     (re.compile(r"\b(?:19|20)\d\d-\d\d-\d\d\b"), "a date"),
     (re.compile(r"\b(?:issues?|PR|pull request)\s*#?\d+", re.IGNORECASE), "an issue number"),
     (re.compile(r"(?<![\w(-])#\d{2,}\b(?!-)"), "an issue number"),
-    (re.compile(r"\b(?=[0-9a-f]*\d)(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b"), "a commit hash"),
+    (re.compile(r"(?<![.\w])(?=[0-9a-f]*\d)(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b(?![-+.]\d)"), "a commit hash"),
     (re.compile(r"\b(?:since|before|until|after)\s+(?:(?:19|20)\d\d|the (?:last|previous) "
                 r"(?:wave|change|commit|release)|commit|issue)", re.IGNORECASE), "a moment of change"),
     (re.compile(r"\b(?:previously|formerly|no longer|used to be|was changed|became the default)\b",

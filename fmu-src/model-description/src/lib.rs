@@ -26,6 +26,7 @@
 //! See [`codegen`] for what the generated file contains.
 
 pub mod codegen;
+pub mod docs;
 mod error;
 mod parse;
 pub mod validate;
