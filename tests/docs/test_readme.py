@@ -70,3 +70,18 @@ def test_relative_links_resolve(path):
     broken = [target for target in LINK.findall(text)
               if "://" not in target and not (path.parent / target).exists()]
     assert not broken, f"{path.relative_to(ROOT)} links to missing files: {broken}"
+
+
+MAX_FOLDER_README_LINES = 60
+
+
+@pytest.mark.parametrize("path", [p for p in prose_files() if p.name == "README.md" and p != README
+                                  and "docs" not in p.relative_to(ROOT).parts],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_folder_readmes_stay_short(path):
+    """A crate or folder README says what the folder is and where things are; the explanation,
+    the measurements and the how-to live in docs/, where a reader looks for them."""
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= MAX_FOLDER_README_LINES, (
+        f"{path.relative_to(ROOT)} has {len(lines)} lines, at most {MAX_FOLDER_README_LINES}: "
+        "move the long story into docs/")
