@@ -377,12 +377,14 @@ fn range(min: Option<f64>, max: Option<f64>) -> String {
     }
 }
 
-/// A table cell of Markdown: pipes escaped, line breaks folded.
+/// A table cell of Markdown: pipes and asterisks escaped (`*_std` names a group of variables,
+/// not emphasis), line breaks folded.
 fn md_cell(text: &str) -> String {
     text.split_whitespace()
         .collect::<Vec<_>>()
         .join(" ")
         .replace('|', "\\|")
+        .replace('*', "\\*")
 }
 
 fn html(text: &str) -> String {
@@ -454,7 +456,7 @@ mod tests {
 
     #[test]
     fn cells_escape_pipes_and_fold_lines() {
-        assert_eq!(md_cell("a | b\n  c"), "a \\| b c");
+        assert_eq!(md_cell("a | b\n  c *_std"), "a \\| b c \\*_std");
         assert_eq!(html("a<b & \"c\""), "a&lt;b &amp; &quot;c&quot;");
         assert_eq!(range(Some(0.0), None), "[0, inf]");
         assert_eq!(real(f64::NAN), "NaN (missing)");
