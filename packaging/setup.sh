@@ -59,7 +59,7 @@ if ! cmp -s "$root/packaging/requirements-uv.txt" "$uv_stamp"; then
 fi
 install_requirements "$root/tests/requirements.txt" "$venv/.requirements"
 
-# vse_campaign (harness/campaign, issue 16) on .venv's path: a .pth file, no build step.
+# vse_campaign (harness/campaign, the Dask campaign runner) on .venv's path: a .pth file, no build step.
 "$venv/bin/python" -c 'import site, sys; open(site.getsitepackages()[0] + "/vse_campaign.pth", "w").write(sys.argv[1] + "\n")' "$root/harness/campaign"
 
 install_requirements "$root/packaging/requirements-zig.txt" "$venv/.requirements-zig"

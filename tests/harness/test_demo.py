@@ -1,13 +1,13 @@
 """Tests on one `harness demo` run, asserted on the harness's own output: the seed-000 findings
 (SPEC section 7, seed 000 ch. 7), the demo's findings table and the key numbers recomputed here
-from its CSV recordings; and the model-mismatch study as shipped (issue 6 point 5,
-harness/studies/src/mismatch.rs), which the demo runs in full.
+from its CSV recordings; and the model-mismatch study as shipped
+(harness/studies/src/mismatch.rs), which the demo runs in full.
 
 The demo is the longest piece of the Python tests (about 75 s on a 2-core machine, most of it the
 model-mismatch study's EM), so everything that reads it is in this one module: with
 `pytest -n 2 --dist loadscope` (tests/run.sh) one worker runs the demo once, and the marker
 `starts_first` (tests/conftest.py) hands it out first, so the other worker runs the remaining
-modules meanwhile (issue 11 point 7)."""
+modules meanwhile."""
 
 import csv
 import re
@@ -111,7 +111,7 @@ def test_braking_makes_the_lkf_worse_after_9s(demo):
 
 # The model-mismatch study. harness/studies/tests/mismatch.rs runs the same pipeline with the EM
 # cut to its first SQUAREM cycles; the full EM (20 cycles, 100 particles), nearly all of the
-# study's time, runs once per test run, here in the demo, instead of twice (issue 11 point 7).
+# study's time, runs once per test run, here in the demo, not twice.
 # The bounds are that test's, on the full run.
 MISMATCH_VALIDATION_SCENARIOS = ["mismatch_validation_step_steer", "mismatch_validation_lane_change"]
 MISMATCH_ESTIMATORS = ["EKF", "UKF"]
@@ -163,7 +163,7 @@ STATES = ("vx", "vy", "yaw_rate", "omega_front", "omega_rear", "sideslip")
 
 
 def test_the_consistency_section_shows_the_kalman_filters_honest_and_at_the_bound(demo):
-    """Issue 17 points 1 and 2 on the demo's Monte Carlo of the matched seed-000 high-ay ramp:
+    """Consistency where the model is right, on the demo's Monte Carlo of the matched seed-000 high-ay ramp:
     every state's ANEES of the EKF and both UKFs inside its 95 % band, their RMSE within 10 % of
     sqrt(PCRLB) and their mean NIS per row near 1; the LKF, linearised once at the start, is
     neither (seed 000's own finding). The scenario is named relative to the workspace."""

@@ -309,7 +309,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    // The FMUs' extraction folder, removed on every exit path (issue 15, point 6).
+    // The FMUs' extraction folder, removed on every exit path, so an error leaves no scratch behind.
     let work = env.work_folder();
     let mut outputs = Vec::new();
     let mut failures: Vec<(String, String)> = Vec::new();
@@ -359,7 +359,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &bar,
         &mut failures,
     );
-    bar.set_message("robustness cases and mismatch campaigns on real cars (issues 12, 13, 17)");
+    bar.set_message("robustness cases and mismatch campaigns on real cars");
     let real_cars = keep(
         REAL_CARS_STUDY,
         RealCars::run_shipped(
