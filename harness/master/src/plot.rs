@@ -332,9 +332,10 @@ pub fn draw_error_bars(
     let height = 90 + 24 * rows.len().max(1) as u32 + 30;
     let root = BitMapBackend::new(path, (1000, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| fail(&e))?;
+    let (area, legend_area) = root.split_vertically(height - 30);
     let n = rows.len().max(1) as f64;
     let labels: Vec<String> = rows.iter().map(|r| r.label.clone()).collect();
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(&area)
         .caption(title, (FAMILY, 18).into_font())
         .margin(10)
         .x_label_area_size(40)
@@ -399,7 +400,7 @@ pub fn draw_error_bars(
         ))
     });
     chart.draw_series(diamonds).map_err(|e| fail(&e))?;
-    draw_error_legend(&root, legend, height).map_err(|e| fail(&e))?;
+    draw_error_legend(&legend_area, legend).map_err(|e| fail(&e))?;
     root.present().map_err(|e| fail(&e))?;
     Ok(())
 }
@@ -410,11 +411,10 @@ const YARDSTICK: RGBColor = RGBColor(230, 120, 0);
 fn draw_error_legend<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     legend: &ErrorChartLegend,
-    height: u32,
 ) -> Result<()> {
     let fail = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("legend: {e}");
     let font = (FAMILY, 12).into_font();
-    let y = height as i32 - 18;
+    let y = 15;
     let mut x = 20;
     for (group, name) in legend.groups.iter().enumerate() {
         let c = PALETTE[(group + 1) % PALETTE.len()];

@@ -28,6 +28,9 @@ struct Cli {
 enum Command {
     /// Package the FMUs when missing or stale, run every seed experiment, write out/demo/report.md and report.html
     Demo(commands::studies::Demo),
+    /// The report's opening answer on its own: sideslip RMSE per estimator and model against zero
+    /// and the steady-state formula, from the accuracy CSVs the studies write
+    Summary(commands::studies::Summary),
     /// Run one scenario file: CSV of every recorded signal, scores, plots
     Run(commands::scenarios::Run),
     /// Run a scenario with N noise seeds in parallel; mean and spread of every score, NEES/NIS consistency
@@ -87,6 +90,7 @@ fn main() -> ExitCode {
 fn execute(cli: Cli, stdout: commands::Stdout) -> Result<()> {
     match cli.command {
         Command::Demo(command) => command.run(stdout),
+        Command::Summary(command) => command.run(stdout),
         Command::Run(command) => command.run(stdout),
         Command::Montecarlo(command) => command.run(stdout),
         Command::Identify(command) => command.run(stdout),

@@ -312,6 +312,14 @@ fn groups(rows: &[AccuracyRow]) -> Vec<Group> {
         .collect()
 }
 
+fn cases(n: usize) -> String {
+    if n == 1 {
+        "1 case".into()
+    } else {
+        format!("{n} cases")
+    }
+}
+
 fn deg(value: Option<f64>) -> String {
     value
         .filter(|v| v.is_finite())
@@ -406,11 +414,11 @@ fn verdicts(groups: &[Group], sources: &[String]) -> Vec<String> {
                 )
             };
             lines.push(format!(
-                "**{source}, the default ({}):** median {}°, worst {}° over {} cases; better than zero in {} of {}; {yardstick}; mean NEES {:.2} (honest: {}–{}).",
+                "**{source}, the default ({}):** median {}°, worst {}° over {}; better than zero in {} of {}; {yardstick}; mean NEES {:.2} (honest: {}–{}).",
                 default.label(),
                 deg(Some(default.rmse())),
                 deg(Some(default.worst())),
-                default.rows.len(),
+                cases(default.rows.len()),
                 default.beating_zero(),
                 default.rows.len(),
                 default.mean_nees(),

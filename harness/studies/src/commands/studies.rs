@@ -2,14 +2,17 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
 
+use fmi_master::recording::write_whole;
+use fmi_master::report::Document;
 use fmi_master::runner::Environment;
 use harness::campaigns::Overrides;
 use harness::consistency::ConsistencyStudy;
-use harness::demo::{self, DemoOptions};
+use harness::demo::{self, DemoOptions, ANSWER_PNG};
 use harness::population::PopulationStudy;
+use harness::summary;
 
 use super::{fmu_dir_or_default, packaged_fmus, Stdout};
 
@@ -70,7 +73,7 @@ impl Consistency {
             out_dir: self.out,
         };
         let report = harness::consistency::run(&study, &env)?;
-        let mut doc = fmi_master::report::Document::default();
+        let mut doc = Document::default();
         harness::consistency::section(&mut doc, &report);
         write!(stdout, "{}", doc.to_markdown())?;
         Ok(())
@@ -163,6 +166,37 @@ impl Population {
         let summary = harness::population::run_and_report(&study, &fmu_dir, &self.out)?;
         write!(stdout, "{summary}")?;
         writeln!(stdout, "report: {}", self.out.join("report.md").display())?;
+        Ok(())
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct Summary {
+    /// Accuracy CSVs with the header harness::summary::HEADER, as the studies write them (the
+    /// demo's accuracy_simulated.csv, a replay study's rows).
+    #[arg(required = true)]
+    rows: Vec<PathBuf>,
+    /// Output folder (report.md, report.html and the figure).
+    #[arg(long, default_value = "out/summary")]
+    out: PathBuf,
+}
+
+impl Summary {
+    pub fn run(self, stdout: Stdout) -> Result<()> {
+        let rows = summary::read_rows(&self.rows)?;
+        std::fs::create_dir_all(&self.out)
+            .with_context(|| format!("creating {}", self.out.display()))?;
+        let mut doc = Document::default();
+        doc.heading(1, "Vehicle state estimation: how accurate, against what");
+        summary::section(&mut doc, &rows, &self.out.join(ANSWER_PNG), ANSWER_PNG)?;
+        write_whole(&self.out.join("report.md"), &doc.to_markdown())?;
+        write_whole(
+            &self.out.join("report.html"),
+            &doc.to_html("Sideslip accuracy"),
+        )?;
+        writeln!(stdout, "{} rows", rows.len())?;
+        writeln!(stdout, "report: {}", self.out.join("report.md").display())?;
+        writeln!(stdout, "        {}", self.out.join("report.html").display())?;
         Ok(())
     }
 }
