@@ -22,6 +22,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use serde::Deserialize;
 
 use fmi_master::cosim::{ParameterValue, RunResult};
+use fmi_master::fmu_log;
 use fmi_master::plot;
 use fmi_master::recording::write_whole;
 use fmi_master::report::Document;
@@ -227,6 +228,9 @@ pub struct CaseResult {
     pub case: Case,
     pub figures: Vec<Figures>,
     pub plot: Option<PathBuf>,
+    /// The FMU warnings of a case that is out of range on purpose, recorded for the report
+    /// instead of printed (empty for the other cases, whose warnings are printed).
+    pub expected_warnings: Vec<String>,
 }
 
 impl CaseResult {
@@ -308,8 +312,10 @@ pub fn run_case(
     let mut overrides = car::estimator_overrides(&car_file, &file.estimators(), &estimator)?;
     drop(estimator);
     overrides.extend(parameter_overrides(case)?);
+    let recorder = (case.check == Check::OutOfRange).then(fmu_log::Recorder::start);
     let output = run_scenario(scenario, env, &overrides, false, |_| {})
         .with_context(|| format!("robustness case {:?}", case.name))?;
+    let expected_warnings = recorder.map(|r| r.take()).unwrap_or_default();
     let figures = file
         .corrupted
         .iter()
@@ -323,6 +329,7 @@ pub fn run_case(
         case: case.clone(),
         figures,
         plot,
+        expected_warnings,
     })
 }
 
@@ -487,6 +494,34 @@ impl RobustnessReport {
         rows
     }
 
+    /// The warnings the out-of-range cases give on purpose, each message with how often it came.
+    fn expected_warnings(&self, doc: &mut Document) {
+        for result in self
+            .cases
+            .iter()
+            .filter(|r| !r.expected_warnings.is_empty())
+        {
+            let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+            for warning in &result.expected_warnings {
+                *counts.entry(warning.as_str()).or_default() += 1;
+            }
+            doc.paragraph(format!(
+                "Case `{}` feeds inputs outside their declared range on purpose; the {} warnings the FMUs \
+                 gave for it (a message repeated with other numbers counted three times) are expected, and \
+                 recorded here instead of on the console:",
+                result.case.name,
+                result.expected_warnings.len()
+            ));
+            doc.table(
+                vec!["warning".into(), "times".into()],
+                counts
+                    .into_iter()
+                    .map(|(warning, n)| vec![format!("`{warning}`"), n.to_string()])
+                    .collect(),
+            );
+        }
+    }
+
     /// Cases where an instance with the FMU's defaults (every corrupted one but the last, seed
     /// 000's filter) fails its limit.
     pub fn failures(&self) -> Vec<&str> {
@@ -560,6 +595,7 @@ impl RobustnessReport {
                 failures.join(", ")
             )
         });
+        self.expected_warnings(doc);
         for result in &self.cases {
             if let Some(path) = &result.plot {
                 let relative = path.strip_prefix(out).unwrap_or(path);
