@@ -104,7 +104,7 @@ def test_documentation_explains_every_variable(fmu):
             assert word in html, f"vehicle documentation never mentions {word}"
 
 
-def test_interface_has_the_names_of_issue_4(vehicle, estimator):
+def test_both_fmus_share_the_interface_names(vehicle, estimator):
     for name in support.DRIVER_INPUTS:
         assert vehicle[name].causality == "input" and vehicle[name].type == "Real"
         assert estimator[name].causality == "input" and estimator[name].type == "Real"
