@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs, where missing, what building and testing need on a fresh machine. Idempotent and quiet
-# when there is nothing to do; both README commands call it first.
-#  - libclang: the `fmi` crate (the harness's FMI importer) runs bindgen at build time.
+# when there is nothing to do; `bash tests/run.sh` calls it first.
+#  - packaging/setup-build.sh: what building needs (libclang), all `bash harness/demo.sh` needs.
 #  - swig and Boost (Debian): building FMI++'s Python package, the third importer of the tests.
+#  - chromium (Debian): tests/harness/test_report_browser.py renders the HTML report in it.
 #  - .venv: the pinned Python packages of tests/requirements.txt (fmpy, filterpy, pytest, ...),
 #    and of packaging/requirements-zig.txt (zig and cargo-zigbuild, for the Linux libraries that
 #    load on glibc 2.17 and newer), installed by uv (packaging/requirements-uv.txt), with pip as
@@ -10,20 +11,15 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
-# bindgen loads libclang.so or libclang-<version>.so*; libclang-cpp.so (shipped by other LLVM
-# packages) is a different library and does not count.
-have_libclang() {
-    ldconfig -p 2>/dev/null | grep -Eq 'libclang(-[0-9.]+)?\.so' ||
-        compgen -G '/usr/lib/llvm-*/lib/libclang.so*' >/dev/null ||
-        compgen -G '/usr/lib/llvm-*/lib/libclang-[0-9]*.so*' >/dev/null
-}
-if ! have_libclang; then
-    echo "setup: installing libclang-dev (needed by bindgen in the fmi crate)" >&2
-    sudo_cmd=""
+bash "$root/packaging/setup-build.sh"
+
+# Installs the Debian packages $@ (with sudo unless root).
+apt_install() {
+    local sudo_cmd=""
     [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
     $sudo_cmd apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq libclang-dev >/dev/null
-fi
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "$@" >/dev/null
+}
 
 venv="$root/.venv"
 if [ ! -x "$venv/bin/python" ]; then
@@ -59,7 +55,7 @@ if ! cmp -s "$root/packaging/requirements-uv.txt" "$uv_stamp"; then
 fi
 install_requirements "$root/tests/requirements.txt" "$venv/.requirements"
 
-# vse_campaign (harness/campaign, issue 16) on .venv's path: a .pth file, no build step.
+# vse_campaign (harness/campaign, the Dask campaign runner) on .venv's path: a .pth file, no build step.
 "$venv/bin/python" -c 'import site, sys; open(site.getsitepackages()[0] + "/vse_campaign.pth", "w").write(sys.argv[1] + "\n")' "$root/harness/campaign"
 
 install_requirements "$root/packaging/requirements-zig.txt" "$venv/.requirements-zig"
@@ -74,13 +70,16 @@ if ! cmp -s "$root/packaging/requirements-fmipp.txt" "$fmipp_stamp" ||
     compgen -G '/usr/lib/*/libboost_filesystem.so' >/dev/null || missing+=(libboost-filesystem-dev)
     if [ ${#missing[@]} -gt 0 ]; then
         echo "setup: installing ${missing[*]} (to build FMI++ for tests/fmipp)" >&2
-        sudo_cmd=""
-        [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
-        $sudo_cmd apt-get update -qq
-        DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "${missing[@]}" >/dev/null
+        apt_install "${missing[@]}"
     fi
     echo "setup: building FMI++ (fmipp) into $venv" >&2
     bash "$root/packaging/fmipp.sh" "$venv"
     cp "$root/packaging/requirements-fmipp.txt" "$fmipp_stamp"
     cp "$root/packaging/fmipp.sh" "$fmipp_stamp.sh"
+fi
+
+# A real browser for the report's layout test (Debian's chromium, headless).
+if ! command -v chromium >/dev/null; then
+    echo "setup: installing chromium (tests/harness/test_report_browser.py)" >&2
+    apt_install chromium
 fi

@@ -52,5 +52,5 @@ def pytest_collection_modifyitems(items):
     """The `starts_first` tests first (a stable sort keeps every other order): with `pytest -n 2
     --dist loadscope --no-loadscope-reorder` (tests/run.sh) xdist hands out the modules in this
     order, so one worker starts the demo at once and the other runs the remaining modules
-    meanwhile; the suite then lasts about as long as the demo (issue 11 point 7)."""
+    meanwhile; the suite then lasts about as long as the demo."""
     items.sort(key=lambda item: item.get_closest_marker("starts_first") is None)

@@ -6,18 +6,18 @@
 # Built once, linted while it is built: clippy-driver compiles the workspace's own crates
 # (RUSTC_WORKSPACE_WRAPPER, the mechanism `cargo clippy` itself uses) in the one release build of
 # every workspace target, so the crates are type-checked once instead of twice (a separate
-# `cargo clippy` pass took 91-218 s; issue 11 point 7); dependencies are compiled by rustc.
+# `cargo clippy` pass takes 91-218 s); dependencies are compiled by rustc.
 # CLIPPY_ARGS is cargo-clippy's way of passing `-D warnings` to the driver. The variables stay
 # exported for the rest of the script, so every later cargo call (packaging's host-side lookup,
 # `cargo test`, tests/conftest.py asking cargo for the same binaries) sees the same compiler and
 # compiles nothing again; a plain `cargo build --release` afterwards recompiles the workspace's
 # crates. The shipped libraries are not built by the driver: packaging builds them for glibc 2.17
-# with cargo zigbuild (another target, so a second release build of the two FMU packages; issue
-# 15) with the wrapper removed (packaging/src/cargo.rs), since clippy-driver is not meant to
+# with cargo zigbuild (another target, so a second release build of the two FMU packages) with
+# the wrapper removed (packaging/src/cargo.rs), since clippy-driver is not meant to
 # produce release artefacts. The Rust tests run in the one build, and the Python tests use its
 # binaries. Cargo unifies dependency features per invocation, so a different selection
-# (`-p packaging`, `-p harness`, a dev-profile example) would compile the dependencies again;
-# that was most of the 22-30 minutes this took before (issue 11).
+# (`-p packaging`, `-p harness`, a dev-profile example) would compile the dependencies again,
+# which would double the build's share of the run.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -53,7 +53,7 @@ phase cargo test --workspace --release
 # and the collection order (no reordering by size), so the other worker runs every other module
 # meanwhile. Measured back to back on this 2-core machine: 106 s in one process, 95 s on two
 # workers; the demo's EM (model-mismatch study, 50 of its 67 s) already uses both cores in parts,
-# so the demo is the bound, and a third worker would not shorten it (issue 11 point 7).
-# (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 no
-# longer reads, so the group's tests were spread over both workers and the demo ran twice.)
+# so the demo is the bound, and a third worker would not shorten it.
+# (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 does
+# not read, so the group's tests would be spread over both workers and the demo would run twice.)
 phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder

@@ -1,5 +1,5 @@
 """Step-by-step agreement of this project's EKF, 2n UKF and scaled UKF (Rust, estimation crate)
-with filterpy 2.0.0 on model A over a seed-000 manoeuvre (issue 3, point 2).
+with filterpy 2.0.0 on model A over a seed-000 manoeuvre.
 
 The Rust side runs the estimation crate's example `filterpy_case` (its release build, found
 through tests/conftest.py; high steering ramp with braking, filters at T = 10 ms, truth at 1 ms

@@ -21,7 +21,7 @@ VEHICLE = "ReferenceVehicle"
 ESTIMATOR = "VehicleStateEstimator"
 SSP_NAME = "VehicleWithEstimator"
 
-# The names issue 4 point 2 fixes for the interface.
+# The interface names both FMUs share.
 DRIVER_INPUTS = ["steering_angle", "drive_torque", "brake_torque"]
 SENSOR_SIGNALS = ["yaw_rate_meas", "ay_meas", "omega_front_meas", "omega_rear_meas", "ax_meas", "vx_meas"]
 TRUTH_OUTPUTS = ["vx", "vy", "yaw_rate", "omega_front", "omega_rear", "sideslip", "ay", "ax",
@@ -228,8 +228,8 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
         "yaw_rate_initial": 0.0,
         "omega_front_initial": wheel_speed,
         "omega_rear_initial": wheel_speed,
-        # The seed's filter: no speed rows, start from the parameters, no gate (issue 12's
-        # robustness is off; tests/fmpy/test_fmpy_robustness.py tests it).
+        # The seed's filter: no speed rows, start from the parameters, no gate (the
+        # robustness defaults are off; tests/fmpy/test_fmpy_robustness.py tests it).
         "use_speed_measurements": False,
         "start_from_measurements": False,
         "gate_measurements": False,

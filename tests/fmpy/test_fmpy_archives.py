@@ -1,5 +1,5 @@
 """The packaged archives: fmpy's validation, the FMI 2.0 archive layout, the generated
-documentation, and the interface names issue 4 fixes."""
+documentation, and the interface names that the FMUs share."""
 
 import datetime
 import io
@@ -50,7 +50,7 @@ def _root_attributes(xml):
 
 
 def test_metadata_copyright_licence_and_generation_time(fmu):
-    """Issue 15 point 2: the archived description names holder and licence (as the shipped licence
+    """The archived description names holder and licence (as the shipped licence
     texts do) and when it was generated; apart from that one attribute it is the repository's."""
     with zipfile.ZipFile(fmu) as archive:
         archived = archive.read("modelDescription.xml")
@@ -104,7 +104,7 @@ def test_documentation_explains_every_variable(fmu):
             assert word in html, f"vehicle documentation never mentions {word}"
 
 
-def test_interface_has_the_names_of_issue_4(vehicle, estimator):
+def test_both_fmus_share_the_interface_names(vehicle, estimator):
     for name in support.DRIVER_INPUTS:
         assert vehicle[name].causality == "input" and vehicle[name].type == "Real"
         assert estimator[name].causality == "input" and estimator[name].type == "Real"
@@ -134,7 +134,7 @@ def test_ssp_structure(ssp_file, vehicle, estimator):
     with zipfile.ZipFile(ssp_file) as archive:
         names = archive.namelist()
     # Beside the FMUs, the driver inputs both components bind, and the car parameter-value files
-    # (issue 13 point 6) that a user binds.
+    # that a user binds.
     cars = ["bmw_320i", "ford_escort", "seed_car", "vw_vanagon"]
     assert sorted(names) == sorted(["SystemStructure.ssd",
                                     f"resources/{support.VEHICLE}.fmu",

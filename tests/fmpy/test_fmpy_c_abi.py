@@ -119,7 +119,7 @@ EXPECTATIONS = {
     },
     "bad_state_blob": {"fmi2": (ERROR_ONLY, True)},
     # fmi-export clamps an out-of-range value and ignores a NaN parameter in fmi2SetReal, with
-    # fmi2Warning and a log line naming the variable (issue 15, point 3).
+    # fmi2Warning and a log line naming the variable.
     "invalid_parameter": {"parameter": ({WARNING}, True)},
 }
 

@@ -1,4 +1,4 @@
-"""Issue 12 point 1 through fmpy and the C ABI: model B's speed with a measured ax, and the speed
+"""Through fmpy and the C ABI: model B's speed with a measured ax, and the speed
 model A reports, are the Kalman filter of dvx/dt = ax - b + r vy with the accelerometer's offset b
 as a second state (fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked sample by sample
 against filterpy's KalmanFilter as the oracle on straight braking (r vy = 0, the car straight, so

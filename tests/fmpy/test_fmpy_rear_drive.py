@@ -1,4 +1,4 @@
-"""Issue 12 point 1 through fmpy and the C ABI: a rear-drive car. The ReferenceVehicle's model 3
+"""A rear-drive car through fmpy and the C ABI. The ReferenceVehicle's model 3
 runs the BMW 320i of fmu-src/reference-vehicle/cars/bmw_320i.ssv (CommonRoad "vehicle 2",
 rear-wheel drive: drive_distribution_front = 0); the estimator (model A, EKF) gets the car's
 model-A parameters and the reference's drive torque on `drive_torque_rear`, but no wheel speed and
@@ -66,7 +66,7 @@ def test_told_the_rear_torque_the_estimate_follows_the_rear_wheels(vehicle, vehi
     late = slice(100, None)
     assert np.all(rear["slip_rear"][late] > 0.0)
     assert np.all(rear["slip_rear_est"][late] > 2.0 * np.abs(rear["slip_front_est"][late]))
-    # Told the torque on the front axle (all a user could do before), the estimate puts the drive
+    # Told the torque on the front axle (a front-drive car's binding), the estimate puts the drive
     # slip on the wrong axle.
     front = cosimulate(vehicle, vehicle_dir, estimator, estimator_dir, "drive_torque")
     assert np.all(front["slip_front_est"][late] > 2.0 * np.abs(front["slip_rear_est"][late]))

@@ -1,4 +1,4 @@
-"""Issue 13 through fmpy: the ReferenceVehicle's model 3 (the full vehicle), the sensor effects a car
+"""Through fmpy: the ReferenceVehicle's model 3 (the full vehicle), the sensor effects a car
 has, and the cars' SSP parameter-value files. One test per capability; every value reference, item
 and start value comes from the packaged modelDescription.xml, the cars from the .ssv files."""
 

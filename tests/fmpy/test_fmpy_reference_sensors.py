@@ -1,4 +1,4 @@
-"""Issue 13 point 5 through fmpy: the ReferenceVehicle's CAN timing per channel (sample period and
+"""Through fmpy: the ReferenceVehicle's CAN timing per channel (sample period and
 latency of each *_meas signal) and the sensor_blanking input, one test per capability. Noise on
 with every standard deviation zero, so the chain is deterministic and each value checkable against
 the truth the same FMU reports; every value reference comes from the packaged

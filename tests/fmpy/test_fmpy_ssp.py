@@ -1,4 +1,4 @@
-"""The SSP system VehicleWithEstimator simulated with fmpy.ssp (issue 15 point 7).
+"""The SSP system VehicleWithEstimator simulated with fmpy.ssp.
 
 fmpy's SSP master is minimal: it applies each connection after all components stepped, so every
 connected input lags its source by one communication step. It reads the ParameterBindings
@@ -126,7 +126,7 @@ def test_ssp_estimator_tracks_the_vehicle(ssp_run):
     all observable, so where along that direction the step leaves vy is within its std but not
     better: measured vy RMSE 0.0237 m/s against a mean vy_std of 0.031 m/s (with the lag fixed,
     tyre_relaxation_length_uncertainty 0: 0.0105 against 0.027; at 0.05 / 0.3 / 0.5 / 1: 0.015,
-    0.023, 0.0005, 0.0001 m/s; model A, the default until 2026-12-05, stayed below 0.01)."""
+    0.023, 0.0005, 0.0001 m/s; model A stays below 0.01)."""
     turning = ssp_run["time"] > 1.0
     yaw_rate_error = support.rmse(column(ssp_run, support.ESTIMATOR, "yaw_rate_est")[turning],
                                   column(ssp_run, support.VEHICLE, "yaw_rate")[turning])
@@ -185,7 +185,7 @@ def test_a_car_binding_is_applied(ssp_file, interfaces, tmp_path, vehicle):
 
 def test_a_fitted_parameter_file_is_applied_to_the_estimator(ssp_file, interfaces, tmp_path,
                                                             workspace_executables, estimator_fmu):
-    """Issue 14 point 2: the .ssv `harness fit` writes is accepted by the shipped .ssp. Fitted to
+    """The .ssv `harness fit` writes is accepted by the shipped .ssp. Fitted to
     the example log with model B, bound to the estimator component, it switches the estimator to
     model B (an enumeration by item name, converted as for the cars) with the fitted tyre level."""
     root = support.ROOT

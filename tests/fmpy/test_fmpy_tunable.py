@@ -1,4 +1,4 @@
-"""Issue 15 point 2 through fmpy and the C ABI: noise levels, gates and tyre scales are `tunable`;
+"""Through fmpy and the C ABI: noise levels, gates and tyre scales are `tunable`;
 a value set during the run takes effect at the next filter sample, a `fixed` parameter set during
 the run is refused with fmi2Error."""
 

@@ -1,4 +1,4 @@
-"""The shipped Linux libraries load on glibc 2.17 and newer, and are stripped (issue 15, point 1).
+"""The shipped Linux libraries load on glibc 2.17 and newer, and are stripped.
 
 A small ELF reader (no binutils needed): the glibc versions a library requires are the
 `GLIBC_x.y` names of its version-needs section (SHT_GNU_verneed, ELF gABI and the LSB's symbol

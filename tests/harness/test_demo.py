@@ -1,13 +1,13 @@
 """Tests on one `harness demo` run, asserted on the harness's own output: the seed-000 findings
 (SPEC section 7, seed 000 ch. 7), the demo's findings table and the key numbers recomputed here
-from its CSV recordings; and the model-mismatch study as shipped (issue 6 point 5,
-harness/studies/src/mismatch.rs), which the demo runs in full.
+from its CSV recordings; and the model-mismatch study as shipped
+(harness/studies/src/mismatch.rs), which the demo runs in full.
 
 The demo is the longest piece of the Python tests (about 75 s on a 2-core machine, most of it the
 model-mismatch study's EM), so everything that reads it is in this one module: with
 `pytest -n 2 --dist loadscope` (tests/run.sh) one worker runs the demo once, and the marker
 `starts_first` (tests/conftest.py) hands it out first, so the other worker runs the remaining
-modules meanwhile (issue 11 point 7)."""
+modules meanwhile."""
 
 import csv
 import re
@@ -38,7 +38,8 @@ def rmse(a, b, mask=None):
 @pytest.fixture(scope="module")
 def demo(fmu_dir, harness_binary, tmp_path_factory):
     out = tmp_path_factory.mktemp("demo")
-    run_harness(harness_binary, "demo", "--out", out, "--fmu-dir", fmu_dir, timeout=1800)
+    completed = run_harness(harness_binary, "demo", "--out", out, "--fmu-dir", fmu_dir, timeout=1800)
+    (out / "console.txt").write_text(completed.stderr)
     return out
 
 
@@ -50,6 +51,31 @@ def test_demo_writes_both_reports_and_the_figures(demo):
     assert len(pngs) >= 10
     # Nothing outside the output folder: the extraction folder is gone too.
     assert not (demo / ".fmu-work").exists()
+
+
+def test_the_report_opens_with_the_answer_and_its_figure(demo):
+    """The first section is the accuracy summary: its figure exists and comes before the seeds'
+    reproduction, and the rows it was drawn from are the accuracy CSV format."""
+    md = (demo / "report.md").read_text()
+    answer = md.index("## The answer")
+    assert answer < md.index("## The seed experiments")
+    assert md.index("](accuracy.png)") < md.index("## The seed experiments")
+    assert (demo / "accuracy.png").stat().st_size > 10_000
+    with open(demo / "accuracy_simulated.csv", newline="") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["source", "case", "model", "estimator", "wheel_speeds", "rmse_deg", "nees",
+                       "zero_rmse_deg", "yardstick_rmse_deg", "max_vx_error_mps"]
+    assert len(rows) > 100 and {r[2] for r in rows[1:]} == {"A", "B", "A+grip"}
+
+
+def test_the_demo_prints_no_fmu_warning_and_reports_the_expected_ones(demo):
+    """The project's own manoeuvres feed the FMUs nothing out of range; the robustness case that
+    does so on purpose records its warnings in the report instead of on the console."""
+    console = (demo / "console.txt").read_text()
+    assert "[FMU" not in console, [line for line in console.splitlines() if "[FMU" in line][:5]
+    md = (demo / "report.md").read_text()
+    assert "Case `out_of_range` feeds inputs outside their declared range on purpose" in md
+    assert "steering_angle" in md.split("Case `out_of_range` feeds inputs")[1][:5000]
 
 
 STEP_STEER = "7.3 2° steering step"
@@ -111,7 +137,7 @@ def test_braking_makes_the_lkf_worse_after_9s(demo):
 
 # The model-mismatch study. harness/studies/tests/mismatch.rs runs the same pipeline with the EM
 # cut to its first SQUAREM cycles; the full EM (20 cycles, 100 particles), nearly all of the
-# study's time, runs once per test run, here in the demo, instead of twice (issue 11 point 7).
+# study's time, runs once per test run, here in the demo, not twice.
 # The bounds are that test's, on the full run.
 MISMATCH_VALIDATION_SCENARIOS = ["mismatch_validation_step_steer", "mismatch_validation_lane_change"]
 MISMATCH_ESTIMATORS = ["EKF", "UKF"]
@@ -163,10 +189,10 @@ STATES = ("vx", "vy", "yaw_rate", "omega_front", "omega_rear", "sideslip")
 
 
 def test_the_consistency_section_shows_the_kalman_filters_honest_and_at_the_bound(demo):
-    """Issue 17 points 1 and 2 on the demo's Monte Carlo of the matched seed-000 high-ay ramp:
-    every state's ANEES of the EKF and both UKFs inside its 95 % band, their RMSE within 10 % of
-    sqrt(PCRLB) and their mean NIS per row near 1; the LKF, linearised once at the start, is
-    neither (seed 000's own finding). The scenario is named relative to the workspace."""
+    """Consistency where the model is right, on the demo's Monte Carlo of the matched seed-000
+    high-ay ramp: every state's ANEES of the EKF and both UKFs inside its 95 % band, their RMSE
+    within 10 % of sqrt(PCRLB) and their mean NIS per row near 1; the LKF, linearised once at the
+    start, is neither (seed 000's own finding). The scenario is named relative to the workspace."""
     md = (demo / "report.md").read_text()
     section = md.split("## Consistency and the Cramér-Rao bound")[1].split("\n## ")[0]
     assert "`harness/scenarios/seed000_ramp_high_ay.toml`" in section, section[:400]

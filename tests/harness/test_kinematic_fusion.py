@@ -1,4 +1,4 @@
-"""The kinematic-dynamic study of issue 17 point 4 (harness/studies/kinematic_fusion.py) runs on the
+"""The kinematic-dynamic study (harness/studies/kinematic_fusion.py) runs on the
 packaged FMUs and its documented findings hold: with the ideal accelerometer the combination beats
 the dynamic filter on every run; with a real one and no roll compensation it is worse than
 reporting a sideslip of zero on the slow ramps."""

@@ -1,4 +1,4 @@
-"""A second, independent co-simulation master (issue 15 point 8): libcosim, the Open Simulation
+"""A second, independent co-simulation master: libcosim, the Open Simulation
 Platform's C++ engine, through its PyPI wrapper libcosimpy, runs ReferenceVehicle and
 VehicleStateEstimator coupled, and a plain fmpy FMU2Slave loop that makes the same FMI calls in
 the same order with the same time values gives bit-identical outputs at every communication point.

@@ -1,5 +1,5 @@
-"""The shipped VehicleWithEstimator.ssp in libcosim (Open Simulation Platform) through libcosimpy
-(issue 15 point 7): it loads (every connection has a startElement, every connector a type), runs
+"""The shipped VehicleWithEstimator.ssp in libcosim (Open Simulation Platform) through libcosimpy:
+it loads (every connection has a startElement, every connector a type), runs
 its DefaultExperiment with the step size of the `com.opensimulationplatform` annotation, and
 applies the driver inputs' ParameterBinding to both FMUs. libcosim does not stop at the SSD's
 stopTime by itself (its ssp_configuration keeps start time and algorithm only), so the test runs

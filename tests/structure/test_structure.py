@@ -1,4 +1,4 @@
-"""The workspace's structure, checked (issue 11): no import circle between the files of a crate,
+"""The workspace's structure, checked: no import circle between the files of a crate,
 and the general FMI master free of every estimator and vehicle-model crate.
 
 A file's imports are the `crate::a::b` paths it names (in `use` items or inline) and its `mod`

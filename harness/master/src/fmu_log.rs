@@ -99,13 +99,19 @@ impl log::Log for FmuLogger {
             let printing = self.printed.lock().map_or(Printing::Print, |mut filter| {
                 filter.admit(record.target(), &message)
             });
-            match printing {
-                Printing::Print => eprintln!("[FMU {}] {message}", record.target()),
-                Printing::PrintLast => eprintln!(
+            let line = match printing {
+                Printing::Print => Some(format!("[FMU {}] {message}", record.target())),
+                Printing::PrintLast => Some(format!(
                     "[FMU {}] {message} (repeated {PRINTED_REPEATS} times, numbers aside; further repeats not printed)",
                     record.target()
-                ),
-                Printing::Suppress => {}
+                )),
+                Printing::Suppress => None,
+            };
+            if let Some(line) = line {
+                let expected = record.level() == log::Level::Warn && Recorder::keep(&line);
+                if !expected {
+                    eprintln!("{line}");
+                }
             }
         }
         if let Ok(mut recent) = self.recent.lock() {
@@ -147,6 +153,51 @@ pub fn forget(instance: &str) {
     }
     if let Ok(mut filter) = LOGGER.printed.lock() {
         filter.counts.remove(instance);
+    }
+}
+
+/// The warnings a [`Recorder`] keeps instead of printing; None while none lives.
+static RECORDED: Mutex<Option<Vec<String>>> = Mutex::new(None);
+
+/// While a `Recorder` lives, the FMU warnings that would be printed (repeats limited as for
+/// printing) are kept for it instead: a study that feeds
+/// inputs out of range on purpose reports the warnings it expects instead of printing them among
+/// the ones nobody expects. Errors are printed as always. One recorder at a time: the study runs
+/// its deliberate case alone.
+pub struct Recorder(());
+
+impl Recorder {
+    pub fn start() -> Recorder {
+        if let Ok(mut recorded) = RECORDED.lock() {
+            *recorded = Some(Vec::new());
+        }
+        Recorder(())
+    }
+
+    /// The warnings recorded so far, each as it would have been printed, in order.
+    pub fn take(&self) -> Vec<String> {
+        RECORDED
+            .lock()
+            .ok()
+            .and_then(|mut recorded| recorded.as_mut().map(std::mem::take))
+            .unwrap_or_default()
+    }
+
+    /// Keeps `line` if a recorder lives; whether it did.
+    fn keep(line: &str) -> bool {
+        RECORDED
+            .lock()
+            .ok()
+            .and_then(|mut recorded| recorded.as_mut().map(|r| r.push(line.to_string())))
+            .is_some()
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        if let Ok(mut recorded) = RECORDED.lock() {
+            *recorded = None;
+        }
     }
 }
 
@@ -220,5 +271,30 @@ mod tests {
             assert_eq!(filter.admit("PF", "one more"), Printing::Print);
         }
         assert_eq!(filter.counts["PF"].len(), COUNTED_PER_INSTANCE);
+    }
+
+    #[test]
+    fn a_recorder_keeps_the_warnings_it_expects_and_lets_errors_through() {
+        let log = |level: log::Level, text: &str| {
+            log::Log::log(
+                &LOGGER,
+                &log::Record::builder()
+                    .module_path(Some("logger"))
+                    .target("recorder-test")
+                    .level(level)
+                    .args(format_args!("{text}"))
+                    .build(),
+            )
+        };
+        let recorder = Recorder::start();
+        log(log::Level::Warn, "steering_angle clamped");
+        log(log::Level::Error, "a real error");
+        assert_eq!(
+            recorder.take(),
+            ["[FMU recorder-test] WARN: steering_angle clamped"]
+        );
+        drop(recorder);
+        assert!(!Recorder::keep("after the recorder"));
+        forget("recorder-test");
     }
 }

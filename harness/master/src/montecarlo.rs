@@ -116,7 +116,7 @@ fn nees_series(plan: &Plan, result: &RunResult) -> NeesSeries {
 pub const MAX_RUNS: usize = 100_000;
 
 /// A seed is an Integer parameter: a Real or an enumeration (e.g. the estimator kind) would
-/// change what is run, not only its noise (issue 15, point 6).
+/// change what is run, not only its noise, and the runs would not be repeats of one case.
 fn check_seed_variable(plan: &Plan, r: &VarRef) -> Result<()> {
     let Some(variable) = plan.variable_of(r) else {
         bail!("seed variable {r}: no such instance or variable in the scenario");

@@ -279,3 +279,182 @@ pub fn manoeuvre_panels(result: &RunResult, course: Option<&dyn Fn(f64) -> f64>)
     }
     panels
 }
+
+/// One row of an error chart: a label, the values of every case (dots), the bar's value (for
+/// example their median) and up to two reference marks (answers without a filter).
+#[derive(Clone, Debug)]
+pub struct ErrorBar {
+    pub label: String,
+    /// Which group (colour) the row belongs to, e.g. its data source.
+    pub group: usize,
+    pub cases: Vec<f64>,
+    pub bar: f64,
+    /// Drawn as a black vertical tick.
+    pub first_mark: Option<f64>,
+    /// Drawn as an orange triangle.
+    pub second_mark: Option<f64>,
+}
+
+/// Legend of an error chart: what the groups (bar colours), the dots and the marks are.
+#[derive(Clone, Debug)]
+pub struct ErrorChartLegend {
+    pub groups: Vec<String>,
+    pub cases: String,
+    pub first_mark: String,
+    pub second_mark: String,
+}
+
+/// Draws `rows` as horizontal bars on a logarithmic axis from `floor` into a PNG at `path`: one
+/// line per row, labelled on the left, the cases as dots on the bar. Values below `floor` are
+/// drawn at it; non-finite values are left out.
+pub fn draw_error_bars(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    rows: &[ErrorBar],
+    legend: &ErrorChartLegend,
+    floor: f64,
+) -> Result<()> {
+    register_font();
+    let fail = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
+    let values = rows.iter().flat_map(|r| {
+        r.cases
+            .iter()
+            .copied()
+            .chain([r.bar])
+            .chain(r.first_mark)
+            .chain(r.second_mark)
+    });
+    let top = finite_range(values)
+        .map_or(1.0, |(_, hi)| hi)
+        .max(floor * 10.0)
+        * 1.5;
+    let height = 90 + 24 * rows.len().max(1) as u32 + 30;
+    let root = BitMapBackend::new(path, (1000, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| fail(&e))?;
+    let (area, legend_area) = root.split_vertically(height - 30);
+    let n = rows.len().max(1) as f64;
+    let labels: Vec<String> = rows.iter().map(|r| r.label.clone()).collect();
+    let mut chart = ChartBuilder::on(&area)
+        .caption(title, (FAMILY, 18).into_font())
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(250)
+        .build_cartesian_2d((floor..top).log_scale(), -0.5..n - 0.5)
+        .map_err(|e| fail(&e))?;
+    chart
+        .configure_mesh()
+        .y_labels(rows.len().max(1) * 2 + 1)
+        .y_label_formatter(&|y| {
+            let index = y.round();
+            if (y - index).abs() > 1e-6 || index < 0.0 {
+                return String::new();
+            }
+            // Row 0 at the top.
+            let row = labels.len() as f64 - 1.0 - index;
+            labels.get(row as usize).cloned().unwrap_or_default()
+        })
+        .x_desc(x_label)
+        .x_label_formatter(&|x| format!("{x}"))
+        .label_style((FAMILY, 12).into_font())
+        .axis_desc_style((FAMILY, 13).into_font())
+        .disable_y_mesh()
+        .draw()
+        .map_err(|e| fail(&e))?;
+    let clamp = |v: f64| v.max(floor).min(top);
+    let y_of = |i: usize| n - 1.0 - i as f64;
+    let colour = |group: usize| PALETTE[(group + 1) % PALETTE.len()];
+    let bars = rows.iter().enumerate().filter(|(_, r)| r.bar.is_finite());
+    chart
+        .draw_series(bars.map(|(i, r)| {
+            let y = y_of(i);
+            Rectangle::new(
+                [(floor, y - 0.32), (clamp(r.bar), y + 0.32)],
+                colour(r.group).mix(0.45).filled(),
+            )
+        }))
+        .map_err(|e| fail(&e))?;
+    let dots = rows.iter().enumerate().flat_map(|(i, r)| {
+        let y = y_of(i);
+        r.cases
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(move |&v| Circle::new((clamp(v), y), 2, colour(r.group).filled()))
+    });
+    chart.draw_series(dots).map_err(|e| fail(&e))?;
+    let ticks = rows.iter().enumerate().filter_map(|(i, r)| {
+        let v = r.first_mark.filter(|v| v.is_finite())?;
+        let y = y_of(i);
+        Some(PathElement::new(
+            vec![(clamp(v), y - 0.42), (clamp(v), y + 0.42)],
+            BLACK.stroke_width(3),
+        ))
+    });
+    chart.draw_series(ticks).map_err(|e| fail(&e))?;
+    let diamonds = rows.iter().enumerate().filter_map(|(i, r)| {
+        let v = r.second_mark.filter(|v| v.is_finite())?;
+        Some(TriangleMarker::new(
+            (clamp(v), y_of(i)),
+            6,
+            YARDSTICK.filled(),
+        ))
+    });
+    chart.draw_series(diamonds).map_err(|e| fail(&e))?;
+    draw_error_legend(&legend_area, legend).map_err(|e| fail(&e))?;
+    root.present().map_err(|e| fail(&e))?;
+    Ok(())
+}
+
+const YARDSTICK: RGBColor = RGBColor(230, 120, 0);
+
+/// The legend line under an error chart.
+fn draw_error_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    legend: &ErrorChartLegend,
+) -> Result<()> {
+    let fail = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("legend: {e}");
+    let font = (FAMILY, 12).into_font();
+    let y = 15;
+    let mut x = 20;
+    for (group, name) in legend.groups.iter().enumerate() {
+        let c = PALETTE[(group + 1) % PALETTE.len()];
+        root.draw(&Rectangle::new(
+            [(x, y - 6), (x + 18, y + 6)],
+            c.mix(0.45).filled(),
+        ))
+        .map_err(fail)?;
+        root.draw(&Text::new(name.clone(), (x + 22, y - 7), font.clone()))
+            .map_err(fail)?;
+        x += 30 + 7 * name.chars().count() as i32;
+    }
+    root.draw(&Circle::new((x, y), 3, BLACK.filled()))
+        .map_err(fail)?;
+    root.draw(&Text::new(
+        legend.cases.clone(),
+        (x + 8, y - 7),
+        font.clone(),
+    ))
+    .map_err(fail)?;
+    x += 18 + 7 * legend.cases.chars().count() as i32;
+    root.draw(&PathElement::new(
+        vec![(x, y - 7), (x, y + 7)],
+        BLACK.stroke_width(3),
+    ))
+    .map_err(fail)?;
+    root.draw(&Text::new(
+        legend.first_mark.clone(),
+        (x + 8, y - 7),
+        font.clone(),
+    ))
+    .map_err(fail)?;
+    x += 18 + 7 * legend.first_mark.chars().count() as i32;
+    root.draw(&TriangleMarker::new((x, y), 6, YARDSTICK.filled()))
+        .map_err(fail)?;
+    root.draw(&Text::new(
+        legend.second_mark.clone(),
+        (x + 10, y - 7),
+        font,
+    ))
+    .map_err(fail)?;
+    Ok(())
+}

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use crate::cosim::RunResult;
 
 /// Writes the CSV under a temporary name next to `path` and renames it to `path` only when every
-/// row is written and flushed (issue 15, point 6): a full disk or a failed write never leaves a
+/// row is written and flushed: a full disk or a failed write never leaves a
 /// truncated file under the final name.
 pub fn write_csv(result: &RunResult, path: &Path) -> Result<()> {
     let partial = partial_name(path);

@@ -1,4 +1,4 @@
-//! `harness cases`: runs one chunk of a campaign's cases (issue 16) and prints every case's scores.
+//! `harness cases`: runs one chunk of a campaign's cases and prints every case's scores.
 //!
 //! The campaign runner (`python -m vse_campaign`, harness/campaign) expands a campaign file into
 //! cases and hands each Dask task a chunk file; the co-simulation stays in this master. A chunk

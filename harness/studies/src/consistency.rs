@@ -1,5 +1,5 @@
-//! Consistency and efficiency of the estimator FMUs where their model is right (issue 17,
-//! points 1 and 2): the seed-000 high-ay ramp, model A as truth and filter model with the seed's
+//! Consistency and efficiency of the estimator FMUs where their model is right: the
+//! seed-000 high-ay ramp, model A as truth and filter model with the seed's
 //! `Q` and `R` (SPEC §7), run N times through FMI with N noise seeds as `harness montecarlo`
 //! runs it ([`Plan::run`] with the scenario's `[montecarlo] seeds` overridden per run).
 //!

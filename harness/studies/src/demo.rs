@@ -27,6 +27,7 @@ pub use crate::findings::{fmt, window_mean, window_rmse, Finding, Sources};
 use crate::identify::{self, JobOverrides, Outcome, STATE_LABELS};
 use crate::mismatch::{self, MismatchReport};
 use crate::robustness::{RealCars, REAL_CARS_STUDY};
+use crate::summary::{self, AccuracyRow};
 use fmi_master::plot::{self, Panel, Series};
 use fmi_master::recording::write_whole;
 use fmi_master::report::Document;
@@ -309,7 +310,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    // The FMUs' extraction folder, removed on every exit path (issue 15, point 6).
+    // The FMUs' extraction folder, removed on every exit path, so an error leaves no scratch behind.
     let work = env.work_folder();
     let mut outputs = Vec::new();
     let mut failures: Vec<(String, String)> = Vec::new();
@@ -359,7 +360,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &bar,
         &mut failures,
     );
-    bar.set_message("robustness cases and mismatch campaigns on real cars (issues 12, 13, 17)");
+    bar.set_message("robustness cases and mismatch campaigns on real cars");
     let real_cars = keep(
         REAL_CARS_STUDY,
         RealCars::run_shipped(
@@ -372,6 +373,15 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &mut failures,
     );
     bar.finish_with_message("all experiments done");
+    // Every study that scores the sideslip adds its accuracy CSV here; the report's opening
+    // answer reads them all.
+    let mut accuracy_csvs = Vec::new();
+    if let Some(real_cars) = &real_cars {
+        let path = env.out_dir.join("accuracy_simulated.csv");
+        summary::write_rows(&path, &summary::campaign_rows(&real_cars.campaigns))?;
+        accuracy_csvs.push(path);
+    }
+    let accuracy = summary::read_rows(&accuracy_csvs)?;
     let findings = findings(Sources {
         runs: &outputs,
         seed003: seed003.as_ref(),
@@ -381,6 +391,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
     if options.plots {
         write_report(
             env,
+            &accuracy,
             &experiments,
             &outputs,
             seed003.as_ref(),
@@ -472,6 +483,7 @@ fn score_rows(scores: &RunScores) -> Vec<Vec<String>> {
 #[allow(clippy::too_many_arguments)]
 fn write_report(
     env: &Environment,
+    accuracy: &[AccuracyRow],
     experiments: &[&(&str, &str, &str)],
     outputs: &[(String, RunOutput)],
     seed003: Option<&Outcome>,
@@ -483,6 +495,8 @@ fn write_report(
 ) -> Result<()> {
     let out = &env.out_dir;
     let mut doc = Document::default();
+    doc.heading(1, "Vehicle state estimation: how accurate, against what");
+    summary::section(&mut doc, accuracy, &out.join(ANSWER_PNG), ANSWER_PNG)?;
     introduction(&mut doc, env);
     summary_section(&mut doc, findings, failures);
     library_section(&mut doc, out)?;
@@ -526,12 +540,12 @@ fn write_report(
     Ok(())
 }
 
-/// What the report is, how it was produced, and its conventions.
+/// The figure of the report's opening answer, next to the report.
+pub const ANSWER_PNG: &str = "accuracy.png";
+
+/// How the rest of the report was produced, and its conventions.
 fn introduction(doc: &mut Document, env: &Environment) {
-    doc.heading(
-        1,
-        "Vehicle state estimation: the seed experiments, reproduced by co-simulation",
-    );
+    doc.heading(2, "The seed experiments, reproduced by co-simulation");
     doc.paragraph(
         "Produced by `cargo run --release -p harness -- demo`: the reference vehicle FMU and the estimator FMU \
          (FMI 2.0 Co-Simulation, loaded through the `fmi` crate only) are co-simulated by the harness master \
@@ -551,7 +565,7 @@ fn introduction(doc: &mut Document, env: &Environment) {
 
 /// The findings table, the disagreements with their reasons, and the experiments that failed.
 fn summary_section(doc: &mut Document, findings: &[Finding], failures: &[(String, String)]) {
-    doc.heading(2, "Summary of the seed findings");
+    doc.heading(3, "Summary of the seed findings");
     doc.table(
         vec![
             "seed".into(),

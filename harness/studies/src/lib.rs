@@ -15,3 +15,4 @@ pub mod population;
 pub mod replay;
 pub mod robustness;
 pub mod seed003;
+pub mod summary;

@@ -1,4 +1,4 @@
-//! Model mismatch, beyond the seeds (issue 6, point 5): model A's per-axle cornering-stiffness
+//! Model mismatch, beyond the seeds: model A's per-axle cornering-stiffness
 //! scales are identified from a ReferenceVehicle run with model B, and the EKF and UKF on model A
 //! are then scored on *other* manoeuvres with the seed's tyre (scales 1) and with the identified
 //! scales.
@@ -83,12 +83,12 @@ impl MismatchStudy {
 /// each choice trades).
 ///
 /// Pairing: a recorded row `k` holds the manoeuvre's input `u_k` and the ReferenceVehicle's
-/// outputs computed with `u_k` (direct feed-through since 20cc07b), the state reached over the
+/// outputs computed with `u_k` (its sensors feed the inputs of `t_k` through), the state reached over the
 /// previous step with `u_{k-1}` held; the E-step, the smoother and `Q` use exactly
 /// `x_k = f(x_{k-1}, u_{k-1})`, `y_k = h(x_k, u_k)` (`estimation::particle::filter_run`), so
 /// the rows are read as recorded. Measured on the shipped data (seed 21): the EKF's
 /// prediction-error likelihood with these `Q` and `R` is highest at k_F 0.880, k_R 0.960 (grid
-/// of 0.01); pairing `y_k` with `u_{k-1}` (the data before 20cc07b) moves it to 0.890/0.970
+/// of 0.01); pairing `y_k` with `u_{k-1}` (as a reference without feed-through would record) moves it to 0.890/0.970
 /// and lowers it by 48. The particle EM stops short of that optimum and drifts below it, the
 /// more so the fewer particles (100: 0.79/0.85 after 20 cycles, not converged; 200: 0.855/0.941,
 /// 2.5 times the time; more Powell sweeps change nothing), the bias of a degenerate smoother.
@@ -167,7 +167,7 @@ pub fn run_mismatch(study: &MismatchStudy, env: &Environment) -> Result<Mismatch
         fmu_dir: env.fmu_dir.clone(),
         out_dir: env.out_dir.join(folder),
     };
-    // The FMUs' extraction folders are scratch, removed on every exit path (issue 15, point 6).
+    // The FMUs' extraction folders are scratch, removed on every exit path.
     let _work = ["identification", "seed_scales", "identified_scales"]
         .map(|folder| sub_environment(folder).work_folder());
     let scenario = Scenario::from_file(&study.identification_scenario)?;

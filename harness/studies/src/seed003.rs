@@ -105,7 +105,7 @@ pub fn seed003_initial_state() -> SVector<f64, 3> {
 /// nearly constant the data only fix the products `Csf·lr`, `Csr·lf` and the lever terms, which
 /// trade off against `m/J`: for a weave at constant speed the Cramér-Rao bound of `lf` (500
 /// samples, the seed's measurement noise) is 3-4 % with a correlation of -0.99 between `lf` and
-/// `m/J`, and it was 0.5 % for the former input (a gentle 0.3-1.3 m/s² acceleration). Varying
+/// `m/J`, and 0.5 % for a gentle 0.3-1.3 m/s² acceleration. Varying
 /// `a_x` by ±3 m/s² modulates the load split by ±9 % against the known `h` and separates `lf`
 /// from the stiffnesses: its bound drops to about 0.06 %.
 pub fn seed003_input(time: f64) -> SVector<f64, 3> {
@@ -531,7 +531,7 @@ pub fn identify_from_arrays(
 
 /// Model C's slip angles divide by `Vx_ref` (003: 2.8-2.9); below `low_speed_guard` the model
 /// runs on the project's standstill substitute, not the seed's equations, and the data say
-/// nothing about the tyres (a standing vehicle gave m/J = 564, issue 15). Refuses the first
+/// nothing about the tyres (a standing vehicle gave m/J = 564). Refuses the first
 /// such row.
 fn check_moving(inputs: &[[f64; 3]], params: &RearAxleParams) -> Result<(), Seed003Error> {
     let guard = params.low_speed_guard;

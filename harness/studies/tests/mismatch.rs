@@ -1,4 +1,4 @@
-//! Model mismatch (issue 6, point 5): model A's cornering-stiffness scales identified by EM
+//! Model mismatch: model A's cornering-stiffness scales identified by EM
 //! from a model-B ReferenceVehicle run (a wobble at 80 km/h), scored with the EKF and UKF on
 //! held-out manoeuvres (the seed-001 40° step steer and ISO 3888-1 double lane change at 65 km/h),
 //! all through the FMUs.
@@ -9,7 +9,7 @@
 //! and its path is deterministic (fixed random numbers, `fresh_random_numbers: false`), so the
 //! shortened run is exactly the first cycles of the shipped one. The shipped study itself, all
 //! 20 cycles, runs once per test run in `harness demo`, and tests/harness/test_demo.py asserts
-//! the same bounds on its result (issue 11 point 7: the same EM ran twice before).
+//! the same bounds on its result, so the full EM runs once, not twice.
 //!
 //! Needs the packaged FMUs (`cargo run --release -p packaging`) in
 //! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command.
@@ -41,8 +41,8 @@ fn identified_scales_are_scored_on_held_out_manoeuvres() {
     .expect("mismatch study");
     eprintln!("{}", report.summary());
 
-    // Since the reference vehicle's feed-through fix (issue 17 point 1, 20cc07b) the data no
-    // longer carry an ay sample of the previous steering input, and the EM with the study's 100
+    // The reference vehicle's sensors feed its inputs through in the same step, so the data carry
+    // no ay sample of the previous steering input, and the EM with the study's 100
     // particles stops unconverged near k_F 0.79, k_R 0.85 (mismatch.rs, `identification_config`,
     // records why); the demo's finding reads "no". What must hold whatever the EM finds: it moves
     // both scales below 1 (model B's load transfer softens both axles against model A's linear

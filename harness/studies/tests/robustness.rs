@@ -1,4 +1,4 @@
-//! Issue 12's robustness section and the mismatch campaigns (issues 13, 17), one case each
+//! The robustness section and the mismatch campaigns, one case each
 //! through the master and the FMUs: the one-sample ay glitch of the shipped case list, the
 //! Ford Escort's runs of the shipped campaigns, and the grip model's honesty where the BMW 320i's
 //! wheel locks and on the VW Vanagon's sine with dwell.
@@ -45,10 +45,10 @@ fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
     // Today's EKF rejects the 100 m/s² sample (status bit 128) and its estimate moves by no
     // more than its own one-sigma (measured 0.95 sigma in sideslip, 0 in vx); on model 3 too
     // (0.10 sigma).
-    for today in [defaults, grip] {
-        assert!(today.status & ROW_GATED != 0, "{today:?}");
-        assert!(result.verdict(today).0, "{today:?}");
-        assert!(today.vx_error_percent < 2.0, "{today:?}");
+    for row in [defaults, grip] {
+        assert!(row.status & ROW_GATED != 0, "{row:?}");
+        assert!(result.verdict(row).0, "{row:?}");
+        assert!(row.vx_error_percent < 2.0, "{row:?}");
     }
     // The old behaviour takes the glitch in: its sideslip jumps by thousands of sigmas.
     assert!(!result.verdict(old).0, "{old:?}");
@@ -127,7 +127,7 @@ fn campaign_rows_as_listed(
         .unwrap_or_else(|e| panic!("{manoeuvre} on {} runs: {e}", car.display()))
 }
 
-/// The grip model's EKF row meets issue 17 point 3 (sideslip NEES 0.5-2, at least 90 % of the
+/// The grip model's EKF row is honest (sideslip NEES 0.5-2, at least 90 % of the
 /// samples inside the 95 % bound) within `rmse_deg` of sideslip RMSE.
 fn assert_grip_ekf_honest(rows: &[Row], rmse_deg: f64) {
     let ekf = rows
@@ -140,7 +140,7 @@ fn assert_grip_ekf_honest(rows: &[Row], rmse_deg: f64) {
 }
 
 /// The grip model's EKF row of `manoeuvre` on reference model `reference` has a NEES above
-/// `nees_without` with the parameter `switch` set to 0 on `EKF_G`, and meets issue 17 point 3
+/// `nees_without` with the parameter `switch` set to 0 on `EKF_G`, and is honest
 /// within 0.1 deg at the defaults ([`assert_grip_ekf_honest`]).
 fn assert_grip_ekf_honest_only_with(
     car: &str,
@@ -179,7 +179,7 @@ fn model_b_rows(rows: &[Row]) -> impl Iterator<Item = &Row> {
 fn a_step_steer_on_the_escort_is_estimated_better_than_reporting_zero() {
     let rows = escort_campaign_rows("step_steer");
     // Model B's filters beat reporting zero (measured 0.065 deg against 0.129 deg) and meet
-    // issue 17's 0.3 deg; their sideslip sigma covers the error (98 % inside the 95 % bound).
+    // the 0.3 deg a car's sideslip estimate must reach; their sideslip sigma covers the error (98 % inside the 95 % bound).
     for row in model_b_rows(&rows) {
         assert!(!row.worse_than_baseline(), "{row:?}");
         assert!(row.rmse.to_degrees() < 0.3, "{row:?}");
@@ -188,7 +188,7 @@ fn a_step_steer_on_the_escort_is_estimated_better_than_reporting_zero() {
 }
 
 /// Braking in a turn: model B knows the braking only through the measured ax, which shifts its
-/// axle loads (vehicle_models' two_track_lateral docs). Without that its EKF and UKF were worse
+/// axle loads (vehicle_models' two_track_lateral docs). Without that its EKF and UKF are worse
 /// than reporting zero (2.6 deg against 1.49 deg); with it 0.52 deg.
 #[test]
 fn model_b_follows_the_escort_braking_in_a_turn() {
@@ -200,9 +200,9 @@ fn model_b_follows_the_escort_braking_in_a_turn() {
 }
 
 /// The sine with dwell (5.4 deg of true sideslip on the Escort): the grip model's tyres relax
-/// over `tyre_relaxation_length` (default 0.5 m) as the car's do, and its EKF meets issue 17's
-/// 0.3 deg (measured 0.041 deg; with the lag switched off, `tyre_relaxation_length = 0`, 0.314
-/// deg before the unknown-torque wheels, the lag being most of model A's error on sines and lane
+/// over `tyre_relaxation_length` (default 0.5 m) as the car's do, and its EKF meets the
+/// 0.3 deg target (measured 0.041 deg; with the lag switched off, `tyre_relaxation_length = 0`,
+/// and the wheels' spin balance kept with torques told 0, 0.314 deg, the lag being most of model A's error on sines and lane
 /// changes).
 #[test]
 fn the_grip_models_lagged_tyres_follow_the_escort_sine_with_dwell() {
@@ -213,8 +213,8 @@ fn the_grip_models_lagged_tyres_follow_the_escort_sine_with_dwell() {
 
 /// Braking in a turn with the torques unknown (the Escort, 1800 N·m from 3 s, the inner rear
 /// wheel locking): the grip model's tyre forces are those of freely rolling wheels while the
-/// torques read 0 (estimation's `models::unknown_torques`), and its EKF meets issue 17's 0.3 deg
-/// (measured 0.096 deg; with the wheels' spin balance against a brake torque told 0 it drifted
+/// torques read 0 (estimation's `models::unknown_torques`), and its EKF meets the 0.3 deg target
+/// (measured 0.096 deg; with the wheels' spin balance against a brake torque told 0 it drifts
 /// along the direction its sensors cannot see, to 1.20 deg).
 #[test]
 fn the_grip_models_ekf_holds_the_escort_braking_in_a_turn() {
@@ -223,7 +223,7 @@ fn the_grip_models_ekf_holds_the_escort_braking_in_a_turn() {
     assert!(!ekf.worse_than_baseline(), "{ekf:?}");
 }
 
-/// Issue 17 point 3 where a wheel locks: the BMW 320i braking in a turn (no ABS, its inner rear
+/// An honest std where a wheel locks: the BMW 320i braking in a turn (no ABS, its inner rear
 /// wheel locked from 4.7 s, the torques unknown). While an axle's wheels slide the grip model
 /// relearns that axle's grip factor (the FMU's `model_grip::sliding_axles`), so its EKF's reported
 /// sideslip std covers the error of the lock: measured NEES 0.87 with 96 % of the samples inside
@@ -233,7 +233,7 @@ fn the_grip_models_ekf_stays_honest_when_the_bmws_inner_rear_wheel_locks() {
     assert_grip_ekf_honest(&campaign_rows("bmw_320i.ssv", "braking_in_a_turn"), 0.15);
 }
 
-/// Issue 17 point 3 at the limit: the VW Vanagon's sine with dwell (9.7 deg of sideslip) swings
+/// An honest std at the limit: the VW Vanagon's sine with dwell (9.7 deg of sideslip) swings
 /// its axles between the linear range of the tyre curve and its flat top within half a second.
 /// While an axle's side force is beyond 80 % of its friction potential the grip model relearns
 /// that axle's grip factor (`model_grip::sliding_axles`), and its EKF's reported std covers the
@@ -254,7 +254,7 @@ fn the_sliding_axle_rule_keeps_the_grip_models_ekf_honest_on_the_vanagons_sine_w
     assert_grip_ekf_honest(&rows, 0.1);
 }
 
-/// Issue 17 point 3 in the full vehicle's swerves (the Escort's ISO 3888-2 lane change): its
+/// An honest std in the full vehicle's swerves (the Escort's ISO 3888-2 lane change): its
 /// load transfer and roll move the ratio of each axle's force to model A's while the side force
 /// swings, faster than the grip prior's 5 s correlation time lets the factors follow. With the
 /// grip's transient variance (`grip_transient_time`, default 0.5 s; the FMU's
@@ -271,7 +271,7 @@ fn the_grip_follows_the_full_vehicles_lane_change() {
     );
 }
 
-/// Issue 17 point 3 on a truth whose tyres do not lag (the ReferenceVehicle's model 1, the
+/// An honest std on a truth whose tyres do not lag (the ReferenceVehicle's model 1, the
 /// Escort's ISO 3888-2 lane change): with the lag fixed at the default relaxation length, 0.5 m,
 /// the grip model's EKF puts the lag it expects into its sideslip and is overconfident (measured
 /// 0.230 deg, NEES 17.1, 71 % inside); with the relaxation factor estimated (the default
@@ -288,19 +288,19 @@ fn the_grip_models_ekf_learns_that_model_1s_tyres_do_not_lag() {
     );
 }
 
-/// Issue 12 point 1 on the campaigns (torques unknown throughout): every estimator's speed stays
+/// Unknown torques on the campaigns (told 0 throughout): every estimator's speed stays
 /// within 2 % on every Escort run. Model A's own speed does not (its EKF 8.8 % off braking in a
 /// turn: the braked front wheel pulls vx through its spin balance and vx_meas is then gated), so
 /// model A reports the speed filter's (the FMU's `model_a::step_reported_speed`; measured at most
 /// 0.6 % on the Escort's runs, 0.8 % on all 15); model B runs at the same filter's speed, and the
 /// grip model reports it as model A does (its Kalman filters' own speed kept within 0.3 %, their
-/// wheels keeping their slip while the torques read 0, but its Luenberger observer, which runs on
-/// seed 000's wheels, was 5.2 % off braking in a turn and 54 % on the Vanagon's on model 2; with
+/// wheels keeping their slip while the torques read 0, while its Luenberger observer, which runs on
+/// seed 000's wheels, is 5.2 % off braking in a turn and 54 % on the Vanagon's on model 2; with
 /// the filter at most 0.4 % and 0.8 % on the 45 runs of all three truths). And the speed's reported
 /// std covers its error on each (time-averaged NEES at most 2, at least 90 % of samples inside the
-/// 95 % bound; measured at most 1.96 and at least 92 % on all 195 rows of 2026-12-04, with the
+/// 95 % bound; measured at most 1.96 and at least 92 % on all 195 rows, with the
 /// filters' own lateral covariance in the speed filter instead of the reported one up to 6.3
-/// and 60 %; the Luenberger observer on model B, added 2026-12-05: at most 0.6 % off, NEES at
+/// and 60 %; the Luenberger observer on model B: at most 0.6 % off, NEES at
 /// most 0.68 and at least 95 % inside on its 15 rows). Every estimator of the base scenario has a row.
 #[test]
 fn every_estimator_keeps_the_speed_within_two_percent_and_honest_on_every_escort_run() {
