@@ -13,5 +13,6 @@ mod model_a;
 mod model_b;
 mod model_c;
 mod parameters;
+mod planar_standstill;
 mod reference;
 mod robustness;
