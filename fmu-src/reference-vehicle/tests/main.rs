@@ -8,3 +8,4 @@ mod common;
 mod feed_through;
 mod load_unload;
 mod parameter_limits;
+mod sensor_faults;
