@@ -10,7 +10,7 @@
 //!   Magic Formula tyre is matched to the HSRI `tyre_*` parameters). Both come from the
 //!   `vehicle-models` crate's switchable reference vehicle, discretised with the seed-000 scheme
 //!   (000: 6.1-6.5) or RK4 (`integrator`), and report the same truth (model B: axle values are
-//!   the mean of left and right wheel). Model 3 (`model = 3`, issue 13): the full vehicle of
+//!   the mean of left and right wheel). Model 3 (`model = 3`): the full vehicle of
 //!   `vehicle_models::full_vehicle` (roll, load transfer, four wheel spins, combined-slip MF 5.2
 //!   tyres, drivetrains, standstill), parameterised by the shared vehicle parameters and its own
 //!   (`cog_height` … `tyre_rear_*`, mapped once in `vehicle_models::parameters`), driven also by
@@ -24,7 +24,7 @@
 //!   standard deviations `process_noise_std_*` (scaled by `sqrt(dt / integration_step)` when a
 //!   step is shorter) is added to `[vx, vy, r, ωF, ωR]` (model B: `[vx, vy, r, ωFL, ωFR, ωRL,
 //!   ωRR]`, each wheel with its axle's standard deviation).
-//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption; issue 13 effects),
+//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption; the sensors of a series car),
 //!   per integration step and per signal, in this order: true value → what the sensor senses
 //!   (gravity through roll, bank and grade; bias and its random-walk drift; wheel speed from
 //!   counted teeth; module `sensors`) → + white Gaussian noise → quantisation
@@ -528,7 +528,7 @@ fn sample_due(next: &mut f64, period: f64, time: f64) -> bool {
     true
 }
 
-/// The CAN timing of each sensor channel (issue 13 point 5: yaw rate, ay, wheel speeds, ax and
+/// The CAN timing of each sensor channel (yaw rate, ay, wheel speeds, ax and
 /// vx come in different messages at different rates): the channel's own parameter, or the
 /// common `sensor_sample_period` / `sensor_latency` where it is -1.
 #[derive(Clone, Copy, Debug)]
@@ -755,7 +755,7 @@ impl CoSimulationModel for ReferenceVehicle {
 
     /// The finest internal step: the integration step, or the sensor sample period where it is
     /// shorter (the sample-and-hold advances one period at a time), so that fmi-export refuses
-    /// a period that would make a doStep loop for hours (issue 15: `sensor_sample_period =
+    /// a period that would make a doStep loop for hours (`sensor_sample_period =
     /// 1e-300` lies inside its declared range and hung the first doStep).
     fn internal_step_size(&self) -> Option<f64> {
         let v = &self.variables;
@@ -801,7 +801,7 @@ impl CoSimulationModel for ReferenceVehicle {
         if changed {
             simulation.resample_at_inputs();
         }
-        // The tunable noise levels (issue 15 point 2) take effect with this doStep: the sample of
+        // The tunable noise levels take effect with this doStep: the sample of
         // t_n above keeps the levels it was drawn with.
         simulation.sensor_noise_std = sensor_noise_std(&self.variables);
         simulation.process_noise_std = process_noise_std(&simulation.vehicle, &self.variables);

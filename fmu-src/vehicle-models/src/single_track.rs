@@ -142,7 +142,7 @@ pub struct Chassis {
     pub steering_ratio: f64,
     /// `λμy` of the front tyres: factor on the friction coefficient of the car's tyre law
     /// ([`AxleTyreScaling::friction`]), so a car whose front tyres grip more or less than its
-    /// rear ones is described (issue 17 point 4; not a seed parameter). 1 = the seed's tyre.
+    /// rear ones is described (not a seed parameter). 1 = the seed's tyre.
     pub front_tyre_friction_scale: f64,
     /// `λμy` of the rear tyres (see `front_tyre_friction_scale`).
     pub rear_tyre_friction_scale: f64,
@@ -255,7 +255,7 @@ struct AxleState<S: Scalar> {
     longitudinal_force_spin_derivative: S,
 }
 
-/// What the estimation crate's grip model (issue 17) estimates of each axle's lateral tyre force,
+/// What the estimation crate's grip model estimates of each axle's lateral tyre force,
 /// `[front, rear]`, on top of model A's tyre law.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LateralTyreStates<S: Scalar> {
@@ -849,7 +849,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// [`Self::step_generic`] with a drive torque `rear_drive_torque` (N·m, both rear wheels
     /// together) on the rear axle: the estimator's model A for rear- and all-wheel drive cars
-    /// (issue 12). `None` is seed 000's front-driven car to the bit.
+    /// `None` is seed 000's front-driven car to the bit.
     #[inline(always)]
     pub fn step_with_rear_drive<S: Scalar>(
         &self,
@@ -864,7 +864,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// [`Self::step_with_rear_drive`] with each axle's tyre at its transient slip angle and its
     /// lateral force multiplied by its grip factor (`lateral`, [`LateralTyreStates`]: states of
-    /// the estimation crate's grip model; issue 17 point 4), the same equations and
+    /// the estimation crate's grip model), the same equations and
     /// integrators; both are held over the step. `None` is [`Self::step_with_rear_drive`];
     /// factors of exactly 1 and the kinematic slip angles give the same numbers.
     #[inline(always)]

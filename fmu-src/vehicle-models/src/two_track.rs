@@ -301,7 +301,7 @@ pub struct TwoTrackModel<T: TyreModel = MagicFormulaTyre> {
     pub vehicle: TwoTrackParams,
     /// The front tyres, and the rear ones unless `rear_tyre` is given.
     pub tyre: T,
-    /// The rear tyres where they differ from the front ones (issue 17 point 4: a car's front
+    /// The rear tyres where they differ from the front ones (a car's front
     /// and rear tyres, e.g. another Magic Formula shape or curvature); `None` = `tyre`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rear_tyre: Option<T>,
