@@ -123,6 +123,19 @@ pub struct CampaignManoeuvre {
     /// `--manoeuvres`); long manoeuvres stay out of its hundreds of runs.
     #[serde(default = "yes")]
     pub in_population: bool,
+    /// The ReferenceVehicle models (their `model` numbers) it runs on; every model of the
+    /// campaign's `reference_models` when not given.
+    #[serde(default)]
+    pub models: Option<Vec<i64>>,
+}
+
+impl CampaignManoeuvre {
+    /// Whether it runs on the ReferenceVehicle model `reference`.
+    pub fn runs_on(&self, reference: &ReferenceModel) -> bool {
+        self.models
+            .as_ref()
+            .is_none_or(|models| models.contains(&reference.model))
+    }
 }
 
 fn yes() -> bool {
@@ -144,10 +157,13 @@ impl CampaignFile {
         }
         for (i, m) in file.manoeuvres.iter().enumerate() {
             if let Some(source) = &m.amplitude_from {
-                let earlier = file.manoeuvres[..i].iter().any(|e| &e.name == source);
+                let earlier = file.manoeuvres[..i]
+                    .iter()
+                    .find(|e| &e.name == source)
+                    .is_some_and(|e| e.models.is_none() || e.models == m.models);
                 if !earlier || m.scale.is_none() {
                     bail!(
-                        "campaign file {}: manoeuvre {:?}: amplitude_from {source:?} must name a manoeuvre listed before it, and `scale` must be given",
+                        "campaign file {}: manoeuvre {:?}: amplitude_from {source:?} must name a manoeuvre listed before it that runs on the same models, and `scale` must be given",
                         path.display(),
                         m.name
                     );
@@ -458,7 +474,7 @@ impl Campaign {
     ) -> Result<CarOutcome> {
         let mut outcome = CarOutcome::default();
         let mut angles_at_03g: HashMap<String, f64> = HashMap::new();
-        for m in &self.file.manoeuvres {
+        for m in self.file.manoeuvres.iter().filter(|m| m.runs_on(reference)) {
             let (section, amplitude) = manoeuvre_section(m, &angles_at_03g)?;
             if let Some(amplitude) = amplitude {
                 outcome
@@ -1241,6 +1257,28 @@ mod tests {
         );
         assert_eq!(file.reference_models[0].model, 1);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The shipped low-speed courses run on the full vehicle alone, every other manoeuvre on
+    /// every reference model; the population leaves the courses out.
+    #[test]
+    fn a_manoeuvre_runs_on_its_models_only() {
+        let campaign = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).unwrap();
+        let models = &campaign.file.reference_models;
+        for m in &campaign.file.manoeuvres {
+            let on: Vec<i64> = models
+                .iter()
+                .filter(|r| m.runs_on(r))
+                .map(|r| r.model)
+                .collect();
+            if m.name.starts_with("low_speed_course") {
+                assert_eq!(on, [3], "{}", m.name);
+                assert!(!m.in_population, "{}", m.name);
+            } else {
+                assert_eq!(on.len(), models.len(), "{}", m.name);
+                assert!(m.in_population, "{}", m.name);
+            }
+        }
     }
 
     /// An estimator instance without `model` is refused, naming the base scenario and the
