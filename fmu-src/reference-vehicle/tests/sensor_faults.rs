@@ -181,3 +181,34 @@ fn jittered_samples_come_from_within_the_jitter_of_their_latency() {
         assert!(error <= largest_change, "k = {k}: {error}");
     }
 }
+
+/// With every fault on, a state taken mid-run continues bit-identically after
+/// fmi2SetFMUstate: the faults' filters, gap and generator are part of the FMU state.
+#[test]
+fn a_restored_state_continues_the_faults_bit_identically() {
+    let mut s = Slave::instantiate(fmi2_api_of!(ReferenceVehicle), "rv", GUID).expect("instance");
+    assert_eq!(s.set_real(vr::VX0, 15.0), Fmi2Status::Ok);
+    vibrating(&mut s);
+    assert_eq!(s.set_real(vr::SENSOR_LATENCY, 0.002), Fmi2Status::Ok);
+    assert_eq!(s.set_real(vr::SAMPLE_JITTER, 0.002), Fmi2Status::Ok);
+    assert_eq!(s.set_real(vr::SAMPLE_DROP_FRACTION, 0.05), Fmi2Status::Ok);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
+    let outputs = [vr::AY_MEAS, vr::AX_MEAS, vr::YAW_RATE_MEAS, vr::VX_MEAS];
+    let steps = |s: &mut Slave, from: usize, count: usize| -> Vec<u64> {
+        let mut bits = Vec::new();
+        for k in from..from + count {
+            let t = k as f64 * STEP;
+            assert_eq!(s.set_real(vr::STEERING_ANGLE, 0.02), Fmi2Status::Ok);
+            assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok);
+            bits.extend(s.reals(&outputs).iter().map(|v| v.to_bits()));
+        }
+        bits
+    };
+    steps(&mut s, 0, 450);
+    let (status, mut state) = s.get_state();
+    assert_eq!(status, Fmi2Status::Ok);
+    let reference = steps(&mut s, 450, 200);
+    assert_eq!(s.set_state(&state), Fmi2Status::Ok);
+    assert_eq!(steps(&mut s, 450, 200), reference);
+    assert_eq!(s.free_state(&mut state), Fmi2Status::Ok);
+}
