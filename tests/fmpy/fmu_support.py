@@ -42,9 +42,9 @@ ESTIMATOR_KINDS = {
 }
 
 # Seed-000 manoeuvres (SPEC section 7), defined once for the project in the Rust crate
-# harness/manoeuvres (src/seed000.rs) and read here from the table it generates (a Rust test keeps
+# fmu-src/manoeuvres (src/seed000.rs) and read here from the table it generates (a Rust test keeps
 # the table current): 12 s, steering starts at 4 s with 0.07 rad/s.
-with open(ROOT / "harness" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
+with open(ROOT / "fmu-src" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
     SEED000_MANOEUVRES = tomllib.load(_table_file)
 MANOEUVRE_DURATION = SEED000_MANOEUVRES["manoeuvre_duration"]
 STEER_START_TIME = SEED000_MANOEUVRES["steer_start_time"]

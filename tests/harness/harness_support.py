@@ -10,8 +10,8 @@ import tomllib
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
-# The seed-000 manoeuvre numbers, generated from the Rust crate harness/manoeuvres (src/seed000.rs).
-with open(ROOT / "harness" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
+# The seed-000 manoeuvre numbers, generated from the Rust crate fmu-src/manoeuvres (src/seed000.rs).
+with open(ROOT / "fmu-src" / "manoeuvres" / "seed000_manoeuvres.toml", "rb") as _table_file:
     SEED000_MANOEUVRES = tomllib.load(_table_file)
 
 

@@ -10,7 +10,7 @@
 //!   Magic Formula tyre is matched to the HSRI `tyre_*` parameters). Both come from the
 //!   `vehicle-models` crate's switchable reference vehicle, discretised with the seed-000 scheme
 //!   (000: 6.1-6.5) or RK4 (`integrator`), and report the same truth (model B: axle values are
-//!   the mean of left and right wheel). Model 3 (`model = 3`, issue 13): the full vehicle of
+//!   the mean of left and right wheel). Model 3 (`model = 3`): the full vehicle of
 //!   `vehicle_models::full_vehicle` (roll, load transfer, four wheel spins, combined-slip MF 5.2
 //!   tyres, drivetrains, standstill), parameterised by the shared vehicle parameters and its own
 //!   (`cog_height` … `tyre_rear_*`, mapped once in `vehicle_models::parameters`), driven also by
@@ -24,7 +24,7 @@
 //!   standard deviations `process_noise_std_*` (scaled by `sqrt(dt / integration_step)` when a
 //!   step is shorter) is added to `[vx, vy, r, ωF, ωR]` (model B: `[vx, vy, r, ωFL, ωFR, ωRL,
 //!   ωRR]`, each wheel with its axle's standard deviation).
-//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption; issue 13 effects),
+//! - **Sensor chain** (seed 000 ch. 7 noise; seed 001 CAN-like corruption; the sensors of a series car),
 //!   per integration step and per signal, in this order: true value → what the sensor senses
 //!   (gravity through roll, bank and grade; bias and its random-walk drift; wheel speed from
 //!   counted teeth; module `sensors`) → + white Gaussian noise → quantisation
@@ -33,8 +33,12 @@
 //!   `t0 + k·period`) → dropout of chosen channels for a time, or while the `sensor_blanking`
 //!   input names them (NaN or stale). Each channel may have its own period and delay
 //!   (`sample_period_*`, `latency_*`; -1 = the common value), as the messages of a car's CAN
-//!   buses have. The chain starts primed with the noise-free initial values. The issue-13
-//!   effects are all off by default.
+//!   buses have. The chain starts primed with the noise-free initial values. Real sensors'
+//!   faults join it: the body's band-limited vibration on the accelerometers (in front of the
+//!   noise), sample instants jittered around their latency (`sample_jitter`) and samples a
+//!   logger loses in gaps (`sample_drop_*`, behind the dropouts); their draws come from the
+//!   seed's second stream, so switching one on leaves every other draw as it was. Every sensor
+//!   effect is off by default.
 //! - **Direct feed-through**: when the master sets new inputs at a communication point, the
 //!   outputs that depend on them (ModelStructure) are re-evaluated at that instant before they
 //!   are read (`refresh_outputs`); see harness/scenarios/README.md, "Direct feed-through".
@@ -52,7 +56,7 @@
 use fmi_export::{
     CoSimulationModel, InstantiationContext, StateError, StateReader, StateWriter, StepOutcome,
 };
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha20Rng;
 use rand_distr::{Distribution, StandardNormal};
 use vehicle_models::parameters::positive;
@@ -62,7 +66,7 @@ use vehicle_models::{DriverInputVector, ReferenceModelKind, VehicleTruth};
 mod sensors;
 mod vehicle;
 
-use sensors::{Attitude, Dropout, SensorEffects, SENSORS};
+use sensors::{Attitude, Dropout, SampleDrops, SensorEffects, SENSORS};
 use vehicle::{Vehicle, WheelTruth};
 
 /// Generated from modelDescription/ReferenceVehicle.xml.
@@ -71,6 +75,16 @@ pub mod model_description {
 }
 
 use model_description::Variables;
+
+/// The ChaCha20 stream of the sensor faults' draws (the seeds' noise uses stream 0).
+const FAULT_STREAM: u64 = 1;
+
+/// The generator of the sensor faults' draws for `seed`.
+fn fault_generator(seed: u64) -> ChaCha20Rng {
+    let mut generator = ChaCha20Rng::seed_from_u64(seed);
+    generator.set_stream(FAULT_STREAM);
+    generator
+}
 
 /// Longest delay line, in integration steps (sensor_latency <= 1 s, step >= 1e-5 s).
 const MAX_LATENCY_STEPS: usize = 100_000;
@@ -145,6 +159,9 @@ struct Simulation {
     /// Per channel: sample period (0: every integration step) and delay in integration steps.
     timing: ChannelTiming,
     rng: ChaCha20Rng,
+    /// The draws of the real sensors' faults (vibration, jitter, dropped samples): the same
+    /// seed's stream [`FAULT_STREAM`], so switching a fault on leaves every other draw as it was.
+    fault_rng: ChaCha20Rng,
     /// The driver input applied during the steps (last finite values).
     input: DriverInputVector,
     /// The road input `[road_friction, road_bank_angle, road_grade_angle]` (last finite values).
@@ -152,6 +169,8 @@ struct Simulation {
     /// Gravity, bias, drift and tooth counting in front of the noise chain.
     effects: SensorEffects,
     dropout: Dropout,
+    /// The samples a logger loses (`sample_drop_fraction`), None when off.
+    drops: Option<SampleDrops>,
     /// Ring buffer of the longest channel delay + 1 corrupted samples; `delay_head` is the
     /// newest.
     delay_line: Vec<[f64; SENSORS]>,
@@ -227,6 +246,7 @@ impl Simulation {
             road,
             effects,
             dropout: Dropout::new(v)?,
+            drops: SampleDrops::new(v, integration_step),
             vehicle,
             integration_step,
             noise_on: v.noise,
@@ -241,6 +261,7 @@ impl Simulation {
                 v.quantum_vx_meas,
             ],
             rng: ChaCha20Rng::seed_from_u64(seed),
+            fault_rng: fault_generator(seed),
             input,
             delay_line: vec![initial; timing.longest_delay() + 1],
             delay_head: 0,
@@ -288,6 +309,9 @@ impl Simulation {
             ));
         }
         self.time += dt;
+        if let Some(drops) = &mut self.drops {
+            drops.advance(self.time, &mut self.fault_rng);
+        }
         (self.truth, self.wheels) = self.vehicle.truth(&self.input);
         let mut truth = sensor_values(&self.truth);
         self.effects.apply(
@@ -295,6 +319,7 @@ impl Simulation {
             attitude(&self.wheels, &self.road),
             dt,
             &mut self.rng,
+            &mut self.fault_rng,
         );
         if !self.noise_on {
             self.held = truth;
@@ -313,6 +338,11 @@ impl Simulation {
                 self.timing.period[i],
                 self.time,
             );
+            let delay = if sampled {
+                self.timing.jittered(delay, &mut self.fault_rng)
+            } else {
+                delay
+            };
             if sampled {
                 // The entry `delay` steps behind the head (ring buffer).
                 self.held[i] = self.delay_line[(self.delay_head + length - delay) % length][i];
@@ -407,6 +437,12 @@ impl Simulation {
         writer.f64s(&self.next_sample_time);
         writer.f64(self.time);
         self.effects.write_state(writer);
+        if let Some(drops) = &self.drops {
+            drops.write_state(writer);
+        }
+        let fault_position = self.fault_rng.get_word_pos();
+        writer.u64(fault_position as u64);
+        writer.u64((fault_position >> 64) as u64);
     }
 
     fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
@@ -449,6 +485,15 @@ impl Simulation {
         reader.f64s_into(&mut self.next_sample_time, "next sample times")?;
         self.time = reader.f64("simulation time")?;
         self.effects.read_state(reader)?;
+        if let Some(drops) = &mut self.drops {
+            drops.read_state(reader)?;
+        }
+        let low = reader.u64("fault generator position")?;
+        let high = reader.u64("fault generator position")?;
+        self.fault_rng = ChaCha20Rng::from_seed(seed);
+        self.fault_rng.set_stream(FAULT_STREAM);
+        self.fault_rng
+            .set_word_pos(u128::from(low) | (u128::from(high) << 64));
         (self.truth, self.wheels) = self.vehicle.truth(&self.input);
         Ok(())
     }
@@ -483,7 +528,7 @@ fn sample_due(next: &mut f64, period: f64, time: f64) -> bool {
     true
 }
 
-/// The CAN timing of each sensor channel (issue 13 point 5: yaw rate, ay, wheel speeds, ax and
+/// The CAN timing of each sensor channel (yaw rate, ay, wheel speeds, ax and
 /// vx come in different messages at different rates): the channel's own parameter, or the
 /// common `sensor_sample_period` / `sensor_latency` where it is -1.
 #[derive(Clone, Copy, Debug)]
@@ -492,6 +537,8 @@ struct ChannelTiming {
     period: [f64; SENSORS],
     /// Transport delay in whole integration steps.
     delay_steps: [usize; SENSORS],
+    /// Largest time-stamp error of a sample (`sample_jitter`) in whole integration steps.
+    jitter_steps: usize,
 }
 
 impl ChannelTiming {
@@ -527,14 +574,35 @@ impl ChannelTiming {
             }
             *steps = whole as usize;
         }
+        let jitter = (v.sample_jitter / integration_step).round();
+        if !(0.0..=MAX_LATENCY_STEPS as f64).contains(&jitter) {
+            return Err(format!(
+                "parameter sample_jitter = {} is {jitter} integration steps; expected 0 to {MAX_LATENCY_STEPS}",
+                v.sample_jitter
+            ));
+        }
         Ok(Self {
             period: periods,
             delay_steps,
+            jitter_steps: jitter as usize,
         })
     }
 
+    /// The delay line's reach: the longest delay plus the jitter.
     fn longest_delay(&self) -> usize {
-        self.delay_steps.into_iter().max().unwrap_or(0)
+        self.delay_steps.into_iter().max().unwrap_or(0) + self.jitter_steps
+    }
+
+    /// The delay of one sample of a channel delayed by `delay` steps: `delay` plus a uniform
+    /// draw in ±`jitter_steps`, never below 0 (no sample from the future). Draws nothing without
+    /// jitter.
+    fn jittered(&self, delay: usize, rng: &mut ChaCha20Rng) -> usize {
+        if self.jitter_steps == 0 {
+            return delay;
+        }
+        let jitter = self.jitter_steps as i64;
+        let offset: i64 = rng.random_range(-jitter..=jitter);
+        (delay as i64 + offset).max(0) as usize
     }
 }
 
@@ -642,11 +710,16 @@ impl ReferenceVehicle {
             &mut v.ax_meas,
             &mut v.vx_meas,
         ];
+        let dropped = simulation
+            .drops
+            .as_ref()
+            .is_some_and(|drops| drops.dropped(simulation.time));
         for (i, output) in measured.into_iter().enumerate() {
             *output = simulation.dropout.shown(
                 i,
                 simulation.time,
                 v.sensor_blanking,
+                dropped,
                 simulation.held[i],
                 *output,
             );
@@ -682,7 +755,7 @@ impl CoSimulationModel for ReferenceVehicle {
 
     /// The finest internal step: the integration step, or the sensor sample period where it is
     /// shorter (the sample-and-hold advances one period at a time), so that fmi-export refuses
-    /// a period that would make a doStep loop for hours (issue 15: `sensor_sample_period =
+    /// a period that would make a doStep loop for hours (`sensor_sample_period =
     /// 1e-300` lies inside its declared range and hung the first doStep).
     fn internal_step_size(&self) -> Option<f64> {
         let v = &self.variables;
@@ -728,7 +801,7 @@ impl CoSimulationModel for ReferenceVehicle {
         if changed {
             simulation.resample_at_inputs();
         }
-        // The tunable noise levels (issue 15 point 2) take effect with this doStep: the sample of
+        // The tunable noise levels take effect with this doStep: the sample of
         // t_n above keeps the levels it was drawn with.
         simulation.sensor_noise_std = sensor_noise_std(&self.variables);
         simulation.process_noise_std = process_noise_std(&simulation.vehicle, &self.variables);

@@ -28,6 +28,7 @@
 /// criterion, signals recorded in g): `manoeuvres::STANDARD_GRAVITY`.
 pub const GRAVITY: f64 = 9.81;
 
+pub mod brake;
 pub mod checks;
 pub mod driver_input;
 pub mod full_vehicle;

@@ -18,9 +18,10 @@
 //! (000: 5.17, 5.22, 5.65). Below `low_speed_guard` (default 1 m/s) that divisor is replaced by
 //! the guard value, so the equations stay finite at standstill: the tyre forces then act like a
 //! damper on the contact-patch velocities, bringing a standing car to rest instead of producing
-//! NaN. The seed model is not meant for such speeds; nothing else changes. Brake torque follows
-//! the seed (a torque on the wheel, not a friction brake), so holding the brake at standstill
-//! would spin the wheels backwards — manoeuvres brake from speed and end before standstill.
+//! NaN. The seed model is not meant for such speeds; nothing else changes. The brake is friction
+//! ([`crate::brake`]): it opposes the rotation and holds a standing wheel, so a car braked to a
+//! stop stands (the seed's torque kept acting at standstill and spun the wheels backwards); from
+//! speed it is the seed's torque to the bit.
 //!
 //! Every equation is written once, generic over [`Scalar`]; the Jacobians of the discrete step
 //! and of the measurement are obtained by forward-mode automatic differentiation of exactly that
@@ -29,7 +30,8 @@
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
-use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVector, INPUT_DIM};
+use crate::brake::{braked_spin, BrakedSpin};
+use crate::driver_input::{index as input_index, DriverInputVector, INPUT_DIM};
 use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
 use crate::scalar::{seed_state_and_input, split_jacobians, Scalar};
 use crate::truth::VehicleTruth;
@@ -140,7 +142,7 @@ pub struct Chassis {
     pub steering_ratio: f64,
     /// `λμy` of the front tyres: factor on the friction coefficient of the car's tyre law
     /// ([`AxleTyreScaling::friction`]), so a car whose front tyres grip more or less than its
-    /// rear ones is described (issue 17 point 4; not a seed parameter). 1 = the seed's tyre.
+    /// rear ones is described (not a seed parameter). 1 = the seed's tyre.
     pub front_tyre_friction_scale: f64,
     /// `λμy` of the rear tyres (see `front_tyre_friction_scale`).
     pub rear_tyre_friction_scale: f64,
@@ -253,7 +255,7 @@ struct AxleState<S: Scalar> {
     longitudinal_force_spin_derivative: S,
 }
 
-/// What the estimation crate's grip model (issue 17) estimates of each axle's lateral tyre force,
+/// What the estimation crate's grip model estimates of each axle's lateral tyre force,
 /// `[front, rear]`, on top of model A's tyre law.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LateralTyreStates<S: Scalar> {
@@ -676,38 +678,67 @@ impl<T: TyreModel> SingleTrackModel<T> {
         [vx_dot, vy_dot, yaw_acceleration]
     }
 
-    /// Front wheel spin acceleration `ω̇F` (000: 5.45) with `M_B = −brake_torque`.
+    /// Front wheel spin acceleration `ω̇F` (000: 5.45) with `M_B = −brake_torque` and the brake
+    /// as friction ([`crate::brake`]): it holds a standing wheel instead of turning it backwards.
     #[inline(always)]
-    fn front_spin_acceleration<S: Scalar>(&self, u: &[S; INPUT_DIM], longitudinal_force: S) -> S {
+    fn front_spin_acceleration<S: Scalar>(
+        &self,
+        u: &[S; INPUT_DIM],
+        omega: S,
+        longitudinal_force: S,
+    ) -> BrakedSpin<S> {
         let p = &self.vehicle;
-        let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
-        // (000: 5.45)
-        (u[input_index::DRIVE_TORQUE] + brake * p.chassis.brake_split_front
-            - longitudinal_force * p.chassis.front_wheel_radius)
-            * (1.0 / p.chassis.front_wheel_inertia)
+        let drive = u[input_index::DRIVE_TORQUE];
+        let tyre_torque = longitudinal_force * p.chassis.front_wheel_radius;
+        braked_spin(
+            omega,
+            drive - tyre_torque,
+            u[input_index::BRAKE_TORQUE],
+            p.chassis.brake_split_front,
+            p.chassis.front_wheel_inertia,
+            // (000: 5.45)
+            |brake| {
+                (drive + brake * p.chassis.brake_split_front - tyre_torque)
+                    * (1.0 / p.chassis.front_wheel_inertia)
+            },
+        )
     }
 
-    /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`. Seed 000's car
-    /// is front-driven: its rear wheels carry no drive torque (`rear_drive_torque = None`, the
-    /// seed's expression to the bit). A rear drive torque `M_AR` enters as `M_A` does at the
-    /// front (000: 5.45): `IR ω̇R = M_AR + (1 − ν) M_B − FxR r_R`.
+    /// Rear wheel spin acceleration `ω̇R` (000: 5.46) with `M_B = −brake_torque`, the brake as
+    /// friction as at the front. Seed 000's car is front-driven: its rear wheels carry no drive
+    /// torque (`rear_drive_torque = None`, the seed's expression to the bit). A rear drive torque
+    /// `M_AR` enters as `M_A` does at the front (000: 5.45): `IR ω̇R = M_AR + (1 − ν) M_B − FxR r_R`.
     #[inline(always)]
     fn rear_spin_acceleration<S: Scalar>(
         &self,
         u: &[S; INPUT_DIM],
+        omega: S,
         rear_drive_torque: Option<S>,
         longitudinal_force: S,
-    ) -> S {
+    ) -> BrakedSpin<S> {
         let p = &self.vehicle;
-        let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
-        let brake_rear = brake * (1.0 - p.chassis.brake_split_front);
-        let wheel_torque = match rear_drive_torque {
-            Some(drive) => drive + brake_rear,
-            None => brake_rear,
+        let tyre_torque = longitudinal_force * p.chassis.rear_wheel_radius;
+        let rear_share = 1.0 - p.chassis.brake_split_front;
+        let other = match rear_drive_torque {
+            Some(drive) => drive - tyre_torque,
+            None => -tyre_torque,
         };
-        // (000: 5.46)
-        (wheel_torque - longitudinal_force * p.chassis.rear_wheel_radius)
-            * (1.0 / p.chassis.rear_wheel_inertia)
+        braked_spin(
+            omega,
+            other,
+            u[input_index::BRAKE_TORQUE],
+            rear_share,
+            p.chassis.rear_wheel_inertia,
+            |brake| {
+                let brake_rear = brake * rear_share;
+                let wheel_torque = match rear_drive_torque {
+                    Some(drive) => drive + brake_rear,
+                    None => brake_rear,
+                };
+                // (000: 5.46)
+                (wheel_torque - tyre_torque) * (1.0 / p.chassis.rear_wheel_inertia)
+            },
+        )
     }
 
     /// Continuous-time right-hand side `ẋ = f(x, u)` (000: 5.42-5.46), generic over the scalar.
@@ -736,8 +767,19 @@ impl<T: TyreModel> SingleTrackModel<T> {
             vx_dot,
             vy_dot,
             yaw_acceleration,
-            self.front_spin_acceleration(u, e.front.longitudinal_force),
-            self.rear_spin_acceleration(u, rear_drive_torque, e.rear.longitudinal_force),
+            self.front_spin_acceleration(
+                u,
+                x[state_index::OMEGA_FRONT],
+                e.front.longitudinal_force,
+            )
+            .rate,
+            self.rear_spin_acceleration(
+                u,
+                x[state_index::OMEGA_REAR],
+                rear_drive_torque,
+                e.rear.longitudinal_force,
+            )
+            .rate,
         ]
     }
 
@@ -759,15 +801,23 @@ impl<T: TyreModel> SingleTrackModel<T> {
         let (front, rear) = (e.front, e.rear);
         let [vx_dot, vy_dot, yaw_acceleration] = self.body_derivatives(x, &e.axle_forces());
         let p = &self.vehicle;
-        let front_spin = self.front_spin_acceleration(u, front.longitudinal_force);
-        let rear_spin = self.rear_spin_acceleration(u, rear_drive_torque, rear.longitudinal_force);
-        // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46)
-        let front_spin_derivative = -(front.longitudinal_force_spin_derivative
-            * p.chassis.front_wheel_radius)
-            * (1.0 / p.chassis.front_wheel_inertia);
-        let rear_spin_derivative = -(rear.longitudinal_force_spin_derivative
-            * p.chassis.rear_wheel_radius)
-            * (1.0 / p.chassis.rear_wheel_inertia);
+        let front_spin = self.front_spin_acceleration(u, x[OMEGA_FRONT], front.longitudinal_force);
+        let rear_spin = self.rear_spin_acceleration(
+            u,
+            x[OMEGA_REAR],
+            rear_drive_torque,
+            rear.longitudinal_force,
+        );
+        // ∂ω̇/∂ω = −r_w/I · ∂Fx/∂ω, from (000: 5.45), (000: 5.46); −1/τ where the brake holds
+        let front_spin_derivative = front_spin.rate_derivative(
+            -(front.longitudinal_force_spin_derivative * p.chassis.front_wheel_radius)
+                * (1.0 / p.chassis.front_wheel_inertia),
+        );
+        let rear_spin_derivative = rear_spin.rate_derivative(
+            -(rear.longitudinal_force_spin_derivative * p.chassis.rear_wheel_radius)
+                * (1.0 / p.chassis.rear_wheel_inertia),
+        );
+        let (front_spin, rear_spin) = (front_spin.rate, rear_spin.rate);
         // (000: 6.3), (000: 6.4), (000: 6.5)
         let body = explicit_euler(
             &[x[VX], x[VY], x[YAW_RATE]],
@@ -799,7 +849,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// [`Self::step_generic`] with a drive torque `rear_drive_torque` (N·m, both rear wheels
     /// together) on the rear axle: the estimator's model A for rear- and all-wheel drive cars
-    /// (issue 12). `None` is seed 000's front-driven car to the bit.
+    /// `None` is seed 000's front-driven car to the bit.
     #[inline(always)]
     pub fn step_with_rear_drive<S: Scalar>(
         &self,
@@ -814,7 +864,7 @@ impl<T: TyreModel> SingleTrackModel<T> {
 
     /// [`Self::step_with_rear_drive`] with each axle's tyre at its transient slip angle and its
     /// lateral force multiplied by its grip factor (`lateral`, [`LateralTyreStates`]: states of
-    /// the estimation crate's grip model; issue 17 point 4), the same equations and
+    /// the estimation crate's grip model), the same equations and
     /// integrators; both are held over the step. `None` is [`Self::step_with_rear_drive`];
     /// factors of exactly 1 and the kinematic slip angles give the same numbers.
     #[inline(always)]

@@ -39,7 +39,8 @@
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
 
-use crate::driver_input::{index as input_index, seed_brake_torque, DriverInputVector, INPUT_DIM};
+use crate::brake::{braked_spin, BrakedSpin};
+use crate::driver_input::{index as input_index, DriverInputVector, INPUT_DIM};
 use crate::integrator::{explicit_euler, runge_kutta4, semi_implicit_update, Integrator};
 use crate::scalar::{Dual, Scalar};
 use crate::single_track::{guarded_speed, Chassis};
@@ -300,7 +301,7 @@ pub struct TwoTrackModel<T: TyreModel = MagicFormulaTyre> {
     pub vehicle: TwoTrackParams,
     /// The front tyres, and the rear ones unless `rear_tyre` is given.
     pub tyre: T,
-    /// The rear tyres where they differ from the front ones (issue 17 point 4: a car's front
+    /// The rear tyres where they differ from the front ones (a car's front
     /// and rear tyres, e.g. another Magic Formula shape or curvature); `None` = `tyre`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rear_tyre: Option<T>,
@@ -472,11 +473,11 @@ impl<T: TyreModel> TwoTrackModel<T> {
         evaluation
     }
 
-    /// Drive plus brake torque on wheel `i` (front drive split equally; brake split `ν`).
+    /// Drive plus brake torque on wheel `i` with the signed total brake torque `brake` (the seed's
+    /// `M_B`; front drive split equally; brake split `ν`).
     #[inline(always)]
-    fn wheel_torque<S: Scalar>(&self, wheel: usize, u: &[S; INPUT_DIM]) -> S {
+    fn wheel_torque<S: Scalar>(&self, wheel: usize, u: &[S; INPUT_DIM], brake: S) -> S {
         let p = &self.vehicle;
-        let brake = seed_brake_torque(u[input_index::BRAKE_TORQUE]);
         if TwoTrackParams::is_front(wheel) {
             // (000: 5.45) per wheel
             (u[input_index::DRIVE_TORQUE] + brake * p.chassis.brake_split_front) * PER_WHEEL_OF_AXLE
@@ -484,6 +485,41 @@ impl<T: TyreModel> TwoTrackModel<T> {
             // (000: 5.46) per wheel
             brake * ((1.0 - p.chassis.brake_split_front) * PER_WHEEL_OF_AXLE)
         }
+    }
+
+    /// Spin acceleration of wheel `i` at speed `omega` under the tyre force `force`, with the
+    /// brake as friction ([`crate::brake`]): the seed's `(T_i − Fx,i r) / I` (000: 5.45-5.46 per
+    /// wheel) while the wheel turns, a held wheel where the brake can hold it.
+    #[inline(always)]
+    fn wheel_spin<S: Scalar>(
+        &self,
+        wheel: usize,
+        u: &[S; INPUT_DIM],
+        omega: S,
+        force: S,
+    ) -> BrakedSpin<S> {
+        let p = &self.vehicle;
+        let tyre_torque = force * p.wheel_radius(wheel);
+        let inertia = self.single_wheel_inertia(wheel);
+        let (other, share) = if TwoTrackParams::is_front(wheel) {
+            (
+                u[input_index::DRIVE_TORQUE] * PER_WHEEL_OF_AXLE - tyre_torque,
+                p.chassis.brake_split_front * PER_WHEEL_OF_AXLE,
+            )
+        } else {
+            (
+                -tyre_torque,
+                (1.0 - p.chassis.brake_split_front) * PER_WHEEL_OF_AXLE,
+            )
+        };
+        braked_spin(
+            omega,
+            other,
+            u[input_index::BRAKE_TORQUE],
+            share,
+            inertia,
+            |brake| (self.wheel_torque(wheel, u, brake) - tyre_torque) / inertia,
+        )
     }
 
     /// Spin inertia of one wheel.
@@ -527,9 +563,14 @@ impl<T: TyreModel> TwoTrackModel<T> {
         let mut derivative = [S::constant(0.0); STATE_DIM];
         derivative[..3].copy_from_slice(&body);
         for wheel in 0..WHEELS {
-            derivative[FIRST_WHEEL_STATE + wheel] = (self.wheel_torque(wheel, u)
-                - e.wheels.longitudinal_force[wheel] * self.vehicle.wheel_radius(wheel))
-                / self.single_wheel_inertia(wheel);
+            derivative[FIRST_WHEEL_STATE + wheel] = self
+                .wheel_spin(
+                    wheel,
+                    u,
+                    x[FIRST_WHEEL_STATE + wheel],
+                    e.wheels.longitudinal_force[wheel],
+                )
+                .rate;
         }
         derivative
     }
@@ -573,8 +614,9 @@ impl<T: TyreModel> TwoTrackModel<T> {
             let force_slope = e.wheels.longitudinal_force[wheel].gradient[wheel];
             // (000: 5.45-5.46) per wheel
             let radius = p.wheel_radius(wheel);
-            let rate = (self.wheel_torque(wheel, u) - force * radius) / inertia;
-            let rate_derivative = -(force_slope * radius) / inertia;
+            let spin = self.wheel_spin(wheel, u, x[FIRST_WHEEL_STATE + wheel], force);
+            let rate = spin.rate;
+            let rate_derivative = spin.rate_derivative(-(force_slope * radius) / inertia);
             // (000: 6.1-6.2)
             next[FIRST_WHEEL_STATE + wheel] =
                 semi_implicit_update(x[FIRST_WHEEL_STATE + wheel], rate, rate_derivative, dt);

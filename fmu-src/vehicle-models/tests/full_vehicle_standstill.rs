@@ -369,3 +369,53 @@ fn gravity_pulls_along_a_graded_or_banked_road() {
         banked.truth()
     );
 }
+
+/// A car braked to a stop springs back on its tyres: the braking force it stopped with is held
+/// in the tyres' longitudinal deflection (the relaxation states are springs at standstill), and
+/// with the car at rest that force pushes it back until the deflection is gone, as a real car
+/// rocks back on its tyres and suspension. That is millimetres at a few cm/s, then the car
+/// stands: no creep.
+#[test]
+fn after_a_stop_the_car_rocks_back_millimetres_and_stands() {
+    for (file, p) in every_car() {
+        for steering in [0.0, 0.2] {
+            let mut vehicle = FullVehicle::rolling(p.clone(), 10.0);
+            let input = FullVehicleInput {
+                steering_angle: steering,
+                brake_torque: 2000.0,
+                ..FullVehicleInput::default()
+            };
+            let (mut position, mut stopped_at, mut farthest_back) = (0.0, None, 0.0f64);
+            let mut standing_since = None;
+            drive(
+                &mut vehicle,
+                8.0,
+                |_, _| input,
+                |t, truth| {
+                    position += truth.longitudinal_velocity * STEP;
+                    if stopped_at.is_none() && truth.longitudinal_velocity <= 0.0 {
+                        stopped_at = Some(position);
+                    }
+                    if let Some(stop) = stopped_at {
+                        farthest_back = farthest_back.max(stop - position);
+                        if truth.longitudinal_velocity.abs() > 1e-3 {
+                            standing_since = None;
+                        } else if standing_since.is_none() {
+                            standing_since = Some(t);
+                        }
+                    }
+                },
+            );
+            assert!(stopped_at.is_some(), "{file}: did not stop");
+            assert!(
+                farthest_back < 0.005,
+                "{file} δ={steering}: rolled back {farthest_back} m"
+            );
+            let since = standing_since.expect("standing at the end");
+            assert!(
+                since < 6.0,
+                "{file} δ={steering}: still moving at {since} s"
+            );
+        }
+    }
+}

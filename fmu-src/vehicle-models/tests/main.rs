@@ -1,5 +1,5 @@
 //! The crate's integration tests, one module per file, in one test binary: the crate and its
-//! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
+//! dependencies are compiled and linked once instead of once per file (the test command's time is bounded).
 //! `cargo test -p vehicle-models --test integration <module>::` runs one file's tests.
 
 mod combined_slip_tyre;
@@ -13,5 +13,6 @@ mod model_a;
 mod model_b;
 mod model_c;
 mod parameters;
+mod planar_standstill;
 mod reference;
 mod robustness;

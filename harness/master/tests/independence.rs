@@ -67,7 +67,7 @@ fn the_check_refuses_an_estimator_renamed_or_by_path() {
     let manifest = r#"
 [dependencies]
 serde = "1"
-manoeuvres = { path = "../manoeuvres" }
+manoeuvres = { path = "../../fmu-src/manoeuvres" }
 filters = { path = "../../fmu-src/estimation", package = "estimation" }
 [dev-dependencies]
 models = { path = "../../fmu-src/somewhere-else" }

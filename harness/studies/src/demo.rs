@@ -616,7 +616,7 @@ fn summary_section(doc: &mut Document, findings: &[Finding], failures: &[(String
 fn library_section(doc: &mut Document, out: &Path) -> Result<()> {
     doc.heading(2, "Manoeuvre library");
     doc.paragraph(
-        "Each manoeuvre is defined once in the `manoeuvres` crate (`harness/manoeuvres/src/lib.rs`). The seeds leave durations, rise times \
+        "Each manoeuvre is defined once in the `manoeuvres` crate (`fmu-src/manoeuvres/src/lib.rs`). The seeds leave durations, rise times \
          and the wobble frequency open; the values chosen are these:",
     );
     let library_png = out.join("manoeuvres.png");

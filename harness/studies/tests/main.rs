@@ -3,6 +3,7 @@
 //! `cargo test -p harness --test integration <module>::` runs one file's tests.
 
 mod identify_cli;
+mod low_speed_campaign;
 mod mismatch;
 mod mismatch_identification;
 mod population;

@@ -114,7 +114,7 @@ impl SeedManoeuvre {
 }
 
 /// The numbers of this module as a table for other languages (the Python tests read
-/// `harness/manoeuvres/seed000_manoeuvres.toml`, which a test keeps equal to this).
+/// `fmu-src/manoeuvres/seed000_manoeuvres.toml`, which a test keeps equal to this).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Seed000Table {
     pub manoeuvre_duration: f64,

@@ -14,7 +14,10 @@
 
 use serde::Deserialize;
 
+pub mod low_speed;
 pub mod seed000;
+
+pub use low_speed::LowSpeedCourse;
 
 use seed000::{
     BRAKE_RAMP_DURATION, BRAKE_START_TIME, BRAKE_TORQUE_FINAL, HIGH_RAMP_ANGLE,
@@ -216,10 +219,11 @@ pub enum Manoeuvre {
     SlowlyIncreasingSteer(SlowlyIncreasingSteer),
     SineWithDwell(SineWithDwell),
     DoubleLaneChange(DoubleLaneChange),
+    LowSpeedCourse(LowSpeedCourse),
 }
 
 /// Names of the library manoeuvres, in report order.
-pub const LIBRARY: [&str; 11] = [
+pub const LIBRARY: [&str; 12] = [
     "seed000_ramp_moderate_ay",
     "seed000_ramp_high_ay",
     "seed000_ramp_high_ay_braking",
@@ -231,6 +235,7 @@ pub const LIBRARY: [&str; 11] = [
     "fmvss126_slowly_increasing_steer",
     "fmvss126_sine_with_dwell",
     "straight_coasting",
+    "low_speed_handling_course",
 ];
 
 /// The library manoeuvre called `name`, or None.
@@ -370,6 +375,7 @@ pub fn library(name: &str) -> Option<Manoeuvre> {
             initial_speed: seed000_speed,
             duration: 2.0,
         }),
+        "low_speed_handling_course" => Manoeuvre::LowSpeedCourse(low_speed::library_course()),
         _ => return None,
     })
 }
@@ -383,6 +389,7 @@ impl Manoeuvre {
             Manoeuvre::SlowlyIncreasingSteer(m) => m.duration,
             Manoeuvre::SineWithDwell(m) => m.duration,
             Manoeuvre::DoubleLaneChange(m) => m.duration,
+            Manoeuvre::LowSpeedCourse(m) => m.duration,
         }
     }
 
@@ -394,6 +401,7 @@ impl Manoeuvre {
             Manoeuvre::SlowlyIncreasingSteer(m) => m.initial_speed,
             Manoeuvre::SineWithDwell(m) => m.initial_speed,
             Manoeuvre::DoubleLaneChange(m) => m.initial_speed,
+            Manoeuvre::LowSpeedCourse(m) => m.waypoints.first().map_or(0.0, |w| w.speed),
         }
     }
 
@@ -401,7 +409,9 @@ impl Manoeuvre {
     pub fn needs_feedback(&self) -> bool {
         matches!(
             self,
-            Manoeuvre::DoubleLaneChange(_) | Manoeuvre::SlowlyIncreasingSteer(_)
+            Manoeuvre::DoubleLaneChange(_)
+                | Manoeuvre::SlowlyIncreasingSteer(_)
+                | Manoeuvre::LowSpeedCourse(_)
         )
     }
 
@@ -463,6 +473,7 @@ impl Manoeuvre {
                 positive("second_transition", m.second_transition)?;
                 non_negative("speed_gain", m.speed_gain)?;
             }
+            Manoeuvre::LowSpeedCourse(m) => m.validate()?,
         }
         Ok(())
     }
@@ -510,6 +521,7 @@ impl Manoeuvre {
                 (m.rate * (t - m.start_time).max(0.0)) / STEERING_RATIO
             }
             Manoeuvre::SineWithDwell(m) => sine_with_dwell_wheel(m, t) / STEERING_RATIO,
+            Manoeuvre::LowSpeedCourse(m) => m.steering(t),
             Manoeuvre::DoubleLaneChange(_) => return None,
         })
     }
@@ -599,6 +611,9 @@ pub struct ManoeuvreRun {
     last: Option<(f64, VehicleMotion)>,
     steering: f64,
     drive_torque: f64,
+    /// The brake of a closed-loop driver that brakes (the low-speed course); None: the
+    /// manoeuvre's open-loop brake.
+    brake_torque: Option<f64>,
 }
 
 impl ManoeuvreRun {
@@ -609,6 +624,7 @@ impl ManoeuvreRun {
             last: None,
             steering: 0.0,
             drive_torque: 0.0,
+            brake_torque: None,
         }
     }
 
@@ -658,6 +674,13 @@ impl ManoeuvreRun {
                 let speed = speed_now.unwrap_or(m.initial_speed);
                 self.drive_torque = (m.speed_gain * (m.initial_speed - speed)).max(0.0);
             }
+            Manoeuvre::LowSpeedCourse(m) => {
+                self.steering = m.steering(t);
+                let speed = speed_now.unwrap_or_else(|| m.target_speed(t));
+                let (drive, brake) = m.pedals(t, speed);
+                self.drive_torque = drive;
+                self.brake_torque = Some(brake);
+            }
             other => {
                 self.steering = other.open_loop_steering(t).unwrap_or(0.0);
                 self.drive_torque = 0.0;
@@ -671,7 +694,9 @@ impl ManoeuvreRun {
             Channel::SteeringAngle => self.steering,
             Channel::SteeringWheelAngle => self.steering * STEERING_RATIO,
             Channel::DriveTorque => self.drive_torque,
-            Channel::BrakeTorque => self.manoeuvre.brake_torque(t),
+            Channel::BrakeTorque => self
+                .brake_torque
+                .unwrap_or_else(|| self.manoeuvre.brake_torque(t)),
             Channel::InitialSpeed => self.manoeuvre.initial_speed(),
         }
     }
@@ -769,6 +794,21 @@ pub fn describe(name: &str) -> Option<String> {
             kmh(d.initial_speed),
             d.speed_gain,
             d.duration
+        ),
+        Manoeuvre::LowSpeedCourse(c) => format!(
+            "low-speed handling course of {} waypoints in {:.0} s: target speeds 0-{:.0} m/s with {} \
+             stops held by {:.0} N·m of brake and starts from standstill, road-wheel angles up to \
+             {:.0} deg blended by a raised cosine; speed held by drive and brake torque ({:.0} / \
+             {:.0} N·m per m/s, drive at most {:.0} N·m)",
+            c.waypoints.len(),
+            c.duration,
+            c.waypoints.iter().fold(0.0f64, |a, w| a.max(w.speed)),
+            c.stops(),
+            c.hold_brake,
+            deg(c.largest_angle()),
+            c.speed_gain,
+            c.brake_gain,
+            c.max_drive_torque
         ),
     })
 }

@@ -306,7 +306,7 @@ fn seed000_signals_are_the_closed_forms_bit_for_bit() {
 fn the_generated_seed000_table_is_current() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("seed000_manoeuvres.toml");
     let generated = format!(
-        "# Generated from harness/manoeuvres/src/seed000.rs by its test \
+        "# Generated from fmu-src/manoeuvres/src/seed000.rs by its test \
          (UPDATE_MANOEUVRE_TABLE=1 cargo test -p manoeuvres); do not edit.\n{}",
         toml::to_string(&manoeuvres::seed000::Seed000Table::TABLE).unwrap()
     );
