@@ -27,6 +27,7 @@
 
 pub mod codegen;
 mod error;
+pub mod fmi3;
 mod parse;
 pub mod validate;
 mod xml;
