@@ -219,6 +219,8 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
 ///
 /// # Safety
 /// The strings are null or NUL-terminated.
+// The arguments are those of the two instantiation functions, plus the names for messages.
+#[allow(clippy::too_many_arguments)]
 pub(crate) unsafe fn create_instance<M: CoSimulationModel>(
     function: &str,
     guid_argument: &str,

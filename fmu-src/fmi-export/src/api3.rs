@@ -257,7 +257,10 @@ fn resolve<M: CoSimulationModel>(
 ) -> Result<Target, String> {
     let table = |value_type, enumeration: Option<bool>| {
         find_variable::<M>(value_type, vr)
-            .filter(|v| enumeration.is_none_or(|e| e == !v.allowed_values.is_empty()))
+            .filter(|v| {
+                let is_enumeration = !v.allowed_values.is_empty();
+                enumeration.is_none_or(|e| e == is_enumeration)
+            })
             .map(Target::Table)
     };
     let found = match fmi3_type {

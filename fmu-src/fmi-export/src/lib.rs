@@ -1,4 +1,4 @@
-//! FMI 2.0 Co-Simulation plumbing, written once for both FMUs.
+//! FMI 2.0 and FMI 3.0 Co-Simulation plumbing, written once for both FMUs.
 //!
 //! An FMU crate is a short file of equations: it includes the variable table generated from its
 //! modelDescription.xml (crate `model-description`, build-time), implements
@@ -14,7 +14,12 @@
 //! fmi_export::export_fmi2!(MyModel);
 //! ```
 //!
-//! What the plumbing guarantees (FMI 2.0.4, sections 2.1 and 4.2):
+//! [`export_fmi3!`] defines the FMI 3.0 functions beside them ([`api3`]), on the same
+//! instance, state machine, checks, logging and FMU-state frames, so one library serves an FMI
+//! 2.0 and an FMI 3.0 archive and both answer bit-identically.
+//!
+//! What the plumbing guarantees (FMI 2.0.4, sections 2.1 and 4.2; FMI 3.0 likewise, see
+//! [`api3`] for what it names differently):
 //!
 //! - **State machine.** Each call is checked against the states the standard allows it in
 //!   (the masks in [`api`]); a call in another state answers `fmi2Error` with a log line
@@ -66,6 +71,8 @@ pub mod ffi;
 pub mod ffi3;
 #[cfg(feature = "testing")]
 pub mod fuzzing;
+#[cfg(feature = "testing")]
+pub mod fuzzing3;
 mod instance;
 pub mod live;
 mod state;
