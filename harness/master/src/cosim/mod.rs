@@ -27,19 +27,24 @@
 
 mod bind;
 mod columns;
+mod instance;
 mod load;
 mod step;
+
+#[cfg(test)]
+mod fmi_versions;
 
 use std::path::Path;
 use std::sync::Mutex;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
 use crate::fmu::{LoadedFmu, VariableInfo, VariableType};
 use crate::scenario::{Scenario, VarRef};
 use manoeuvres::{Channel, Manoeuvre};
 
 pub use columns::Columns;
+pub use instance::FmiVersion;
 pub use load::{convert_scenario_value, convert_value};
 
 use bind::ScenarioRefs;
@@ -57,6 +62,8 @@ pub struct Plan {
     feedback: Option<Feedback>,
     /// Recording blocks of finished runs handed back by [`Plan::recycle`], for the next runs.
     spare_tables: Mutex<Vec<Vec<f64>>>,
+    /// The FMI version the runs drive the FMUs through.
+    version: FmiVersion,
     /// Loaded archives; declared last so every borrowed use ends before they drop.
     fmus: Vec<LoadedFmu>,
 }
@@ -193,8 +200,28 @@ impl Plan {
     /// Load the scenario's FMUs (extracted under `work_dir`) and resolve every name: load the
     /// FMUs, resolve the connections, order the instances, bind inputs, feedback and recording.
     pub fn new(scenario: Scenario, fmu_dir: &Path, work_dir: &Path) -> Result<Plan> {
+        Self::with_version(scenario, fmu_dir, work_dir, FmiVersion::Fmi2)
+    }
+
+    /// [`Plan::new`], with the runs driving the FMUs through `version`: for FMI 3.0 each FMU's
+    /// archive `<stem>-fmi3.fmu` beside the `.fmu` the scenario names is loaded too, checked to
+    /// declare the same variables, and instantiated instead.
+    pub fn with_version(
+        scenario: Scenario,
+        fmu_dir: &Path,
+        work_dir: &Path,
+        version: FmiVersion,
+    ) -> Result<Plan> {
         let manoeuvre = scenario.manoeuvre()?;
-        let (fmus, instances) = load_instances(&scenario, fmu_dir, work_dir)?;
+        let (mut fmus, instances) = load_instances(&scenario, fmu_dir, work_dir)?;
+        if version == FmiVersion::Fmi3 {
+            for fmu in &mut fmus {
+                let stem = fmu.path.file_stem().unwrap_or_default().to_string_lossy();
+                let fmi3_path = fmu.path.with_file_name(format!("{stem}-fmi3.fmu"));
+                fmu.load_fmi3(&fmi3_path, work_dir)
+                    .with_context(|| format!("scenario {}", scenario.source.display()))?;
+            }
+        }
         let (edges, mut driven) = resolve_connections(&scenario, &fmus, &instances)?;
         let refs = ScenarioRefs::parse(&scenario)?;
         let mut plan = Plan {
@@ -205,6 +232,7 @@ impl Plan {
             record: Vec::new(),
             feedback: None,
             spare_tables: Mutex::new(Vec::new()),
+            version,
             fmus,
             scenario,
         };
@@ -219,6 +247,11 @@ impl Plan {
     /// The scenario file, for messages.
     fn source(&self) -> String {
         self.scenario.source.display().to_string()
+    }
+
+    /// The FMI version the runs drive the FMUs through.
+    pub fn fmi_version(&self) -> FmiVersion {
+        self.version
     }
 
     /// Recorded column names, in CSV order (after `time`).

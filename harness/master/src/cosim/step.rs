@@ -5,10 +5,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
 use fmi::fmi2::binding::fmi2Boolean;
-use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
-use fmi::traits::FmiInstance;
 
 use super::columns::{Columns, StagedRows};
+use super::instance::RunInstance;
 use super::load::settable;
 use super::{
     describe_fmu, InstancePlan, ParameterValue, Plan, RunOptions, RunResult, Slot, Source,
@@ -64,14 +63,12 @@ impl Plan {
         }
 
         // Instantiate on this thread; `instances` drops before `self.fmus` (borrowed here).
-        let mut instances: Vec<InstanceCS> = Vec::with_capacity(self.instances.len());
+        let mut instances: Vec<RunInstance> = Vec::with_capacity(self.instances.len());
         let mut fmi_names = Vec::with_capacity(self.instances.len());
         for (index, plan) in self.instances.iter().enumerate() {
             let fmi_name = format!("{}{}", plan.name, options.instance_suffix);
-            let instance = self.fmus[plan.fmu]
-                .import()
-                .instantiate_cs(&fmi_name, false, true)
-                .map_err(|e| self.fmu_error(index, &fmi_name, "fmi2Instantiate", &e.to_string()))?;
+            let instance = RunInstance::new(&self.fmus[plan.fmu], &fmi_name, self.version)
+                .map_err(|e| self.fmu_error(index, &fmi_name, "instantiate", &e))?;
             instances.push(instance);
             fmi_names.push(fmi_name);
         }
@@ -86,7 +83,7 @@ impl Plan {
         );
         for (instance, name) in instances.iter_mut().zip(&fmi_names) {
             if result.is_ok() {
-                let _ = FmiInstance::terminate(instance);
+                let _ = instance.terminate();
             }
             fmu_log::forget(name);
         }
@@ -112,7 +109,7 @@ impl Plan {
     #[allow(clippy::too_many_arguments)]
     fn run_instances(
         &self,
-        instances: &mut [InstanceCS],
+        instances: &mut [RunInstance],
         fmi_names: &[String],
         overrides: &[Vec<(VariableInfo, ParameterValue)>],
         mut manoeuvre: Option<&mut ManoeuvreRun>,
@@ -152,8 +149,9 @@ impl Plan {
             }
         }
         for (index, instance) in instances.iter_mut().enumerate() {
-            FmiInstance::enter_initialization_mode(instance, None, t0, Some(stop_time))
-                .map_err(|e| err(index, "fmi2SetupExperiment/fmi2EnterInitializationMode", &e))?;
+            instance
+                .enter_initialization_mode(t0, stop_time)
+                .map_err(|e| err(index, "enter initialisation mode", &e))?;
         }
         let mut caches: Vec<Vec<f64>> = self
             .instances
@@ -170,8 +168,9 @@ impl Plan {
             &err,
         )?;
         for (index, instance) in instances.iter_mut().enumerate() {
-            FmiInstance::exit_initialization_mode(instance)
-                .map_err(|e| err(index, "fmi2ExitInitializationMode", &e))?;
+            instance
+                .exit_initialization_mode()
+                .map_err(|e| err(index, "exit initialisation mode", &e))?;
         }
 
         let rows = steps as usize + 1;
@@ -221,8 +220,8 @@ impl Plan {
             let mut started = Instant::now();
             for &index in &self.order {
                 instances[index]
-                    .do_step(t, h, true)
-                    .map_err(|e| err(index, &format!("fmi2DoStep(t = {t} s, h = {h} s)"), &e))?;
+                    .do_step(t, h)
+                    .map_err(|e| err(index, &format!("doStep(t = {t} s, h = {h} s)"), &e))?;
                 let finished = Instant::now();
                 step_time[index] += finished - started;
                 started = finished;
@@ -249,7 +248,7 @@ impl Plan {
 
     fn exchange(
         &self,
-        instances: &mut [InstanceCS],
+        instances: &mut [RunInstance],
         caches: &mut [Vec<f64>],
         buffers: &mut ExchangeBuffers,
         manoeuvre: Option<&mut ManoeuvreRun>,
@@ -376,18 +375,17 @@ impl ExchangeBuffers {
     }
 }
 
-fn set_value(instance: &mut InstanceCS, var: &VariableInfo, value: &ParameterValue) -> Result<()> {
+fn set_value(instance: &mut RunInstance, var: &VariableInfo, value: &ParameterValue) -> Result<()> {
     let vr = [var.value_reference];
     match value {
-        ParameterValue::Real(x) => instance.set_real(&vr, &[*x]).map(|_| ())?,
-        ParameterValue::Integer(x) => instance.set_integer(&vr, &[*x]).map(|_| ())?,
-        ParameterValue::Boolean(b) => instance
-            .set_boolean(&vr, &[*b as fmi2Boolean])
-            .map(|_| ())?,
+        ParameterValue::Real(x) => instance.set_real(&vr, &[*x]),
+        ParameterValue::Integer(x) => instance.set_integer(&vr, &[*x]),
+        ParameterValue::Boolean(b) => instance.set_boolean(&vr, &[*b as fmi2Boolean]),
         ParameterValue::String(s) => {
             let c = std::ffi::CString::new(s.as_str()).context("string contains a NUL byte")?;
-            instance.set_string(&vr, &[c])?
+            instance.set_string(&vr, &[c])
         }
     }
+    .map_err(|e| anyhow!(e))?;
     Ok(())
 }
