@@ -225,7 +225,7 @@ pub fn fmi3_entries(
     Ok(entries)
 }
 
-/// Where the ReferenceVehicle's car parameter-value files (.ssv, issue 13 point 6) live,
+/// Where the ReferenceVehicle's car parameter-value files (.ssv) live,
 /// relative to the workspace root; `vehicle_models::parameters::parameter_value_file` writes them.
 pub const CAR_PARAMETER_DIR: &str = "fmu-src/reference-vehicle/cars";
 

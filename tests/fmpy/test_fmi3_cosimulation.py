@@ -290,3 +290,24 @@ def test_the_archives_validate(model):
                                                "fmi3ModelDescription.xsd"))
     document = etree.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
     assert schema.validate(document), schema.error_log
+
+
+@pytest.mark.parametrize("model, fmi2_fixture", [(support.VEHICLE, "vehicle_fmu"),
+                                                 (support.ESTIMATOR, "estimator_fmu")])
+def test_the_fmi3_archive_carries_the_fmi2_archives_library_icon_and_documentation(
+        model, fmi2_fixture, request):
+    """One library serves both archives, so the FMI 3 archive is as portable as the FMI 2 one
+    (tests/fmpy/test_portable_binaries.py checks that library's glibc symbol versions)."""
+    fmi2 = zipfile.ZipFile(request.getfixturevalue(fmi2_fixture))
+    fmi3 = zipfile.ZipFile(fmi3_path(model))
+    assert (fmi3.read(f"binaries/x86_64-linux/{model}.so")
+            == fmi2.read(f"binaries/linux64/{model}.so"))
+    assert fmi3.read("terminalsAndIcons/icon.png") == fmi2.read("model.png")
+    for name in fmi2.namelist():
+        if name.startswith("documentation/"):
+            assert fmi3.read(name) == fmi2.read(name), name
+    two = read_model_description(str(request.getfixturevalue(fmi2_fixture)))
+    three = read_model_description(str(fmi3_path(model)))
+    for attribute in ("modelName", "description", "version", "author", "license", "copyright"):
+        assert getattr(three, attribute) == getattr(two, attribute), attribute
+    assert three.instantiationToken == two.guid

@@ -759,7 +759,8 @@ fn not_settable(function: &str, variable: &VariableInfo) -> String {
     format!("{function}: {} is {what}", variable.label())
 }
 
-/// What the setters make of one value (issue 12 point 5, issue 15 point 3): a value within its
+/// What the setters make of one value (a master must learn of an adjusted value, and one bad value
+/// must not lose the others of the call): a value within its
 /// variable's range is stored as it is; one outside is clamped where a nearby value means the
 /// same thing (Reals and plain Integers), or ignored where no value is near (a NaN parameter, an
 /// enumeration value that is no item); both with a warning naming the variable and the value.
@@ -1526,7 +1527,7 @@ pub(crate) fn step<M: CoSimulationModel>(
 }
 
 /// Refuses an internal step size that is not finite and positive or below the model's minimum
-/// (issue 15, point 2: a parameter that would make a step loop without bound).
+/// (a parameter that would make a step loop without bound).
 pub(crate) fn check_internal_step_size<M: CoSimulationModel>(model: &M) -> Result<(), String> {
     match model.internal_step_size() {
         Some(size) if !(size.is_finite() && size >= M::MIN_INTERNAL_STEP_SIZE) => Err(format!(
@@ -1538,7 +1539,7 @@ pub(crate) fn check_internal_step_size<M: CoSimulationModel>(model: &M) -> Resul
 }
 
 /// Refuses a communication step that would take more than `M::MAX_INTERNAL_STEPS` internal
-/// steps (issue 15, point 5), before the model runs.
+/// steps, before the model runs, so that no call blocks a master for minutes.
 pub(crate) fn check_work_of_step<M: CoSimulationModel>(
     model: &M,
     step_size: f64,

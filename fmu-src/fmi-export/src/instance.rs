@@ -148,7 +148,8 @@ impl<M: CoSimulationModel> Instance<M> {
     /// Enables or disables categories (fmi2SetDebugLogging). An empty list means all. The known
     /// categories are applied; the unknown ones (e.g. the standard's `logSingularLinearSystems`,
     /// which a model without linear systems does not list) are returned so that the caller can
-    /// warn about them, and are otherwise ignored (issue 15, point 3).
+    /// warn about them, and are otherwise ignored, so that a master asking for a standard
+    /// category keeps a usable instance.
     pub(crate) fn set_categories(&mut self, on: bool, categories: &[String]) -> Vec<String> {
         let mut mask = 0u64;
         let mut unknown = Vec::new();

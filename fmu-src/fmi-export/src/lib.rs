@@ -158,7 +158,7 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     /// The LogCategories of the model description (generated `LOG_CATEGORIES`).
     const LOG_CATEGORIES: &'static [&'static str];
 
-    /// The most internal steps one `fmi2DoStep` may take (issue 15, point 5): a call whose
+    /// The most internal steps one `fmi2DoStep` may take: a call whose
     /// communication step would take more, `ceil(step_size / internal_step_size)`, answers
     /// `fmi2Discard` with a message before the model runs, so that no call blocks a master for
     /// minutes. 100 000 internal steps of a Kalman filter take well under a second.
@@ -181,7 +181,7 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     /// Told after fmi2SetReal/fmi2SetInteger stored a value other than the one sent (clamped
     /// into the variable's range) or ignored it (the call answered fmi2Warning, see the setters),
     /// so that the model can say so in its own outputs too (the estimator's `status` bit
-    /// 1024, issue 12 point 7). The default does nothing.
+    /// 1024). The default does nothing.
     fn value_adjusted(&mut self, _variable: &'static VariableInfo) {}
 
     /// The FMI 3-only variables (generated `FMI3_VARIABLES`; none by default).

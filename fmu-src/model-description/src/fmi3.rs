@@ -390,6 +390,7 @@ pub fn model_description_xml(
             ("description", description.description.clone()),
             ("version", description.version.clone()),
             ("author", description.author.clone()),
+            ("copyright", description.copyright.clone()),
             ("license", description.license.clone()),
             (
                 "generationTool",

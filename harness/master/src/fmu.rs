@@ -72,7 +72,7 @@ pub enum FmuError {
     },
 }
 
-/// Limits of what an archive may unpack to (issue 15, point 6); the FMUs of this project are
+/// Limits of what an archive may unpack to (a zip bomb must not fill the disk); the FMUs of this project are
 /// about 3 MB in 10 entries, compressed 3:1.
 pub mod limits {
     /// Entries of one archive.
@@ -327,12 +327,11 @@ impl LoadedFmu {
             });
         }
         let temp_dir = extract_checked(&mut archive, &path, extract_root)?;
-        let import = Fmi3Import::new(temp_dir, &for_the_fmi_crate(&xml)).map_err(|e| {
-            FmuError::Import {
+        let import =
+            Fmi3Import::new(temp_dir, &for_the_fmi_crate(&xml)).map_err(|e| FmuError::Import {
                 path: path.clone(),
                 reason: e.to_string(),
-            }
-        })?;
+            })?;
         let mut enumerations: Vec<u32> = (self.variables.iter())
             .filter(|v| v.var_type == VariableType::Enumeration)
             .map(|v| v.value_reference)

@@ -23,7 +23,10 @@ fn fmu_dir() -> PathBuf {
 #[test]
 fn every_seed_scenario_records_the_same_bits_through_fmi2_and_fmi3() {
     let fmus = fmu_dir();
-    for archive in ["VehicleStateEstimator-fmi3.fmu", "ReferenceVehicle-fmi3.fmu"] {
+    for archive in [
+        "VehicleStateEstimator-fmi3.fmu",
+        "ReferenceVehicle-fmi3.fmu",
+    ] {
         assert!(
             fmus.join(archive).is_file(),
             "{} is missing: build the archives with `cargo run --release -p packaging`",
@@ -51,10 +54,22 @@ fn every_seed_scenario_records_the_same_bits_through_fmi2_and_fmi3() {
                 .unwrap_or_else(|e| panic!("{} ({version:?}): {e:#}", path.display()))
         };
         let (fmi2, fmi3) = (run(FmiVersion::Fmi2), run(FmiVersion::Fmi3));
+        // The scenario key chooses the same way.
+        let mut scenario = Scenario::from_file(path).expect("the scenario parses");
+        scenario.fmi_version = 3;
+        let plan = Plan::new(scenario, &fmus, work.path()).expect("plans");
+        assert_eq!(plan.fmi_version(), FmiVersion::Fmi3);
         assert_eq!(fmi2.columns, fmi3.columns);
         assert_eq!(fmi2.times, fmi3.times);
-        for (name, (a, b)) in fmi2.columns.iter().zip(fmi2.data.iter().zip(fmi3.data.iter())) {
-            let differs = a.iter().zip(b).position(|(x, y)| x.to_bits() != y.to_bits());
+        for (name, (a, b)) in fmi2
+            .columns
+            .iter()
+            .zip(fmi2.data.iter().zip(fmi3.data.iter()))
+        {
+            let differs = a
+                .iter()
+                .zip(b)
+                .position(|(x, y)| x.to_bits() != y.to_bits());
             assert_eq!(
                 differs,
                 None,

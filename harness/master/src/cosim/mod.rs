@@ -199,8 +199,13 @@ fn describe_fmu(plan: &Plan, instance: usize) -> String {
 impl Plan {
     /// Load the scenario's FMUs (extracted under `work_dir`) and resolve every name: load the
     /// FMUs, resolve the connections, order the instances, bind inputs, feedback and recording.
+    /// The FMI version is the scenario's `fmi_version` (2 unless it says 3).
     pub fn new(scenario: Scenario, fmu_dir: &Path, work_dir: &Path) -> Result<Plan> {
-        Self::with_version(scenario, fmu_dir, work_dir, FmiVersion::Fmi2)
+        let version = match scenario.fmi_version {
+            3 => FmiVersion::Fmi3,
+            _ => FmiVersion::Fmi2,
+        };
+        Self::with_version(scenario, fmu_dir, work_dir, version)
     }
 
     /// [`Plan::new`], with the runs driving the FMUs through `version`: for FMI 3.0 each FMU's
