@@ -1,4 +1,10 @@
-//! Builds the two FMI 2.0 Co-Simulation FMUs and the SSP system that couples them.
+//! Builds the two FMUs, each as an FMI 2.0 and an FMI 3.0 Co-Simulation archive around the same
+//! library, and the SSP system that couples the FMI 2.0 ones.
+//!
+//! Archive names: `<modelIdentifier>.fmu` (FMI 2.0) and `<modelIdentifier>-fmi3.fmu` (FMI 3.0,
+//! [`fmi3_archive_name`]). The FMI 3 model description is generated from the FMI 2.0 one and
+//! the FMU's FMI 3 supplement (`model_description::fmi3`); both archives carry the same library,
+//! icon, documentation and licences.
 //!
 //! Order of work, so that a bad input never leaves a half-updated output directory:
 //! 1. read and check both `modelDescription/<Id>.xml` and the SSP connection plan (nothing built or
@@ -162,7 +168,64 @@ pub fn fmu_entries(
     Ok(entries)
 }
 
-/// Where the ReferenceVehicle's car parameter-value files (.ssv, issue 13 point 6) live,
+/// The file name of an FMU's FMI 3.0 archive, beside `<modelIdentifier>.fmu` (FMI 2.0).
+pub fn fmi3_archive_name(model_identifier: &str) -> String {
+    format!("{model_identifier}-fmi3.fmu")
+}
+
+/// The FMI 3.0 platform folder of an FMI 2.0 one (FMI 3.0 §2.5.1.4: `<arch>-<sys>`).
+pub fn fmi3_platform(fmi2_platform: &str) -> &str {
+    match fmi2_platform {
+        "linux64" => "x86_64-linux",
+        "linux32" => "x86-linux",
+        "win64" => "x86_64-windows",
+        "win32" => "x86-windows",
+        "darwin64" => "x86_64-darwin",
+        other => other,
+    }
+}
+
+/// The FMI 3.0 archive's entries from the FMI 2.0 archive's: the generated FMI 3 model
+/// description (stamped with `generation_time`) instead of the FMI 2.0 one, the icon as
+/// `terminalsAndIcons/icon.png` as well, the libraries in the FMI 3.0 platform folders, the same
+/// documentation and licences.
+pub fn fmi3_entries(
+    workspace_root: &Path,
+    checked: &CheckedDescription,
+    generation_time: &str,
+    fmi2_entries: &[Entry],
+) -> Result<Vec<Entry>> {
+    let path = description_path(workspace_root, checked.spec);
+    let text = std::str::from_utf8(&checked.xml)
+        .with_context(|| format!("{}: not UTF-8", path.display()))?;
+    let parsed = model_description::parse_str(text, &path.display().to_string())
+        .map_err(|error| anyhow::anyhow!("{error}"))?;
+    let supplement = model_description::fmi3::read_supplement(&path, &parsed)
+        .map_err(|error| anyhow::anyhow!("{error}"))?;
+    let xml =
+        model_description::fmi3::model_description_xml(&parsed, &supplement, Some(generation_time));
+    let mut entries = vec![Entry::file("modelDescription.xml", xml)];
+    for entry in fmi2_entries {
+        if entry.path == "modelDescription.xml" {
+            continue;
+        }
+        if entry.path == "model.png" {
+            entries.push(Entry::file(
+                "terminalsAndIcons/icon.png",
+                entry.contents.clone(),
+            ));
+        }
+        let mut entry = entry.clone();
+        if let Some(rest) = entry.path.strip_prefix("binaries/") {
+            let (platform, file) = rest.split_once('/').unwrap_or((rest, ""));
+            entry.path = format!("binaries/{}/{file}", fmi3_platform(platform));
+        }
+        entries.push(entry);
+    }
+    Ok(entries)
+}
+
+/// Where the ReferenceVehicle's car parameter-value files (.ssv) live,
 /// relative to the workspace root; `vehicle_models::parameters::parameter_value_file` writes them.
 pub const CAR_PARAMETER_DIR: &str = "fmu-src/reference-vehicle/cars";
 
@@ -269,6 +332,7 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
     }
 
     let mut archives = Vec::new();
+    let mut fmi3_archives = Vec::new();
     for ((checked, library_path), prose) in checked.iter().zip(&libraries).zip(&prose) {
         let library = std::fs::read(library_path)
             .with_context(|| format!("reading {}", library_path.display()))?;
@@ -289,6 +353,13 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
                 .join(format!("{}.fmu", checked.spec.model_identifier)),
             bytes,
         ));
+        let fmi3_name = fmi3_archive_name(checked.spec.model_identifier);
+        let fmi3 = fmi3_entries(&workspace.root, checked, &generated, &entries)
+            .with_context(|| format!("assembling {fmi3_name}"))?;
+        fmi3_archives.push((
+            workspace.fmu_directory().join(&fmi3_name),
+            archive::zip_bytes(&fmi3).with_context(|| format!("assembling {fmi3_name}"))?,
+        ));
     }
     let (ssp_entries, plan) = ssp_entries(
         &checked[0].description,
@@ -299,6 +370,7 @@ pub fn package(workspace: &cargo::Workspace) -> Result<(Vec<Written>, ssp::Syste
     )?;
     let ssp_bytes = archive::zip_bytes(&ssp_entries).context("assembling the SSP")?;
     archives.push((workspace.fmu_directory().join(SSP_FILE_NAME), ssp_bytes));
+    archives.extend(fmi3_archives);
 
     let outcomes = archive::write_all_if_changed(&archives).with_context(|| {
         format!(

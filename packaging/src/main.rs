@@ -1,6 +1,8 @@
 //! `cargo run --release -p packaging [-- --check]`: writes `<target dir>/fmu/ReferenceVehicle.fmu`,
-//! `VehicleStateEstimator.fmu` and `VehicleWithEstimator.ssp`; the Linux libraries are built for
-//! glibc 2.17 with cargo zigbuild unless `--host-glibc` (see `packaging::binaries`).
+//! `VehicleStateEstimator.fmu` (FMI 2.0), `ReferenceVehicle-fmi3.fmu`,
+//! `VehicleStateEstimator-fmi3.fmu` (FMI 3.0, the same libraries) and `VehicleWithEstimator.ssp`;
+//! the Linux libraries are built for glibc 2.17 with cargo zigbuild unless `--host-glibc` (see
+//! `packaging::binaries`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -12,7 +14,9 @@ use packaging::binaries::LinuxBuild;
 use packaging::cargo::{BuildScope, Workspace};
 
 #[derive(Parser, Debug)]
-#[command(about = "Builds the FMI 2.0 Co-Simulation FMUs and the SSP system of this workspace")]
+#[command(
+    about = "Builds the FMI 2.0 and FMI 3.0 Co-Simulation FMUs and the SSP system of this workspace"
+)]
 struct Arguments {
     /// Only check the model descriptions and the SSP connection plan; build and write nothing.
     #[arg(long)]

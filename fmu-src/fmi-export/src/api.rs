@@ -12,7 +12,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Once;
 
 use crate::ffi::*;
-use crate::instance::{c_string, log_message, Instance, MachineState};
+use crate::instance::{c_string, log_message, Instance, Logger, MachineState};
 use crate::live;
 use crate::variables::{Causality, ValueType, Variability, VariableInfo, VariableStore};
 use crate::{CoSimulationModel, InstantiationContext, StateReader, StateWriter, StepOutcome};
@@ -23,7 +23,7 @@ const STEP_COMPLETE: u8 = MachineState::StepComplete as u8;
 const STEP_FAILED: u8 = MachineState::StepFailed as u8;
 const TERMINATED: u8 = MachineState::Terminated as u8;
 const ERROR: u8 = MachineState::Error as u8;
-const ANY_STATE: u8 =
+pub(crate) const ANY_STATE: u8 =
     INSTANTIATED | INITIALIZATION_MODE | STEP_COMPLETE | STEP_FAILED | TERMINATED | ERROR;
 
 pub const MASK_SET_DEBUG_LOGGING: u8 = ANY_STATE;
@@ -43,7 +43,7 @@ pub const MASK_CANCEL_STEP: u8 = 0;
 pub const MASK_GET_STATUS: u8 = STEP_COMPLETE | STEP_FAILED | TERMINATED;
 
 /// What a function body reports; the wrapper logs it and applies the state transition.
-enum Outcome {
+pub(crate) enum Outcome {
     Ok,
     Warning(String),
     Discard(String),
@@ -61,7 +61,7 @@ static PANIC_HOOK: Once = Once::new();
 
 /// Installs, once per process (per copy of std, i.e. per loaded FMU library), a panic hook
 /// that is silent inside FMI calls and defers to the previous hook elsewhere.
-fn install_panic_hook() {
+pub(crate) fn install_panic_hook() {
     PANIC_HOOK.call_once(|| {
         let previous = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
@@ -83,7 +83,7 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// Runs `body` with `catch_unwind`, flagging the thread as inside an FMI call.
-fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
+pub(crate) fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
     let was_inside = INSIDE_FMI_CALL.with(|flag| flag.replace(true));
     let result = catch_unwind(AssertUnwindSafe(body));
     INSIDE_FMI_CALL.with(|flag| flag.set(was_inside));
@@ -96,7 +96,7 @@ fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
 /// # Safety
 /// No call on the same instance runs concurrently (FMI 2.0.4, 2.1.5). Any `c` is checked
 /// against the live instances ([`crate::live`]).
-unsafe fn with_instance<M: CoSimulationModel>(
+pub(crate) unsafe fn with_instance<M: CoSimulationModel>(
     c: Fmi2Component,
     function: &str,
     allowed: u8,
@@ -156,7 +156,7 @@ pub fn get_version() -> *const c_char {
 ///
 /// # Safety
 /// `text` is null or a NUL-terminated string.
-unsafe fn optional_str(text: *const c_char) -> Option<String> {
+pub(crate) unsafe fn optional_str(text: *const c_char) -> Option<String> {
     if text.is_null() {
         None
     } else {
@@ -182,45 +182,86 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
     _visible: Fmi2Boolean,
     logging_on: Fmi2Boolean,
 ) -> Fmi2Component {
-    install_panic_hook();
     if functions.is_null() {
         return std::ptr::null_mut();
     }
     // SAFETY: non-null, points to the master's callback struct.
-    let callbacks = unsafe { *functions };
+    let logger = Logger::Fmi2(unsafe { *functions });
+    let refusal = (fmu_type != FMI2_CO_SIMULATION).then(|| {
+        format!(
+            "fmuType is {fmu_type} ({}); {} supports only fmi2CoSimulation (1)",
+            if fmu_type == FMI2_MODEL_EXCHANGE {
+                "fmi2ModelExchange"
+            } else {
+                "unknown"
+            },
+            M::MODEL_IDENTIFIER
+        )
+    });
+    // SAFETY: the standard requires NUL-terminated strings or null.
+    unsafe {
+        create_instance::<M>(
+            "fmi2Instantiate",
+            "fmuGUID",
+            logger,
+            instance_name,
+            fmu_guid,
+            fmu_resource_location,
+            logging_on != FMI2_FALSE,
+            refusal,
+        )
+    }
+}
+
+/// The instantiation both interfaces share: checks the name and the GUID (FMI 3's
+/// instantiation token), refuses with `refusal` when the caller found an argument it cannot
+/// serve, logs through `logger` and lists the new instance ([`crate::live`]); null on failure.
+///
+/// # Safety
+/// The strings are null or NUL-terminated.
+// The arguments are those of the two instantiation functions, plus the names for messages.
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe fn create_instance<M: CoSimulationModel>(
+    function: &str,
+    guid_argument: &str,
+    logger: Logger,
+    instance_name: *const c_char,
+    guid: *const c_char,
+    resource_location: *const c_char,
+    logging_on: bool,
+    refusal: Option<String>,
+) -> Fmi2Component {
+    install_panic_hook();
     let result = guarded(|| {
-        // SAFETY: the standard requires NUL-terminated strings or null.
+        // SAFETY: null or NUL-terminated (caller contract).
         let name = unsafe { optional_str(instance_name) };
-        let guid = unsafe { optional_str(fmu_guid) };
-        let resource_location = unsafe { optional_str(fmu_resource_location) };
+        let guid = unsafe { optional_str(guid) };
+        let resource_location = unsafe { optional_str(resource_location) };
         let fail = |message: String| {
             let label = c_string(name.as_deref().unwrap_or(""));
             log_message(
-                &callbacks,
+                &logger,
                 &label,
                 Fmi2Status::Error,
                 "logStatusError",
-                &message,
+                &format!("{function}: {message}"),
             );
             std::ptr::null_mut()
         };
         let Some(name) = name.clone().filter(|n| !n.is_empty()) else {
             return fail(String::from(
-                "fmi2Instantiate: instanceName is NULL or empty; expected a non-empty name",
+                "instanceName is NULL or empty; expected a non-empty name",
             ));
         };
-        if fmu_type != FMI2_CO_SIMULATION {
-            return fail(format!(
-                "fmi2Instantiate: fmuType is {fmu_type} ({}); {} supports only fmi2CoSimulation (1)",
-                if fmu_type == FMI2_MODEL_EXCHANGE { "fmi2ModelExchange" } else { "unknown" },
-                M::MODEL_IDENTIFIER
-            ));
+        if let Some(refusal) = refusal {
+            return fail(refusal);
         }
         match guid.as_deref() {
             Some(guid) if guid == M::GUID => {}
             other => {
                 return fail(format!(
-                    "fmi2Instantiate: fmuGUID is {}; expected \"{}\" (the GUID of this binary's modelDescription.xml)",
+                    "{} is {}; expected \"{}\" (that of this binary's model description)",
+                    guid_argument,
                     other.map_or(String::from("NULL"), |g| format!("\"{g}\"")),
                     M::GUID
                 ))
@@ -230,13 +271,9 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
             instance_name: name,
             resource_location,
         };
-        let instance = Box::new(Instance::<M>::new(
-            context,
-            callbacks,
-            logging_on != FMI2_FALSE,
-        ));
+        let instance = Box::new(Instance::<M>::new(context, logger, logging_on));
         instance.log_event(&format!(
-            "fmi2Instantiate: instance of {} created",
+            "{function}: instance of {} created",
             M::MODEL_IDENTIFIER
         ));
         live::register(Box::into_raw(instance) as usize, TypeId::of::<M>())
@@ -244,11 +281,11 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
     result.unwrap_or_else(|message| {
         let label = c_string("");
         log_message(
-            &callbacks,
+            &logger,
             &label,
             Fmi2Status::Error,
             "logStatusError",
-            &format!("fmi2Instantiate: internal error (panic: {message})"),
+            &format!("{function}: internal error (panic: {message})"),
         );
         std::ptr::null_mut()
     })
@@ -260,6 +297,14 @@ pub unsafe fn instantiate<M: CoSimulationModel>(
 /// No other call on the same instance runs concurrently. Any `c` is checked against the live
 /// instances ([`crate::live`]): a freed or foreign one is ignored.
 pub unsafe fn free_instance<M: CoSimulationModel>(c: Fmi2Component) {
+    unsafe { free_instance_as::<M>("fmi2FreeInstance", c) }
+}
+
+/// The body of [`free_instance`], with the calling function's name (FMI 2 or FMI 3).
+///
+/// # Safety
+/// As [`free_instance`].
+pub unsafe fn free_instance_as<M: CoSimulationModel>(function: &str, c: Fmi2Component) {
     // Null, freed already or not ours: nothing to free (crate::live).
     let Some(address) = live::unregister(c, TypeId::of::<M>()) else {
         return;
@@ -268,7 +313,7 @@ pub unsafe fn free_instance<M: CoSimulationModel>(c: Fmi2Component) {
     // only owner.
     let instance = unsafe { Box::from_raw(address as *mut Instance<M>) };
     let _ = guarded(move || {
-        instance.log_event("fmi2FreeInstance");
+        instance.log_event(function);
         drop(instance);
     });
 }
@@ -284,40 +329,53 @@ pub unsafe fn set_debug_logging<M: CoSimulationModel>(
     categories: *const Fmi2String,
 ) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(
-            c,
+        set_debug_logging_as::<M>(
             "fmi2SetDebugLogging",
-            MASK_SET_DEBUG_LOGGING,
-            |instance| {
-                if n_categories > 0 && categories.is_null() {
-                    return Outcome::Error(String::from(
-                        "fmi2SetDebugLogging: categories[] is NULL but nCategories > 0",
-                    ));
-                }
-                let mut names = Vec::with_capacity(n_categories);
-                for i in 0..n_categories {
-                    // SAFETY: `categories` holds n_categories entries.
-                    match optional_str(*categories.add(i)) {
-                        Some(name) => names.push(name),
-                        None => {
-                            return Outcome::Error(format!(
-                                "fmi2SetDebugLogging: categories[{i}] is NULL"
-                            ))
-                        }
-                    }
-                }
-                let unknown = instance.set_categories(logging_on != FMI2_FALSE, &names);
-                if unknown.is_empty() {
-                    Outcome::Ok
-                } else {
-                    Outcome::Warning(format!(
-                        "fmi2SetDebugLogging: unknown log category '{}' ignored; the others were applied; known: {}",
-                        unknown.join("', '"),
-                        M::LOG_CATEGORIES.join(", ")
-                    ))
-                }
-            },
+            c,
+            logging_on != FMI2_FALSE,
+            n_categories,
+            categories,
         )
+    }
+}
+
+/// The body of [`set_debug_logging`], with the calling function's name (FMI 2 or FMI 3).
+///
+/// # Safety
+/// `categories` holds `n_categories` C strings.
+pub unsafe fn set_debug_logging_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    logging_on: bool,
+    n_categories: usize,
+    categories: *const Fmi2String,
+) -> Fmi2Status {
+    unsafe {
+        with_instance::<M>(c, function, MASK_SET_DEBUG_LOGGING, |instance| {
+            if n_categories > 0 && categories.is_null() {
+                return Outcome::Error(format!(
+                    "{function}: categories[] is NULL but nCategories > 0"
+                ));
+            }
+            let mut names = Vec::with_capacity(n_categories);
+            for i in 0..n_categories {
+                // SAFETY: `categories` holds n_categories entries.
+                match optional_str(*categories.add(i)) {
+                    Some(name) => names.push(name),
+                    None => return Outcome::Error(format!("{function}: categories[{i}] is NULL")),
+                }
+            }
+            let unknown = instance.set_categories(logging_on, &names);
+            if unknown.is_empty() {
+                Outcome::Ok
+            } else {
+                Outcome::Warning(format!(
+                    "{function}: unknown log category '{}' ignored; the others were applied; known: {}",
+                    unknown.join("', '"),
+                    M::LOG_CATEGORIES.join(", ")
+                ))
+            }
+        })
     }
 }
 
@@ -446,7 +504,7 @@ pub unsafe fn reset<M: CoSimulationModel>(c: Fmi2Component) -> Fmi2Status {
 }
 
 /// Checks the array arguments of a get/set call.
-fn check_arrays(
+pub(crate) fn check_arrays(
     function: &str,
     nvr: usize,
     vr: *const Fmi2ValueReference,
@@ -466,7 +524,7 @@ fn check_arrays(
 /// model whose `VARIABLES` is not the generated table still gets the right answer, by binary
 /// search.
 #[inline]
-fn find_variable<M: CoSimulationModel>(
+pub(crate) fn find_variable<M: CoSimulationModel>(
     value_type: ValueType,
     value_reference: u32,
 ) -> Option<&'static VariableInfo> {
@@ -477,7 +535,7 @@ fn find_variable<M: CoSimulationModel>(
 }
 
 #[inline]
-fn lookup<M: CoSimulationModel>(
+pub(crate) fn lookup<M: CoSimulationModel>(
     function: &str,
     value_type: ValueType,
     value_reference: u32,
@@ -503,7 +561,10 @@ fn unknown_reference<M: CoSimulationModel>(
 ///
 /// # Safety
 /// `vr` points to `nvr` elements when `nvr > 0`, and is non-null then ([`check_arrays`]).
-unsafe fn references<'a>(vr: *const Fmi2ValueReference, nvr: usize) -> &'a [Fmi2ValueReference] {
+pub(crate) unsafe fn references<'a>(
+    vr: *const Fmi2ValueReference,
+    nvr: usize,
+) -> &'a [Fmi2ValueReference] {
     if nvr == 0 {
         &[]
     } else {
@@ -514,7 +575,7 @@ unsafe fn references<'a>(vr: *const Fmi2ValueReference, nvr: usize) -> &'a [Fmi2
 
 /// Makes the outputs consistent with the parameters before they are read in
 /// initialisation mode.
-fn refresh_initial_outputs<M: CoSimulationModel>(
+pub(crate) fn refresh_initial_outputs<M: CoSimulationModel>(
     instance: &mut Instance<M>,
     function: &str,
 ) -> Result<(), String> {
@@ -533,7 +594,7 @@ fn refresh_initial_outputs<M: CoSimulationModel>(
 ///
 /// # Safety
 /// `vr` and `value` point to `nvr` elements when `nvr > 0`.
-unsafe fn get_values<M: CoSimulationModel, T>(
+pub(crate) unsafe fn get_values<M: CoSimulationModel, T>(
     c: Fmi2Component,
     function: &str,
     value_type: ValueType,
@@ -663,7 +724,11 @@ pub unsafe fn get_string<M: CoSimulationModel>(
 /// before the end of initialisation, parameters and inputs; afterwards inputs and tunable
 /// parameters.
 #[inline]
-fn settable(function: &str, variable: &VariableInfo, state: MachineState) -> Result<(), String> {
+pub(crate) fn settable(
+    function: &str,
+    variable: &VariableInfo,
+    state: MachineState,
+) -> Result<(), String> {
     let initializing = matches!(
         state,
         MachineState::Instantiated | MachineState::InitializationMode
@@ -694,11 +759,12 @@ fn not_settable(function: &str, variable: &VariableInfo) -> String {
     format!("{function}: {} is {what}", variable.label())
 }
 
-/// What the setters make of one value (issue 12 point 5, issue 15 point 3): a value within its
+/// What the setters make of one value (a master must learn of an adjusted value, and one bad value
+/// must not lose the others of the call): a value within its
 /// variable's range is stored as it is; one outside is clamped where a nearby value means the
 /// same thing (Reals and plain Integers), or ignored where no value is near (a NaN parameter, an
 /// enumeration value that is no item); both with a warning naming the variable and the value.
-enum Admitted<T> {
+pub(crate) enum Admitted<T> {
     As(T),
     Clamped(T, String),
     Ignored(String),
@@ -713,7 +779,7 @@ enum Admitted<T> {
 /// `vr` and `value` point to `nvr` elements when `nvr > 0`.
 // The arguments mirror the C signature plus the per-type check and store.
 #[allow(clippy::too_many_arguments)]
-unsafe fn set_values<M: CoSimulationModel, T: Copy>(
+pub(crate) unsafe fn set_values<M: CoSimulationModel, T: Copy>(
     c: Fmi2Component,
     function: &str,
     value_type: ValueType,
@@ -785,7 +851,7 @@ unsafe fn set_values<M: CoSimulationModel, T: Copy>(
 }
 
 #[inline]
-fn admit_real(variable: &VariableInfo, value: f64) -> Admitted<f64> {
+pub(crate) fn admit_real(variable: &VariableInfo, value: f64) -> Admitted<f64> {
     if value.is_nan() {
         // A NaN input means "no sample" (sensor dropout); the model decides what to do.
         return if variable.causality == Causality::Input {
@@ -809,7 +875,7 @@ fn admit_real(variable: &VariableInfo, value: f64) -> Admitted<f64> {
 }
 
 #[inline]
-fn admit_integer(variable: &VariableInfo, value: Fmi2Integer) -> Admitted<Fmi2Integer> {
+pub(crate) fn admit_integer(variable: &VariableInfo, value: Fmi2Integer) -> Admitted<Fmi2Integer> {
     let wide = f64::from(value);
     let in_range = wide >= variable.min && wide <= variable.max;
     if variable.allowed_values.is_empty() {
@@ -1083,10 +1149,22 @@ pub unsafe fn get_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
+    unsafe { get_fmu_state_as::<M>("fmi2GetFMUstate", c, state) }
+}
+
+/// The body of [`get_fmu_state`], with the name of the calling function (FMI 2 or FMI 3) for messages.
+///
+/// # Safety
+/// As [`get_fmu_state`].
+pub(crate) unsafe fn get_fmu_state_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(c, "fmi2GetFMUstate", MASK_FMU_STATE, |instance| {
+        with_instance::<M>(c, function, MASK_FMU_STATE, |instance| {
             if state.is_null() {
-                return Outcome::Error(String::from("fmi2GetFMUstate: FMUstate is NULL"));
+                return Outcome::Error(format!("{function}: FMUstate is NULL"));
             }
             // The snapshot holds the outputs as a read now would see them, so its serialized
             // bytes do not depend on whether the outputs were read before.
@@ -1095,7 +1173,7 @@ pub unsafe fn get_fmu_state<M: CoSimulationModel>(
             if (*state).is_null() {
                 *state = new_state(snapshot);
             } else {
-                match live_state::<M>(*state, "fmi2GetFMUstate") {
+                match live_state::<M>(*state, function) {
                     Ok(stored) => *stored = snapshot,
                     Err(outcome) => return outcome,
                 }
@@ -1114,12 +1192,24 @@ pub unsafe fn set_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: Fmi2FmuState,
 ) -> Fmi2Status {
+    unsafe { set_fmu_state_as::<M>("fmi2SetFMUstate", c, state) }
+}
+
+/// The body of [`set_fmu_state`], with the name of the calling function (FMI 2 or FMI 3) for messages.
+///
+/// # Safety
+/// As [`set_fmu_state`].
+pub(crate) unsafe fn set_fmu_state_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(c, "fmi2SetFMUstate", MASK_FMU_STATE, |instance| {
+        with_instance::<M>(c, function, MASK_FMU_STATE, |instance| {
             if state.is_null() {
-                return Outcome::Error(String::from("fmi2SetFMUstate: FMUstate is NULL"));
+                return Outcome::Error(format!("{function}: FMUstate is NULL"));
             }
-            match live_state::<M>(state, "fmi2SetFMUstate") {
+            match live_state::<M>(state, function) {
                 Ok(snapshot) => {
                     snapshot.restore(instance);
                     Outcome::Ok
@@ -1138,10 +1228,22 @@ pub unsafe fn free_fmu_state<M: CoSimulationModel>(
     c: Fmi2Component,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
+    unsafe { free_fmu_state_as::<M>("fmi2FreeFMUstate", c, state) }
+}
+
+/// The body of [`free_fmu_state`], with the name of the calling function (FMI 2 or FMI 3) for messages.
+///
+/// # Safety
+/// As [`free_fmu_state`].
+pub(crate) unsafe fn free_fmu_state_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(c, "fmi2FreeFMUstate", MASK_FMU_STATE, |_| {
+        with_instance::<M>(c, function, MASK_FMU_STATE, |_| {
             if state.is_null() {
-                return Outcome::Error(String::from("fmi2FreeFMUstate: FMUstate is NULL"));
+                return Outcome::Error(format!("{function}: FMUstate is NULL"));
             }
             if (*state).is_null() {
                 return Outcome::Ok;
@@ -1149,9 +1251,9 @@ pub unsafe fn free_fmu_state<M: CoSimulationModel>(
             let Some(address) =
                 live::unregister(*state as Fmi2Component, TypeId::of::<Snapshot<M>>())
             else {
-                return Outcome::Error(String::from(
-                    "fmi2FreeFMUstate: FMUstate is not an FMU state of this FMU (freed already, \
-                     or from elsewhere)",
+                return Outcome::Error(format!(
+                    "{function}: FMUstate is not an FMU state of this FMU (freed already, \
+                     or from elsewhere)"
                 ));
             };
             // SAFETY: created by Box::into_raw in `new_state`, unlisted just now.
@@ -1171,14 +1273,25 @@ pub unsafe fn serialized_fmu_state_size<M: CoSimulationModel>(
     state: Fmi2FmuState,
     size: *mut usize,
 ) -> Fmi2Status {
+    unsafe { serialized_fmu_state_size_as::<M>("fmi2SerializedFMUstateSize", c, state, size) }
+}
+
+/// The body of [`serialized_fmu_state_size`], with the name of the calling function (FMI 2 or FMI 3) for messages.
+///
+/// # Safety
+/// As [`serialized_fmu_state_size`].
+pub(crate) unsafe fn serialized_fmu_state_size_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    size: *mut usize,
+) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(c, "fmi2SerializedFMUstateSize", MASK_FMU_STATE, |_| {
+        with_instance::<M>(c, function, MASK_FMU_STATE, |_| {
             if state.is_null() || size.is_null() {
-                return Outcome::Error(String::from(
-                    "fmi2SerializedFMUstateSize: FMUstate or size is NULL",
-                ));
+                return Outcome::Error(format!("{function}: FMUstate or size is NULL"));
             }
-            let snapshot = match live_state::<M>(state, "fmi2SerializedFMUstateSize") {
+            let snapshot = match live_state::<M>(state, function) {
                 Ok(snapshot) => snapshot,
                 Err(outcome) => return outcome,
             };
@@ -1187,7 +1300,7 @@ pub unsafe fn serialized_fmu_state_size<M: CoSimulationModel>(
                     *size = bytes.len();
                     Outcome::Ok
                 }
-                Err(message) => Outcome::Error(format!("fmi2SerializedFMUstateSize: {message}")),
+                Err(message) => Outcome::Error(format!("{function}: {message}")),
             }
         })
     }
@@ -1203,24 +1316,36 @@ pub unsafe fn serialize_fmu_state<M: CoSimulationModel>(
     bytes: *mut Fmi2Byte,
     size: usize,
 ) -> Fmi2Status {
+    unsafe { serialize_fmu_state_as::<M>("fmi2SerializeFMUstate", c, state, bytes, size) }
+}
+
+/// The body of [`serialize_fmu_state`], with the name of the calling function (FMI 2 or FMI 3) for messages.
+///
+/// # Safety
+/// As [`serialize_fmu_state`].
+pub(crate) unsafe fn serialize_fmu_state_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    bytes: *mut Fmi2Byte,
+    size: usize,
+) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(c, "fmi2SerializeFMUstate", MASK_FMU_STATE, |_| {
+        with_instance::<M>(c, function, MASK_FMU_STATE, |_| {
             if state.is_null() || bytes.is_null() {
-                return Outcome::Error(String::from(
-                    "fmi2SerializeFMUstate: FMUstate or serializedState is NULL",
-                ));
+                return Outcome::Error(format!("{function}: FMUstate or serializedState is NULL"));
             }
-            let snapshot = match live_state::<M>(state, "fmi2SerializeFMUstate") {
+            let snapshot = match live_state::<M>(state, function) {
                 Ok(snapshot) => snapshot,
                 Err(outcome) => return outcome,
             };
             let serialized = match snapshot.serialize() {
                 Ok(bytes) => bytes,
-                Err(message) => return Outcome::Error(format!("fmi2SerializeFMUstate: {message}")),
+                Err(message) => return Outcome::Error(format!("{function}: {message}")),
             };
             if serialized.len() != size {
                 return Outcome::Error(format!(
-                    "fmi2SerializeFMUstate: size is {size}; expected {} (from fmi2SerializedFMUstateSize)",
+                    "{function}: size is {size}; expected {} (the serialized size of this state)",
                     serialized.len()
                 ));
             }
@@ -1240,12 +1365,24 @@ pub unsafe fn deserialize_fmu_state<M: CoSimulationModel>(
     size: usize,
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
+    unsafe { deserialize_fmu_state_as::<M>("fmi2DeSerializeFMUstate", c, bytes, size, state) }
+}
+
+/// The body of [`deserialize_fmu_state`], with the name of the calling function (FMI 2 or FMI 3) for messages.
+///
+/// # Safety
+/// As [`deserialize_fmu_state`].
+pub(crate) unsafe fn deserialize_fmu_state_as<M: CoSimulationModel>(
+    function: &str,
+    c: Fmi2Component,
+    bytes: *const Fmi2Byte,
+    size: usize,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
     unsafe {
-        with_instance::<M>(c, "fmi2DeSerializeFMUstate", MASK_FMU_STATE, |instance| {
+        with_instance::<M>(c, function, MASK_FMU_STATE, |instance| {
             if bytes.is_null() || state.is_null() {
-                return Outcome::Error(String::from(
-                    "fmi2DeSerializeFMUstate: serializedState or FMUstate is NULL",
-                ));
+                return Outcome::Error(format!("{function}: serializedState or FMUstate is NULL"));
             }
             let slice = std::slice::from_raw_parts(bytes as *const u8, size);
             match Snapshot::<M>::deserialize(slice, &instance.context) {
@@ -1253,7 +1390,7 @@ pub unsafe fn deserialize_fmu_state<M: CoSimulationModel>(
                     *state = new_state(snapshot);
                     Outcome::Ok
                 }
-                Err(message) => Outcome::Error(format!("fmi2DeSerializeFMUstate: {message}")),
+                Err(message) => Outcome::Error(format!("{function}: {message}")),
             }
         })
     }
@@ -1328,59 +1465,70 @@ pub unsafe fn do_step<M: CoSimulationModel>(
 ) -> Fmi2Status {
     unsafe {
         with_instance::<M>(c, "fmi2DoStep", MASK_DO_STEP, |instance| {
-            let t = current_communication_point;
-            let h = communication_step_size;
-            if !(h > 0.0 && h.is_finite()) {
-                return Outcome::Error(format!(
-                    "fmi2DoStep: communicationStepSize is {h}; expected a finite step > 0"
-                ));
-            }
-            let tolerance = crate::TIME_TOLERANCE * instance.time.abs().max(1.0);
-            if !t.is_finite() || (t - instance.time).abs() > tolerance {
-                return Outcome::Error(format!(
-                    "fmi2DoStep: currentCommunicationPoint is {t:?} but the last step ended at {:?}; \
-                     expected the same time (tolerance {tolerance:e})",
-                    instance.time
-                ));
-            }
-            if let Some(stop) = instance.stop_time {
-                if t + h > stop + crate::TIME_TOLERANCE * stop.abs().max(1.0) {
-                    return Outcome::Error(format!(
-                        "fmi2DoStep: the step ends at {:?}, after the stopTime {stop:?} given to fmi2SetupExperiment",
-                        t + h
-                    ));
-                }
-            }
-            if let Err(message) = check_work_of_step(&instance.model, h) {
-                instance.state = MachineState::StepFailed;
-                return Outcome::Discard(format!("fmi2DoStep at t = {t}: {message}"));
-            }
-            match instance.model.do_step(t, h) {
-                StepOutcome::Ok => {
-                    instance.time = t + h;
-                    instance.last_successful_time = t + h;
-                    Outcome::Ok
-                }
-                StepOutcome::Warning(message) => {
-                    instance.time = t + h;
-                    instance.last_successful_time = t + h;
-                    Outcome::Warning(format!("fmi2DoStep at t = {t}: {message}"))
-                }
-                StepOutcome::Discard(message) => {
-                    instance.state = MachineState::StepFailed;
-                    Outcome::Discard(format!("fmi2DoStep at t = {t}: {message}"))
-                }
-                StepOutcome::Error(message) => {
-                    Outcome::Error(format!("fmi2DoStep at t = {t}: {message}"))
-                }
-            }
+            step(
+                instance,
+                "fmi2DoStep",
+                current_communication_point,
+                communication_step_size,
+            )
         })
     }
 }
 
+/// The step both interfaces take, with `function` naming the caller in messages.
+pub(crate) fn step<M: CoSimulationModel>(
+    instance: &mut crate::Instance<M>,
+    function: &str,
+    t: f64,
+    h: f64,
+) -> Outcome {
+    if !(h > 0.0 && h.is_finite()) {
+        return Outcome::Error(format!(
+            "{function}: communicationStepSize is {h}; expected a finite step > 0"
+        ));
+    }
+    let tolerance = crate::TIME_TOLERANCE * instance.time.abs().max(1.0);
+    if !t.is_finite() || (t - instance.time).abs() > tolerance {
+        return Outcome::Error(format!(
+            "{function}: currentCommunicationPoint is {t:?} but the last step ended at {:?}; \
+             expected the same time (tolerance {tolerance:e})",
+            instance.time
+        ));
+    }
+    if let Some(stop) = instance.stop_time {
+        if t + h > stop + crate::TIME_TOLERANCE * stop.abs().max(1.0) {
+            return Outcome::Error(format!(
+                "{function}: the step ends at {:?}, after the stopTime {stop:?} given at initialisation",
+                t + h
+            ));
+        }
+    }
+    if let Err(message) = check_work_of_step(&instance.model, h) {
+        instance.state = MachineState::StepFailed;
+        return Outcome::Discard(format!("{function} at t = {t}: {message}"));
+    }
+    match instance.model.do_step(t, h) {
+        StepOutcome::Ok => {
+            instance.time = t + h;
+            instance.last_successful_time = t + h;
+            Outcome::Ok
+        }
+        StepOutcome::Warning(message) => {
+            instance.time = t + h;
+            instance.last_successful_time = t + h;
+            Outcome::Warning(format!("{function} at t = {t}: {message}"))
+        }
+        StepOutcome::Discard(message) => {
+            instance.state = MachineState::StepFailed;
+            Outcome::Discard(format!("{function} at t = {t}: {message}"))
+        }
+        StepOutcome::Error(message) => Outcome::Error(format!("{function} at t = {t}: {message}")),
+    }
+}
+
 /// Refuses an internal step size that is not finite and positive or below the model's minimum
-/// (issue 15, point 2: a parameter that would make a step loop without bound).
-fn check_internal_step_size<M: CoSimulationModel>(model: &M) -> Result<(), String> {
+/// (a parameter that would make a step loop without bound).
+pub(crate) fn check_internal_step_size<M: CoSimulationModel>(model: &M) -> Result<(), String> {
     match model.internal_step_size() {
         Some(size) if !(size.is_finite() && size >= M::MIN_INTERNAL_STEP_SIZE) => Err(format!(
             "the parameters give an internal step of {size:e} s; expected a finite step of at least {:e} s",
@@ -1391,8 +1539,11 @@ fn check_internal_step_size<M: CoSimulationModel>(model: &M) -> Result<(), Strin
 }
 
 /// Refuses a communication step that would take more than `M::MAX_INTERNAL_STEPS` internal
-/// steps (issue 15, point 5), before the model runs.
-fn check_work_of_step<M: CoSimulationModel>(model: &M, step_size: f64) -> Result<(), String> {
+/// steps, before the model runs, so that no call blocks a master for minutes.
+pub(crate) fn check_work_of_step<M: CoSimulationModel>(
+    model: &M,
+    step_size: f64,
+) -> Result<(), String> {
     let Some(size) = model.internal_step_size() else {
         return Ok(());
     };

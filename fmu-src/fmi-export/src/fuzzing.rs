@@ -1,5 +1,5 @@
-//! Sequences of FMI calls with arbitrary arguments, decoded from fuzzer bytes (issue 15, point
-//! 9; feature `testing`). One driver for every FMU: the cargo-fuzz targets in `fmi-export/fuzz`
+//! Sequences of FMI calls with arbitrary arguments, decoded from fuzzer bytes (feature
+//! `testing`). One driver for every FMU: the cargo-fuzz targets in `fmi-export/fuzz`
 //! hand it the bytes libFuzzer generates, and the crate's tests run it on pseudo-random bytes.
 //!
 //! Each call is chosen by one byte; its arguments come from the following bytes, with numbers

@@ -3,7 +3,27 @@
 use std::ffi::{c_char, CString};
 
 use crate::ffi::{Fmi2CallbackFunctions, Fmi2Status};
+use crate::ffi3::{Fmi3InstanceEnvironment, Fmi3LogMessageCallback};
 use crate::{CoSimulationModel, InstantiationContext};
+
+/// The master's logger, as the interface the instance was created through passes it.
+#[derive(Clone, Copy)]
+pub(crate) enum Logger {
+    /// FMI 2.0: the variadic `fmi2CallbackLogger` of the callback struct.
+    Fmi2(Fmi2CallbackFunctions),
+    /// FMI 3.0: `fmi3LogMessageCallback` with the instance environment.
+    Fmi3 {
+        environment: Fmi3InstanceEnvironment,
+        log_message: Fmi3LogMessageCallback,
+    },
+}
+
+/// Which FMI version's functions created (and therefore drive) an instance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interface {
+    Fmi2,
+    Fmi3,
+}
 
 /// The states of the FMI 2.0 Co-Simulation state machine this implementation can be in
 /// (StepInProgress and StepCanceled do not occur: steps are never asynchronous). The values are
@@ -67,7 +87,7 @@ pub(crate) const CATEGORY_ALL: &str = "logAll";
 pub struct Instance<M: CoSimulationModel> {
     pub(crate) context: InstantiationContext,
     name: CString,
-    callbacks: Fmi2CallbackFunctions,
+    logger: Logger,
     /// Which of `M::LOG_CATEGORIES` are switched on (bit i = category i).
     enabled_categories: u64,
     pub(crate) state: MachineState,
@@ -82,17 +102,13 @@ pub struct Instance<M: CoSimulationModel> {
 }
 
 impl<M: CoSimulationModel> Instance<M> {
-    pub(crate) fn new(
-        context: InstantiationContext,
-        callbacks: Fmi2CallbackFunctions,
-        logging_on: bool,
-    ) -> Self {
+    pub(crate) fn new(context: InstantiationContext, logger: Logger, logging_on: bool) -> Self {
         let name = c_string(&context.instance_name);
         let model = M::instantiate(&context);
         Self {
             context,
             name,
-            callbacks,
+            logger,
             enabled_categories: if logging_on { u64::MAX } else { 0 },
             state: MachineState::Instantiated,
             start_time: 0.0,
@@ -107,6 +123,14 @@ impl<M: CoSimulationModel> Instance<M> {
     /// The model, for tests and benchmarks that hold an instance.
     pub fn model(&self) -> &M {
         &self.model
+    }
+
+    /// The FMI version whose functions created the instance.
+    pub fn interface(&self) -> Interface {
+        match self.logger {
+            Logger::Fmi2(_) => Interface::Fmi2,
+            Logger::Fmi3 { .. } => Interface::Fmi3,
+        }
     }
 
     /// The current state of the state machine.
@@ -124,7 +148,8 @@ impl<M: CoSimulationModel> Instance<M> {
     /// Enables or disables categories (fmi2SetDebugLogging). An empty list means all. The known
     /// categories are applied; the unknown ones (e.g. the standard's `logSingularLinearSystems`,
     /// which a model without linear systems does not list) are returned so that the caller can
-    /// warn about them, and are otherwise ignored (issue 15, point 3).
+    /// warn about them, and are otherwise ignored, so that a master asking for a standard
+    /// category keeps a usable instance.
     pub(crate) fn set_categories(&mut self, on: bool, categories: &[String]) -> Vec<String> {
         let mut mask = 0u64;
         let mut unknown = Vec::new();
@@ -150,7 +175,7 @@ impl<M: CoSimulationModel> Instance<M> {
     pub(crate) fn log_event(&self, message: &str) {
         if self.category_enabled(CATEGORY_EVENTS) || self.category_enabled(CATEGORY_ALL) {
             log_message(
-                &self.callbacks,
+                &self.logger,
                 &self.name,
                 Fmi2Status::Ok,
                 CATEGORY_EVENTS,
@@ -175,7 +200,7 @@ impl<M: CoSimulationModel> Instance<M> {
             _ => self.enabled_categories == 0 || self.category_enabled(category),
         };
         if show {
-            log_message(&self.callbacks, &self.name, status, category, message);
+            log_message(&self.logger, &self.name, status, category, message);
         }
     }
 }
@@ -185,30 +210,48 @@ pub(crate) fn c_string(text: &str) -> CString {
     CString::new(text.replace('\0', "\\0")).unwrap_or_default()
 }
 
-/// Calls the master's logger as `logger(env, instance, status, category, "%s", message)`.
+/// Calls the master's logger: FMI 2 as `logger(env, instance, status, category, "%s",
+/// message)`, FMI 3 as `logMessage(env, status, category, message)` (whose callback names no
+/// instance: the environment identifies it).
 pub(crate) fn log_message(
-    callbacks: &Fmi2CallbackFunctions,
+    logger: &Logger,
     instance_name: &CString,
     status: Fmi2Status,
     category: &str,
     message: &str,
 ) {
-    let Some(logger) = callbacks.logger else {
-        return;
-    };
     let category = c_string(category);
     let message = c_string(message);
-    const FORMAT: &[u8] = b"%s\0";
-    // SAFETY: the logger is the master's fmi2CallbackLogger; every pointer is a valid
-    // NUL-terminated string that outlives the call, and "%s" consumes exactly the one argument.
-    unsafe {
-        logger(
-            callbacks.component_environment,
-            instance_name.as_ptr(),
-            status,
-            category.as_ptr(),
-            FORMAT.as_ptr() as *const c_char,
-            message.as_ptr(),
-        );
+    match *logger {
+        Logger::Fmi2(callbacks) => {
+            let Some(logger) = callbacks.logger else {
+                return;
+            };
+            const FORMAT: &[u8] = b"%s\0";
+            // SAFETY: the logger is the master's fmi2CallbackLogger; every pointer is a valid
+            // NUL-terminated string that outlives the call, and "%s" consumes exactly the one
+            // argument.
+            unsafe {
+                logger(
+                    callbacks.component_environment,
+                    instance_name.as_ptr(),
+                    status,
+                    category.as_ptr(),
+                    FORMAT.as_ptr() as *const c_char,
+                    message.as_ptr(),
+                );
+            }
+        }
+        Logger::Fmi3 {
+            environment,
+            log_message,
+        } => {
+            let Some(log_message) = log_message else {
+                return;
+            };
+            // SAFETY: the master's fmi3LogMessageCallback with the environment it gave to
+            // fmi3InstantiateCoSimulation; both strings are NUL-terminated and outlive the call.
+            unsafe { log_message(environment, status, category.as_ptr(), message.as_ptr()) }
+        }
     }
 }

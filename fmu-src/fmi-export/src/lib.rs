@@ -1,4 +1,4 @@
-//! FMI 2.0 Co-Simulation plumbing, written once for both FMUs.
+//! FMI 2.0 and FMI 3.0 Co-Simulation plumbing, written once for both FMUs.
 //!
 //! An FMU crate is a short file of equations: it includes the variable table generated from its
 //! modelDescription.xml (crate `model-description`, build-time), implements
@@ -14,7 +14,12 @@
 //! fmi_export::export_fmi2!(MyModel);
 //! ```
 //!
-//! What the plumbing guarantees (FMI 2.0.4, sections 2.1 and 4.2):
+//! [`export_fmi3!`] defines the FMI 3.0 functions beside them ([`api3`]), on the same
+//! instance, state machine, checks, logging and FMU-state frames, so one library serves an FMI
+//! 2.0 and an FMI 3.0 archive and both answer bit-identically.
+//!
+//! What the plumbing guarantees (FMI 2.0.4, sections 2.1 and 4.2; FMI 3.0 likewise, see
+//! [`api3`] for what it names differently):
 //!
 //! - **State machine.** Each call is checked against the states the standard allows it in
 //!   (the masks in [`api`]); a call in another state answers `fmi2Error` with a log line
@@ -60,9 +65,14 @@
 //!   format version, their length and a checksum, and anything that does not match is refused.
 
 pub mod api;
+pub mod api3;
+mod export3;
 pub mod ffi;
+pub mod ffi3;
 #[cfg(feature = "testing")]
 pub mod fuzzing;
+#[cfg(feature = "testing")]
+pub mod fuzzing3;
 mod instance;
 pub mod live;
 mod state;
@@ -70,11 +80,44 @@ mod state;
 pub mod testing;
 mod variables;
 
-pub use instance::{Instance, MachineState};
+pub use instance::{Instance, Interface, MachineState};
 pub use state::{fnv1a_64, StateError, StateReader, StateWriter, STATE_FORMAT_VERSION};
 pub use variables::{
     dense_row, Causality, ValueType, Variability, VariableInfo, VariableStore, NO_ROW,
 };
+
+/// A variable of the FMI 3.0 interface only (value references from 1000): an array, or a
+/// scalar that describes one, which the FMI 2.0 model description cannot express. The table is
+/// generated from the FMU's FMI 3 supplement (`modelDescription/<model>.fmi3.xml`, see the
+/// `model-description` crate), which also enters the generated FMI 3 model description.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fmi3Variable {
+    pub name: &'static str,
+    pub value_reference: u32,
+    pub kind: Fmi3Kind,
+}
+
+/// The type of an [`Fmi3Variable`]: the independent variable, or a calculated output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fmi3Kind {
+    /// The independent variable (time) FMI 3.0 requires, a Float64 scalar: the plumbing
+    /// answers it with the instance's current time.
+    Time,
+    /// A `Float64` array with these fixed dimensions (row-major, FMI 3.0 2.4.7.1).
+    Float64 { dimensions: &'static [usize] },
+    /// An `Int32` scalar.
+    Int32,
+}
+
+impl Fmi3Variable {
+    /// Number of scalar elements the variable holds.
+    pub fn elements(&self) -> usize {
+        match self.kind {
+            Fmi3Kind::Float64 { dimensions } => dimensions.iter().product(),
+            Fmi3Kind::Int32 | Fmi3Kind::Time => 1,
+        }
+    }
+}
 
 /// Relative tolerance when comparing a master's communication point with the end of the last
 /// step: `|t_master - t_fmu| <= TIME_TOLERANCE * max(1, |t_fmu|)`.
@@ -115,7 +158,7 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     /// The LogCategories of the model description (generated `LOG_CATEGORIES`).
     const LOG_CATEGORIES: &'static [&'static str];
 
-    /// The most internal steps one `fmi2DoStep` may take (issue 15, point 5): a call whose
+    /// The most internal steps one `fmi2DoStep` may take: a call whose
     /// communication step would take more, `ceil(step_size / internal_step_size)`, answers
     /// `fmi2Discard` with a message before the model runs, so that no call blocks a master for
     /// minutes. 100 000 internal steps of a Kalman filter take well under a second.
@@ -138,8 +181,28 @@ pub trait CoSimulationModel: Clone + Send + Sized + 'static {
     /// Told after fmi2SetReal/fmi2SetInteger stored a value other than the one sent (clamped
     /// into the variable's range) or ignored it (the call answered fmi2Warning, see the setters),
     /// so that the model can say so in its own outputs too (the estimator's `status` bit
-    /// 1024, issue 12 point 7). The default does nothing.
+    /// 1024). The default does nothing.
     fn value_adjusted(&mut self, _variable: &'static VariableInfo) {}
+
+    /// The FMI 3-only variables (generated `FMI3_VARIABLES`; none by default).
+    const FMI3_VARIABLES: &'static [Fmi3Variable] = &[];
+
+    /// The dependencies of each output of the ModelStructure, as value references of the
+    /// knowns (generated `OUTPUT_DEPENDENCIES`), for fmi3GetVariableDependencies.
+    const OUTPUT_DEPENDENCIES: &'static [(u32, &'static [u32])] = &[];
+
+    /// Fills `values` (of [`Fmi3Variable::elements`] length) with the FMI 3-only `Float64`
+    /// variable `value_reference`, after [`CoSimulationModel::refresh_outputs`]; `false` when
+    /// the model has no such variable.
+    fn fmi3_float64(&self, _value_reference: u32, _values: &mut [f64]) -> bool {
+        false
+    }
+
+    /// The FMI 3-only `Int32` variable `value_reference`, after
+    /// [`CoSimulationModel::refresh_outputs`]; `None` when the model has no such variable.
+    fn fmi3_int32(&self, _value_reference: u32) -> Option<i32> {
+        None
+    }
 
     /// A fresh instance holding the start values (fmi2Instantiate, fmi2Reset).
     fn instantiate(context: &InstantiationContext) -> Self;

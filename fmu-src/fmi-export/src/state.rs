@@ -1,7 +1,7 @@
 //! A small, explicit binary format for FMU states: little-endian, f64 stored by its bit pattern
 //! so that a restored state continues bit-identically.
 //!
-//! A serialized state is framed (issue 15, point 4) so that a changed, truncated or foreign
+//! A serialized state is framed so that a changed, truncated or foreign
 //! buffer is refused before any of it is read:
 //!
 //! | bytes | what |

@@ -258,8 +258,8 @@ const OVERHEAD_ROUNDS: usize = 201;
 /// model struct's `do_step` and `fmi2DoStep` through the C ABI, timed interleaved
 /// ([`interleaved_timings`]) so that their ratios are not at the mercy of a load that came and
 /// went between divan's separate entries. "FMI layer" is fmi2DoStep over the model struct's
-/// do_step, paired per round (state machine, argument and time checks, catch_unwind; issue 4
-/// allows at most 10 %); "over bare step" (from the medians) adds the FMU's own work around the
+/// do_step, paired per round (state machine, argument and time checks, catch_unwind; the
+/// plumbing may cost at most 10 %); "over bare step" (from the medians) adds the FMU's own work around the
 /// equations or the filter.
 pub struct DoStepOverhead;
 

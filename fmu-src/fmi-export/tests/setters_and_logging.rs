@@ -1,5 +1,5 @@
 //! fmi2SetReal/fmi2SetInteger with values out of range, and fmi2SetDebugLogging with unknown
-//! categories (issue 15 point 3, issue 12 point 5): fmi2Warning with a log line, every other
+//! categories (a master must learn of what was adjusted, and lose no other value): fmi2Warning with a log line, every other
 //! value of the call applied, the instance usable afterwards.
 
 use crate::toy;

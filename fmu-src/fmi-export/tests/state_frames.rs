@@ -1,6 +1,6 @@
 //! Serialized FMU states carry a format version, their length and a checksum; a changed,
 //! truncated or resealed-but-inconsistent buffer is refused with fmi2Error and a message, and
-//! never hangs or crashes the instance (issue 15, point 4). Deterministic and bounded: a few
+//! never hangs or crashes the instance. Deterministic and bounded: a few
 //! thousand cases in well under a second.
 
 use crate::toy;

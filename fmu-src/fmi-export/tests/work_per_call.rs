@@ -1,5 +1,5 @@
-//! The work of one fmi2DoStep is bounded (issue 15, point 5) and an internal step size that
-//! would make a step loop without bound is refused at initialisation (point 2): the toy takes
+//! The work of one fmi2DoStep is bounded (so no call blocks a master for minutes) and an internal step size that
+//! would make a step loop without bound is refused at initialisation: the toy takes
 //! at most 1000 internal steps per call.
 
 use crate::toy;

@@ -23,6 +23,9 @@
 //!   through `REAL_ROWS` / `INTEGER_ROWS` / `BOOLEAN_ROWS` (one `u16` per value reference up to
 //!   the largest) where the value references are dense, through a `match` where they are not.
 //!
+//! - from the FMI 3 supplement ([`crate::fmi3`]): `FMI3_VARIABLES`, `OUTPUT_DEPENDENCIES` and
+//!   `mod vr3` (written by [`generate_for_build`]).
+//!
 //! Every name must be a Rust identifier (the project uses flat snake_case names); codegen fails
 //! with a message naming the variable otherwise.
 
@@ -586,8 +589,16 @@ pub fn generate_for_build(xml_path: impl AsRef<Path>) {
         Err(error) => panic!("invalid model description: {error}"),
     };
     let label = path.display().to_string();
-    let source = generate_rust(&description, &label)
+    let supplement_path = crate::fmi3::supplement_path(&path);
+    println!("cargo:rerun-if-changed={}", supplement_path.display());
+    let supplement = match crate::fmi3::read_supplement(&path, &description) {
+        Ok(supplement) => supplement,
+        Err(error) => panic!("invalid FMI 3 supplement: {error}"),
+    };
+    let mut source = generate_rust(&description, &label)
         .unwrap_or_else(|message| panic!("cannot generate code: {message}"));
+    source.push('\n');
+    source.push_str(&crate::fmi3::generate_rust(&description, &supplement));
     let target = Path::new(&out_dir).join("model_description.rs");
     std::fs::write(&target, source)
         .unwrap_or_else(|error| panic!("cannot write {}: {error}", target.display()));

@@ -28,6 +28,7 @@
 pub mod codegen;
 pub mod docs;
 mod error;
+pub mod fmi3;
 mod parse;
 pub mod validate;
 mod xml;
@@ -65,6 +66,7 @@ pub struct ModelDescription {
     pub description: Option<String>,
     pub version: Option<String>,
     pub author: Option<String>,
+    pub copyright: Option<String>,
     pub license: Option<String>,
     pub generation_tool: Option<String>,
     pub variable_naming_convention: Option<String>,
@@ -96,7 +98,7 @@ impl ModelDescription {
         self.unit_definitions.iter().find(|unit| unit.name == name)
     }
 
-    /// Names of the Real and Integer parameters that lack `min` or `max` (issue 15 point 2: a
+    /// Names of the Real and Integer parameters that lack `min` or `max` (a
     /// master can only check a value against bounds that are declared).
     pub fn unbounded_parameters(&self) -> Vec<&str> {
         self.variables

@@ -229,6 +229,7 @@ pub(crate) fn parse(text: &str, file: &str) -> Result<ModelDescription, Error> {
         description: attributes.string("description"),
         version: attributes.string("version"),
         author: attributes.string("author"),
+        copyright: attributes.string("copyright"),
         license: attributes.string("license"),
         generation_tool: attributes.string("generationTool"),
         variable_naming_convention: attributes.string("variableNamingConvention"),

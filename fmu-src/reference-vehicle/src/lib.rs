@@ -752,6 +752,9 @@ impl CoSimulationModel for ReferenceVehicle {
     const GUID: &'static str = model_description::GUID;
     const VARIABLES: &'static [fmi_export::VariableInfo] = model_description::VARIABLES;
     const LOG_CATEGORIES: &'static [&'static str] = model_description::LOG_CATEGORIES;
+    const FMI3_VARIABLES: &'static [fmi_export::Fmi3Variable] = model_description::FMI3_VARIABLES;
+    const OUTPUT_DEPENDENCIES: &'static [(u32, &'static [u32])] =
+        model_description::OUTPUT_DEPENDENCIES;
 
     /// The finest internal step: the integration step, or the sensor sample period where it is
     /// shorter (the sample-and-hold advances one period at a time), so that fmi-export refuses
@@ -874,6 +877,7 @@ impl CoSimulationModel for ReferenceVehicle {
 }
 
 fmi_export::export_fmi2!(ReferenceVehicle);
+fmi_export::export_fmi3!(ReferenceVehicle);
 
 #[cfg(test)]
 mod tests {

@@ -144,6 +144,12 @@ impl ModelRunner {
         })
     }
 
+    /// The FMI 3 arrays (`state_estimate`, `state_covariance`, row-major) at the largest
+    /// model's size, zero past the running model's states.
+    fn fill_estimate(&self, value_reference: u32, values: &mut [f64]) {
+        on_runner!(self, r => fill_estimate(r, value_reference, values))
+    }
+
     fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
         Ok(
             match parameters::estimator_model(v).map_err(StateError::new)? {
@@ -152,6 +158,37 @@ impl ModelRunner {
                 EstimatorModel::SingleTrackGrip => Self::Grip(RunnerGrip::read_state(v, reader)?),
             },
         )
+    }
+}
+
+/// Writes runner `r`'s state (`vr3::STATE_ESTIMATE`) or covariance (`vr3::STATE_COVARIANCE`,
+/// scaled like the reported standard deviations) into `values`, an array of the largest
+/// model's size.
+fn fill_estimate<Model, const N: usize, const M: usize, const U: usize>(
+    r: &runner::Runner<Model, N, M, U>,
+    value_reference: u32,
+    values: &mut [f64],
+) where
+    Model: runner::EstimationModel<N, M, U>,
+{
+    values.fill(0.0);
+    let largest = if value_reference == model_description::vr3::STATE_COVARIANCE {
+        (values.len() as f64).sqrt() as usize
+    } else {
+        values.len()
+    };
+    if value_reference == model_description::vr3::STATE_ESTIMATE {
+        for (value, x) in values.iter_mut().zip(r.filter().state().iter()) {
+            *value = *x;
+        }
+    } else if value_reference == model_description::vr3::STATE_COVARIANCE && N <= largest {
+        let scale = r.covariance_scale();
+        let p = r.filter().covariance();
+        for i in 0..N {
+            for j in 0..N {
+                values[i * largest + j] = p[(i, j)] * scale;
+            }
+        }
     }
 }
 
@@ -237,6 +274,30 @@ impl CoSimulationModel for VehicleStateEstimator {
     const GUID: &'static str = model_description::GUID;
     const VARIABLES: &'static [fmi_export::VariableInfo] = model_description::VARIABLES;
     const LOG_CATEGORIES: &'static [&'static str] = model_description::LOG_CATEGORIES;
+    const FMI3_VARIABLES: &'static [fmi_export::Fmi3Variable] = model_description::FMI3_VARIABLES;
+    const OUTPUT_DEPENDENCIES: &'static [(u32, &'static [u32])] =
+        model_description::OUTPUT_DEPENDENCIES;
+
+    fn fmi3_float64(&self, value_reference: u32, values: &mut [f64]) -> bool {
+        use model_description::vr3;
+        if value_reference != vr3::STATE_ESTIMATE && value_reference != vr3::STATE_COVARIANCE {
+            return false;
+        }
+        match &self.runner {
+            Some(runner) => {
+                runner.fill_estimate(value_reference, values);
+            }
+            None => values.fill(0.0),
+        }
+        true
+    }
+
+    fn fmi3_int32(&self, value_reference: u32) -> Option<i32> {
+        (value_reference == model_description::vr3::STATE_DIMENSION).then(|| {
+            let count = |runner: &ModelRunner| on_runner!(runner, r => r.filter().state().len());
+            self.runner.as_ref().map_or(0, count) as i32
+        })
+    }
 
     /// One filter step per sample: fmi-export bounds the samples one doStep may process
     /// (issue 15: a doStep of 1e6 s ran 1e9 filter steps, about half an hour).
@@ -352,3 +413,4 @@ impl CoSimulationModel for VehicleStateEstimator {
 }
 
 fmi_export::export_fmi2!(VehicleStateEstimator);
+fmi_export::export_fmi3!(VehicleStateEstimator);

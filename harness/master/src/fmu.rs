@@ -15,6 +15,7 @@ use std::str::FromStr;
 
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::schema::{Causality, Fmi2ModelDescription, ScalarVariableElement, Variability};
+use fmi::fmi3::import::Fmi3Import;
 use fmi::traits::FmiImport;
 
 /// Why an FMU was refused. Every message names the archive.
@@ -63,9 +64,15 @@ pub enum FmuError {
     },
     #[error("FMU {path}: the fmi crate refused the extracted FMU: {reason}")]
     Import { path: PathBuf, reason: String },
+    #[error("FMU {path}: not the FMI 3.0 archive of {fmi2}: {reason}")]
+    NotItsFmi3Archive {
+        path: PathBuf,
+        fmi2: PathBuf,
+        reason: String,
+    },
 }
 
-/// Limits of what an archive may unpack to (issue 15, point 6); the FMUs of this project are
+/// Limits of what an archive may unpack to (a zip bomb must not fill the disk); the FMUs of this project are
 /// about 3 MB in 10 entries, compressed 3:1.
 pub mod limits {
     /// Entries of one archive.
@@ -141,7 +148,27 @@ pub struct LoadedFmu {
     by_name: HashMap<String, usize>,
     /// Items (name, value) of each Enumeration variable's declared type, by variable name.
     enumeration_items: HashMap<String, Vec<(String, i32)>>,
+    /// The FMU's FMI 3.0 archive, when a run asks for FMI 3 ([`LoadedFmu::load_fmi3`]).
+    fmi3: Option<Fmi3Archive>,
     import: Fmi2Import,
+}
+
+/// The FMI 3.0 archive of an FMU, loaded beside its FMI 2.0 one: the plan (names, value
+/// references, types) is made from the FMI 2.0 description, which [`LoadedFmu::load_fmi3`]
+/// checks the FMI 3.0 one against variable by variable; the instances of an FMI 3 run are created
+/// and driven through this import only.
+pub struct Fmi3Archive {
+    pub path: PathBuf,
+    /// Value references of the Enumeration variables, sorted: FMI 3.0 reads and sets them as
+    /// Int64, the other integers as Int32.
+    pub enumerations: Vec<u32>,
+    import: Fmi3Import,
+}
+
+impl Fmi3Archive {
+    pub fn import(&self) -> &Fmi3Import {
+        &self.import
+    }
 }
 
 impl std::fmt::Debug for LoadedFmu {
@@ -158,99 +185,7 @@ impl LoadedFmu {
     /// (created when missing). The folder is removed when the `LoadedFmu` is dropped.
     pub fn load(fmu_path: &Path, extract_root: &Path) -> Result<LoadedFmu, FmuError> {
         let path = fmu_path.to_path_buf();
-        // A FIFO or a device would block or never end; only a regular file is opened.
-        let metadata = fs::metadata(fmu_path).map_err(|cause| FmuError::Unreadable {
-            path: path.clone(),
-            cause,
-        })?;
-        if !metadata.is_file() {
-            let kind = if metadata.is_dir() {
-                "a folder"
-            } else {
-                "a FIFO, socket or device"
-            };
-            return Err(FmuError::NotAFile {
-                path,
-                kind: kind.into(),
-            });
-        }
-        let file = fs::File::open(fmu_path).map_err(|cause| FmuError::Unreadable {
-            path: path.clone(),
-            cause,
-        })?;
-        let mut archive = zip::ZipArchive::new(file).map_err(|e| FmuError::NotZip {
-            path: path.clone(),
-            reason: e.to_string(),
-        })?;
-
-        // Pass 1: every entry must stay inside the extraction folder, none may be a link, and
-        // what the entries declare must stay within the limits (pass 2 enforces them on the
-        // bytes actually written, as declared sizes can lie).
-        if archive.len() > limits::MAX_ENTRIES {
-            return Err(FmuError::TooLarge {
-                path,
-                what: format!(
-                    "{} entries, more than {}",
-                    archive.len(),
-                    limits::MAX_ENTRIES
-                ),
-            });
-        }
-        let mut entry_names = Vec::with_capacity(archive.len());
-        let mut declared_total = 0u64;
-        for index in 0..archive.len() {
-            let entry = archive.by_index(index).map_err(|e| FmuError::NotZip {
-                path: path.clone(),
-                reason: format!("entry {index}: {e}"),
-            })?;
-            let name = entry
-                .name()
-                .map(|n| n.to_string())
-                .unwrap_or_else(|_| format!("<entry {index}: undecodable name>"));
-            // An absolute name (which the zip crate would quietly make relative) or a drive
-            // letter is as malformed as a '..' that leaves the folder.
-            let absolute = name.starts_with('/')
-                || name.starts_with('\\')
-                || name.as_bytes().get(1) == Some(&b':');
-            if absolute || entry.enclosed_name().is_none() {
-                return Err(FmuError::EscapingEntry { path, entry: name });
-            }
-            if entry.is_symlink() {
-                return Err(FmuError::SymlinkEntry { path, entry: name });
-            }
-            declared_total = declared_total.saturating_add(entry.size());
-            if let Err(what) = check_entry_size(&name, entry.size(), entry.compressed_size())
-                .and_then(|()| check_total(declared_total))
-            {
-                return Err(FmuError::TooLarge { path, what });
-            }
-            entry_names.push(name);
-        }
-
-        let xml = {
-            let mut entry = archive
-                .by_name("modelDescription.xml")
-                .map_err(|_| FmuError::NoModelDescription { path: path.clone() })?;
-            let mut xml = String::new();
-            entry
-                .by_ref()
-                .take(limits::MAX_MODEL_DESCRIPTION_BYTES + 1)
-                .read_to_string(&mut xml)
-                .map_err(|e| FmuError::BadModelDescription {
-                    path: path.clone(),
-                    reason: format!("cannot read it as UTF-8 text: {e}"),
-                })?;
-            if xml.len() as u64 > limits::MAX_MODEL_DESCRIPTION_BYTES {
-                return Err(FmuError::TooLarge {
-                    path,
-                    what: format!(
-                        "modelDescription.xml is larger than {} bytes",
-                        limits::MAX_MODEL_DESCRIPTION_BYTES
-                    ),
-                });
-            }
-            xml
-        };
+        let (mut archive, entry_names, xml) = open_checked(fmu_path)?;
         let description = Fmi2ModelDescription::from_str(&xml).map_err(|e| {
             // A 3.0 description fails the 2.0 schema; say so rather than print a parser error.
             if let Some(version) = fmi_version_attribute(&xml).filter(|v| !v.starts_with("2.")) {
@@ -300,60 +235,7 @@ impl LoadedFmu {
             .map(|(i, v)| (v.name.clone(), i))
             .collect();
 
-        // Pass 2: extract into <extract_root>/fmu-XXXX/.
-        fs::create_dir_all(extract_root).map_err(|cause| FmuError::Extract {
-            path: path.clone(),
-            folder: extract_root.to_path_buf(),
-            cause,
-        })?;
-        let temp_dir = tempfile::Builder::new()
-            .prefix("fmu-")
-            .tempdir_in(extract_root)
-            .map_err(|cause| FmuError::Extract {
-                path: path.clone(),
-                folder: extract_root.to_path_buf(),
-                cause,
-            })?;
-        let extract_error = |cause: std::io::Error| FmuError::Extract {
-            path: path.clone(),
-            folder: temp_dir.path().to_path_buf(),
-            cause,
-        };
-        let mut written_total = 0u64;
-        for index in 0..archive.len() {
-            let mut entry = archive
-                .by_index(index)
-                .map_err(|e| extract_error(std::io::Error::other(e)))?;
-            let declared = entry.size();
-            let Some(relative) = entry.enclosed_name() else {
-                unreachable!("checked in pass 1")
-            };
-            let target = temp_dir.path().join(&relative);
-            if entry.is_dir() {
-                fs::create_dir_all(&target).map_err(extract_error)?;
-                continue;
-            }
-            if let Some(parent) = target.parent() {
-                fs::create_dir_all(parent).map_err(extract_error)?;
-            }
-            let mut out = fs::File::create(&target).map_err(extract_error)?;
-            // Never more than the entry declared (checked against the limits in pass 1): one
-            // byte more is read only to detect an entry that lied about its size.
-            let written = std::io::copy(&mut (&mut entry).take(declared + 1), &mut out)
-                .map_err(extract_error)?;
-            out.flush().map_err(extract_error)?;
-            written_total = written_total.saturating_add(written);
-            if written > declared || written_total > limits::MAX_TOTAL_BYTES {
-                return Err(FmuError::TooLarge {
-                    path,
-                    what: format!(
-                        "entry {:?} unpacks to more than the {declared} bytes it declares",
-                        relative.display()
-                    ),
-                });
-            }
-        }
-
+        let temp_dir = extract_checked(&mut archive, &path, extract_root)?;
         let import = Fmi2Import::new(temp_dir, &xml).map_err(|e| FmuError::Import {
             path: path.clone(),
             reason: e.to_string(),
@@ -366,8 +248,106 @@ impl LoadedFmu {
             variables,
             by_name,
             enumeration_items,
+            fmi3: None,
             import,
         })
+    }
+
+    /// Loads the FMU's FMI 3.0 archive `fmi3_path` (checked and extracted as [`LoadedFmu::load`]
+    /// does) after checking that it is this FMU's: FMI version 3.0, the same model identifier,
+    /// instantiation token = GUID, and every variable of the FMI 2.0 description with the same
+    /// name, value reference and mapped type (FMI 3.0 section 2.4: Real -> Float64, Integer ->
+    /// Int32, Enumeration, Boolean).
+    pub fn load_fmi3(&mut self, fmi3_path: &Path, extract_root: &Path) -> Result<(), FmuError> {
+        let path = fmi3_path.to_path_buf();
+        let mismatch = |reason: String| FmuError::NotItsFmi3Archive {
+            path: path.clone(),
+            fmi2: self.path.clone(),
+            reason,
+        };
+        let (mut archive, entry_names, xml) = open_checked(fmi3_path)?;
+        let version = fmi_version_attribute(&xml).unwrap_or_default();
+        if version != "3.0" {
+            return Err(mismatch(format!(
+                "fmiVersion is {version:?}; expected \"3.0\""
+            )));
+        }
+        let declared = fmi3_declarations(&xml);
+        let token = declared.instantiation_token.as_deref().unwrap_or("");
+        if token != self.guid {
+            return Err(mismatch(format!(
+                "instantiationToken {token:?} is not the GUID {:?}",
+                self.guid
+            )));
+        }
+        if declared.model_identifier.as_deref() != Some(self.model_identifier.as_str()) {
+            return Err(mismatch(format!(
+                "modelIdentifier {:?}; expected {:?}",
+                declared.model_identifier, self.model_identifier
+            )));
+        }
+        for variable in &self.variables {
+            let element = match variable.var_type {
+                VariableType::Real => "Float64",
+                VariableType::Integer => "Int32",
+                VariableType::Enumeration => "Enumeration",
+                VariableType::Boolean => "Boolean",
+                VariableType::String => "String",
+            };
+            let found = declared
+                .variables
+                .iter()
+                .find(|(_, name, _)| *name == variable.name);
+            if found
+                != Some(&(
+                    element.to_string(),
+                    variable.name.clone(),
+                    variable.value_reference,
+                ))
+            {
+                return Err(mismatch(format!(
+                    "variable {:?} (valueReference {}, {element}) is declared as {found:?}",
+                    variable.name, variable.value_reference
+                )));
+            }
+        }
+        let expected_binary = format!(
+            "binaries/{}-{}/{}{}",
+            std::env::consts::ARCH,
+            std::env::consts::OS,
+            self.model_identifier,
+            std::env::consts::DLL_SUFFIX
+        );
+        if !entry_names.contains(&expected_binary) {
+            return Err(FmuError::NoBinary {
+                path,
+                os: std::env::consts::OS,
+                arch: std::env::consts::ARCH,
+                expected: expected_binary,
+            });
+        }
+        let temp_dir = extract_checked(&mut archive, &path, extract_root)?;
+        let import =
+            Fmi3Import::new(temp_dir, &for_the_fmi_crate(&xml)).map_err(|e| FmuError::Import {
+                path: path.clone(),
+                reason: e.to_string(),
+            })?;
+        let mut enumerations: Vec<u32> = (self.variables.iter())
+            .filter(|v| v.var_type == VariableType::Enumeration)
+            .map(|v| v.value_reference)
+            .collect();
+        enumerations.sort_unstable();
+        self.fmi3 = Some(Fmi3Archive {
+            path,
+            enumerations,
+            import,
+        });
+        Ok(())
+    }
+
+    /// The FMI 3.0 archive, when [`LoadedFmu::load_fmi3`] loaded one.
+    pub fn fmi3(&self) -> Option<&Fmi3Archive> {
+        self.fmi3.as_ref()
     }
 
     pub fn variable(&self, name: &str) -> Option<&VariableInfo> {
@@ -389,6 +369,174 @@ impl LoadedFmu {
     }
 }
 
+/// Opens an archive and checks it before anything is extracted: a regular file, a zip, every
+/// entry inside the extraction folder and no link, sizes within [`limits`], a
+/// `modelDescription.xml` of bounded size. Returns the archive, its entry names and the XML.
+fn open_checked(
+    fmu_path: &Path,
+) -> Result<(zip::ZipArchive<fs::File>, Vec<String>, String), FmuError> {
+    let path = fmu_path.to_path_buf();
+    // A FIFO or a device would block or never end; only a regular file is opened.
+    let metadata = fs::metadata(fmu_path).map_err(|cause| FmuError::Unreadable {
+        path: path.clone(),
+        cause,
+    })?;
+    if !metadata.is_file() {
+        let kind = if metadata.is_dir() {
+            "a folder"
+        } else {
+            "a FIFO, socket or device"
+        };
+        return Err(FmuError::NotAFile {
+            path,
+            kind: kind.into(),
+        });
+    }
+    let file = fs::File::open(fmu_path).map_err(|cause| FmuError::Unreadable {
+        path: path.clone(),
+        cause,
+    })?;
+    let mut archive = zip::ZipArchive::new(file).map_err(|e| FmuError::NotZip {
+        path: path.clone(),
+        reason: e.to_string(),
+    })?;
+
+    // Pass 1: every entry must stay inside the extraction folder, none may be a link, and
+    // what the entries declare must stay within the limits (pass 2 enforces them on the
+    // bytes actually written, as declared sizes can lie).
+    if archive.len() > limits::MAX_ENTRIES {
+        return Err(FmuError::TooLarge {
+            path,
+            what: format!(
+                "{} entries, more than {}",
+                archive.len(),
+                limits::MAX_ENTRIES
+            ),
+        });
+    }
+    let mut entry_names = Vec::with_capacity(archive.len());
+    let mut declared_total = 0u64;
+    for index in 0..archive.len() {
+        let entry = archive.by_index(index).map_err(|e| FmuError::NotZip {
+            path: path.clone(),
+            reason: format!("entry {index}: {e}"),
+        })?;
+        let name = entry
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_else(|_| format!("<entry {index}: undecodable name>"));
+        // An absolute name (which the zip crate would quietly make relative) or a drive
+        // letter is as malformed as a '..' that leaves the folder.
+        let absolute = name.starts_with('/')
+            || name.starts_with('\\')
+            || name.as_bytes().get(1) == Some(&b':');
+        if absolute || entry.enclosed_name().is_none() {
+            return Err(FmuError::EscapingEntry { path, entry: name });
+        }
+        if entry.is_symlink() {
+            return Err(FmuError::SymlinkEntry { path, entry: name });
+        }
+        declared_total = declared_total.saturating_add(entry.size());
+        if let Err(what) = check_entry_size(&name, entry.size(), entry.compressed_size())
+            .and_then(|()| check_total(declared_total))
+        {
+            return Err(FmuError::TooLarge { path, what });
+        }
+        entry_names.push(name);
+    }
+
+    let xml = {
+        let mut entry = archive
+            .by_name("modelDescription.xml")
+            .map_err(|_| FmuError::NoModelDescription { path: path.clone() })?;
+        let mut xml = String::new();
+        entry
+            .by_ref()
+            .take(limits::MAX_MODEL_DESCRIPTION_BYTES + 1)
+            .read_to_string(&mut xml)
+            .map_err(|e| FmuError::BadModelDescription {
+                path: path.clone(),
+                reason: format!("cannot read it as UTF-8 text: {e}"),
+            })?;
+        if xml.len() as u64 > limits::MAX_MODEL_DESCRIPTION_BYTES {
+            return Err(FmuError::TooLarge {
+                path,
+                what: format!(
+                    "modelDescription.xml is larger than {} bytes",
+                    limits::MAX_MODEL_DESCRIPTION_BYTES
+                ),
+            });
+        }
+        xml
+    };
+    Ok((archive, entry_names, xml))
+}
+
+/// Extracts a checked archive into a fresh temporary folder under `extract_root`, enforcing
+/// [`limits`] on the bytes actually written.
+fn extract_checked(
+    archive: &mut zip::ZipArchive<fs::File>,
+    path: &Path,
+    extract_root: &Path,
+) -> Result<tempfile::TempDir, FmuError> {
+    let path = path.to_path_buf();
+    // Pass 2: extract into <extract_root>/fmu-XXXX/.
+    fs::create_dir_all(extract_root).map_err(|cause| FmuError::Extract {
+        path: path.clone(),
+        folder: extract_root.to_path_buf(),
+        cause,
+    })?;
+    let temp_dir = tempfile::Builder::new()
+        .prefix("fmu-")
+        .tempdir_in(extract_root)
+        .map_err(|cause| FmuError::Extract {
+            path: path.clone(),
+            folder: extract_root.to_path_buf(),
+            cause,
+        })?;
+    let extract_error = |cause: std::io::Error| FmuError::Extract {
+        path: path.clone(),
+        folder: temp_dir.path().to_path_buf(),
+        cause,
+    };
+    let mut written_total = 0u64;
+    for index in 0..archive.len() {
+        let mut entry = archive
+            .by_index(index)
+            .map_err(|e| extract_error(std::io::Error::other(e)))?;
+        let declared = entry.size();
+        let Some(relative) = entry.enclosed_name() else {
+            unreachable!("checked in pass 1")
+        };
+        let target = temp_dir.path().join(&relative);
+        if entry.is_dir() {
+            fs::create_dir_all(&target).map_err(extract_error)?;
+            continue;
+        }
+        if let Some(parent) = target.parent() {
+            fs::create_dir_all(parent).map_err(extract_error)?;
+        }
+        let mut out = fs::File::create(&target).map_err(extract_error)?;
+        // Never more than the entry declared (checked against the limits in pass 1): one
+        // byte more is read only to detect an entry that lied about its size.
+        let written =
+            std::io::copy(&mut (&mut entry).take(declared + 1), &mut out).map_err(extract_error)?;
+        out.flush().map_err(extract_error)?;
+        written_total = written_total.saturating_add(written);
+        if written > declared || written_total > limits::MAX_TOTAL_BYTES {
+            return Err(FmuError::TooLarge {
+                path,
+                what: format!(
+                    "entry {:?} unpacks to more than the {declared} bytes it declares",
+                    relative.display()
+                ),
+            });
+        }
+    }
+
+    Ok(temp_dir)
+}
+
 /// One entry's declared size against [`limits::MAX_TOTAL_BYTES`] and [`limits::MAX_RATIO`].
 fn check_entry_size(name: &str, size: u64, compressed: u64) -> Result<(), String> {
     if size > limits::RATIO_FREE_BYTES && size / compressed.max(1) > limits::MAX_RATIO {
@@ -408,6 +556,86 @@ fn check_total(total: u64) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// The FMI 3.0 description as the `fmi` crate's parser takes it: fmi-schema 0.8 refuses the
+/// standard's `unit`, `displayUnit` and `nominal` attributes of Float64 variables (its strict
+/// mode knows no such attribute, though fmi3Variable.xsd declares them), and the import needs
+/// none of them to instantiate and drive the FMU, so they are left out of the copy it parses;
+/// the archive keeps the full description, which [`LoadedFmu::load_fmi3`] checks itself.
+fn for_the_fmi_crate(xml: &str) -> String {
+    let mut kept = String::with_capacity(xml.len());
+    let mut rest = xml;
+    while let Some(start) = rest.find("<Float64 ") {
+        kept.push_str(&rest[..start]);
+        let end = rest[start..].find('>').map_or(rest.len(), |e| start + e);
+        let mut tag = rest[start..end].to_string();
+        for attribute in ["unit", "displayUnit", "nominal"] {
+            let key = format!(" {attribute}=\"");
+            if let Some(at) = tag.find(&key) {
+                let value_end = tag[at + key.len()..]
+                    .find('"')
+                    .map_or(tag.len(), |e| at + key.len() + e + 1);
+                tag.replace_range(at..value_end, "");
+            }
+        }
+        kept.push_str(&tag);
+        rest = &rest[end..];
+    }
+    kept.push_str(rest);
+    kept
+}
+
+/// What an FMI 3.0 model description declares, as far as [`LoadedFmu::load_fmi3`] checks it.
+#[derive(Debug, Default)]
+struct Fmi3Declarations {
+    instantiation_token: Option<String>,
+    model_identifier: Option<String>,
+    /// (element, name, value reference) of each variable.
+    variables: Vec<(String, String, u32)>,
+}
+
+fn fmi3_declarations(xml: &str) -> Fmi3Declarations {
+    use quick_xml::events::Event;
+    let mut declared = Fmi3Declarations::default();
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let mut in_variables = false;
+    let text = |e: &quick_xml::events::BytesStart<'_>, key: &str| {
+        e.try_get_attribute(key).ok().flatten().and_then(|a| {
+            a.normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                .ok()
+                .map(|v| v.into_owned())
+        })
+    };
+    loop {
+        match reader.read_event() {
+            Ok(Event::Start(e)) | Ok(Event::Empty(e)) => {
+                let element = e.local_name().into_inner().to_string();
+                match element.as_str() {
+                    "fmiModelDescription" => {
+                        declared.instantiation_token = text(&e, "instantiationToken")
+                    }
+                    "CoSimulation" => declared.model_identifier = text(&e, "modelIdentifier"),
+                    "ModelVariables" => in_variables = true,
+                    _ if in_variables => {
+                        if let (Some(name), Some(vr)) = (
+                            text(&e, "name"),
+                            text(&e, "valueReference").and_then(|v| v.parse().ok()),
+                        ) {
+                            declared.variables.push((element, name, vr));
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Ok(Event::End(e)) if e.local_name().into_inner() == "ModelVariables" => {
+                in_variables = false
+            }
+            Ok(Event::Eof) | Err(_) => break,
+            _ => {}
+        }
+    }
+    declared
 }
 
 fn fmi_version_attribute(xml: &str) -> Option<String> {

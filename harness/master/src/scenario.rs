@@ -71,6 +71,10 @@ pub fn check_file_name(name: &str) -> Result<(), String> {
     Ok(())
 }
 
+fn default_fmi_version() -> u8 {
+    2
+}
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
@@ -102,6 +106,10 @@ pub struct Scenario {
     /// `[[override]]`: values that replace driven inputs in a time window (glitches, outages).
     #[serde(default, rename = "override")]
     pub overrides: Vec<OverrideSection>,
+    /// `fmi_version = 3` drives every FMU through its FMI 3.0 archive `<stem>-fmi3.fmu` beside
+    /// the `.fmu` named (`cosim::FmiVersion`); 2, the default, through the named archives.
+    #[serde(default = "default_fmi_version")]
+    pub fmi_version: u8,
     /// Folder of the file (relative FMU paths are resolved against it).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -342,6 +350,12 @@ impl Scenario {
     pub fn validate(&self) -> Result<(), ScenarioError> {
         if let Err(message) = check_file_name(&self.name) {
             return Err(self.field_error("name", message));
+        }
+        if !matches!(self.fmi_version, 2 | 3) {
+            return Err(self.field_error(
+                "fmi_version",
+                format!("expected 2 or 3, got {}", self.fmi_version),
+            ));
         }
         if !(self.step.is_finite() && self.step > 0.0) {
             return Err(self.field_error(

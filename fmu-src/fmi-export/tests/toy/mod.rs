@@ -4,8 +4,8 @@
 //! crate includes the table generated from its modelDescription.xml.
 
 use fmi_export::{
-    Causality, CoSimulationModel, InstantiationContext, StateError, StateReader, StateWriter,
-    StepOutcome, ValueType, Variability, VariableInfo, VariableStore,
+    Causality, CoSimulationModel, Fmi3Kind, Fmi3Variable, InstantiationContext, StateError,
+    StateReader, StateWriter, StepOutcome, ValueType, Variability, VariableInfo, VariableStore,
 };
 
 pub mod vr {
@@ -15,6 +15,8 @@ pub mod vr {
     pub const Y: u32 = 3;
     pub const ORDER: u32 = 0;
     pub const MODE: u32 = 1;
+    pub const TIME: u32 = 1000;
+    pub const Y_TABLE: u32 = 1001;
 }
 
 const fn real(
@@ -161,6 +163,35 @@ impl CoSimulationModel for Toy {
         "logAll",
     ];
     const MAX_INTERNAL_STEPS: u64 = 1000;
+    // FMI 3: the independent variable, and a 2-by-3 array holding y scaled by its row-major
+    // index, so that a test sees each element land in its place.
+    const FMI3_VARIABLES: &'static [Fmi3Variable] = &[
+        Fmi3Variable {
+            name: "time",
+            value_reference: vr::TIME,
+            kind: Fmi3Kind::Time,
+        },
+        Fmi3Variable {
+            name: "y_table",
+            value_reference: vr::Y_TABLE,
+            kind: Fmi3Kind::Float64 {
+                dimensions: &[2, 3],
+            },
+        },
+    ];
+    const OUTPUT_DEPENDENCIES: &'static [(u32, &'static [u32])] =
+        &[(vr::Y, &[]), (vr::Y_TABLE, &[])];
+
+    fn fmi3_float64(&self, value_reference: u32, values: &mut [f64]) -> bool {
+        if value_reference != vr::Y_TABLE {
+            return false;
+        }
+        let y = self.variables.reals[vr::Y as usize];
+        for (index, value) in values.iter_mut().enumerate() {
+            *value = y * index as f64;
+        }
+        true
+    }
 
     fn instantiate(_: &InstantiationContext) -> Self {
         Self {
@@ -207,6 +238,7 @@ impl CoSimulationModel for Toy {
 }
 
 fmi_export::export_fmi2!(Toy);
+fmi_export::export_fmi3!(Toy);
 
 /// A fresh instance of the toy, driven through its C ABI.
 pub fn slave() -> fmi_export::testing::Slave {
