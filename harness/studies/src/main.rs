@@ -154,16 +154,33 @@ enum Command {
         #[arg(long)]
         no_plots: bool,
     },
-    /// Fit the estimator to a car from a recorded drive: model A's per-axle cornering-stiffness
-    /// scales by EM, model B's stiffness level by the log's sideslip reference (where the map
-    /// names one), the noise levels from the innovations; held-out score against the defaults;
-    /// writes an SSP parameter-value file (.ssv)
+    /// The real track recording (harness/logs/mbds/) per model and estimator, with and without
+    /// wheel speeds, scored on laps 2-6 beside zero, the steady-state formula and the published
+    /// estimators: mbds_replay.md and mbds_replay.csv
+    ReplayStudy {
+        #[arg(long, default_value = "out/replay-study")]
+        out: PathBuf,
+        /// The particle filter too (about 1.8 ms a step).
+        #[arg(long)]
+        full: bool,
+        /// Also write the rows to docs/data/mbds_replay.csv (needs --full).
+        #[arg(long)]
+        update_committed: bool,
+        #[arg(long)]
+        fmu_dir: Option<PathBuf>,
+    },
+    /// Fit the estimator to a car from a recorded drive: the grip model's sensor noise from the
+    /// log, its tyre level by the log's sideslip reference (where the map names one) and its
+    /// consistency; model A's per-axle cornering-stiffness scales by EM, model B's tyre level;
+    /// held-out score against the starting parameters, which are kept when the fit makes it
+    /// worse; writes an SSP parameter-value file (.ssv)
     Fit {
         log: PathBuf,
         #[arg(long)]
         map: PathBuf,
-        /// Estimator model to fit: a (single track, HSRI) or b (3-state two-track).
-        #[arg(long, default_value = "a")]
+        /// Estimator model to fit: grip (the FMU's default, single track with grip states), a
+        /// (single track, HSRI) or b (3-state two-track).
+        #[arg(long, default_value = "grip")]
         model: String,
         /// The .ssv to write.
         #[arg(long)]
@@ -534,6 +551,18 @@ fn execute(cli: Cli, stdout: &mut (dyn Write + Send)) -> Result<()> {
             }
             Ok(())
         }
+        Command::ReplayStudy {
+            out,
+            full,
+            update_committed,
+            fmu_dir,
+        } => harness::replay::study::command(
+            &absolute(fmu_dir).unwrap_or_else(runner::default_fmu_dir),
+            out,
+            full,
+            update_committed,
+            stdout,
+        ),
         Command::Fit {
             log,
             map,
