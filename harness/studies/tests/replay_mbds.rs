@@ -91,7 +91,7 @@ fn the_replay_studys_subset_reproduces_its_committed_rows() {
 
 /// `harness fit` of the default model on lap 1 alone, as a new user with this log would run it:
 /// no wheel speeds, no torques, the INS sideslip as the training reference. The accelerometer's
-/// noise comes from the log (1.05 m/s² of vibration where the FMU's default assumes 0.1), and the
+/// noise comes from the log (about 1.1 m/s² of vibration where the FMU's default assumes 0.1), and the
 /// written file never makes the held-out part of lap 1 worse than the map's parameters.
 #[test]
 fn fit_of_the_grip_model_on_lap_1_learns_the_sensor_noise_and_never_writes_a_worse_file() {
@@ -116,7 +116,8 @@ fn fit_of_the_grip_model_on_lap_1_learns_the_sensor_noise_and_never_writes_a_wor
         .iter()
         .find(|s| s.parameter == "measurement_noise_std_ay")
         .expect("the ay noise from the log");
-    assert!((ay.std - 1.05).abs() < 0.1, "{ay:?}");
+    // 1.16 m/s² on 150-220 s, 1.05 over the whole of lap 1: the vibration, not the cornering.
+    assert!((1.0..1.3).contains(&ay.std), "{ay:?}");
     assert!(
         !outcome
             .sensor_noise
