@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::estimator_path;
 use harness::replay::fit::{fit, FitModel, FitOptions};
-use harness::replay::study::{cases, Case, Study, COMMITTED_CSV, CSV_HEADER};
+use harness::replay::study::{cases, Case, Study, COMMITTED_CSV, CSV_HEADER, FITTED_MODEL};
 
 use crate::scratch::Scratch;
 
@@ -43,8 +43,9 @@ fn committed() -> BTreeMap<(String, String, String), String> {
         .collect()
 }
 
-/// The default configuration (grip model, EKF) with and without wheel speeds and model B with
-/// them, rerun, must give the committed rows to the digit: the committed file is the study's
+/// The default configuration (grip model, EKF) with and without wheel speeds, model B with
+/// them, and the grip model fitted on lap 1 without them, rerun, must give the committed rows
+/// to the digit: the committed file is the study's
 /// output, not a hand-kept copy (regenerate it with `cargo run --release -p harness --
 /// replay-study --full --update-committed` after a change to the estimator).
 #[test]
@@ -62,12 +63,16 @@ fn the_replay_studys_subset_reproduces_its_committed_rows() {
         );
     }
     let scratch = Scratch::new("replay-mbds-study");
-    let study = Study::load(
+    let mut study = Study::load(
         &estimator_path(None, &default_fmu_dir()),
         &scratch.0.join("fmu"),
     )
     .unwrap_or_else(|e| panic!("{e:#}"));
+    study
+        .fit_on_lap_1(&scratch.0)
+        .unwrap_or_else(|e| panic!("{e:#}"));
     let subset = [
+        Case::new(FITTED_MODEL, "ekf", false),
         Case::new("grip", "ekf", true),
         Case::new("grip", "ekf", false),
         Case::new("model_b", "ekf", true),

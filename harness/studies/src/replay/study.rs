@@ -42,6 +42,11 @@ pub const MODELS: [(&str, &str); 3] = [
     ("model_b", "two_track_3_state"),
 ];
 
+/// The grip model with the parameters `harness fit` writes when trained and validated on lap 1
+/// alone (the first two thirds and the last third of it, no wheel speeds: what the log has),
+/// replayed with the EKF on laps 2-6, which the fit never sees.
+pub const FITTED_MODEL: &str = "grip_fitted_on_lap_1";
+
 /// The estimators (the FMU's `estimator` items) of every study; the particle filter, at about
 /// 1.8 ms a step, only in the full one.
 pub const ESTIMATORS: [&str; 5] = ["lkf", "ekf", "ukf", "ukf_scaled", "luenberger"];
@@ -76,12 +81,16 @@ impl Case {
     }
 }
 
-/// Every case of the study: each model with each estimator, with and without wheel speeds.
+/// Every case of the study: the grip model fitted on lap 1 with the EKF, then each model with
+/// each estimator, with and without wheel speeds.
 pub fn cases(full: bool) -> Vec<Case> {
     let estimators = ESTIMATORS
         .iter()
         .chain(if full { &FULL_ONLY_ESTIMATORS[..] } else { &[] });
-    let mut out = Vec::new();
+    let mut out = vec![
+        Case::new(FITTED_MODEL, "ekf", true),
+        Case::new(FITTED_MODEL, "ekf", false),
+    ];
     for estimator in estimators {
         for (model, _) in MODELS {
             for wheel_speeds in [true, false] {
@@ -185,6 +194,9 @@ pub struct Study {
     with_wheel_speeds: Vec<Feed>,
     pub zero_rmse_deg: f64,
     pub yardstick_rmse_deg: f64,
+    /// The parameter file of [`FITTED_MODEL`] and the fit's summary, once [`Study::fit_on_lap_1`]
+    /// ran.
+    pub fitted: Option<(PathBuf, String)>,
     _work: fmi_master::runner::WorkFolder,
 }
 
@@ -247,22 +259,49 @@ impl Study {
             baselines,
             rows,
             with_wheel_speeds,
+            fitted: None,
             _work: work,
         })
     }
 
+    /// `harness fit` of the default model trained and validated on lap 1 alone, writing
+    /// `fitted_on_lap_1.ssv` into `out` (the [`FITTED_MODEL`] cases replay it).
+    pub fn fit_on_lap_1(&mut self, out: &Path) -> Result<()> {
+        let root = workspace_root();
+        let (start, end) = (self.prepared.grid.start, self.baselines.laps_2_6_from_s);
+        let split = start + (end - start) * 2.0 / 3.0;
+        let path = out.join("fitted_on_lap_1.ssv");
+        let outcome = super::fit::fit(&super::fit::FitOptions {
+            log: root.join(LOG),
+            map: root.join(MAP),
+            parameters: None,
+            fmu: self.fmu.path.clone(),
+            model: super::fit::FitModel::Grip,
+            out: path.clone(),
+            train: Some((start, split)),
+            validate: Some((split, end - 0.5 * self.prepared.grid.step)),
+        })?;
+        self.fitted = Some((path, outcome.summary()));
+        Ok(())
+    }
+
     /// Replays `case` and scores it on laps 2-6.
     pub fn run(&self, case: &Case) -> Result<Row> {
-        let model = MODELS
-            .iter()
-            .find(|(name, _)| *name == case.model)
-            .map(|(_, item)| *item)
-            .ok_or_else(|| anyhow!("model {:?}: expected one of {MODELS:?}", case.model))?;
-        let extra = [
-            self.enumeration("model", model)?,
-            self.enumeration("estimator", &case.estimator)?,
-        ];
-        let values = parameters(&self.fmu, &self.prepared, None, &extra)?;
+        let estimator = self.enumeration("estimator", &case.estimator)?;
+        let values = if case.model == FITTED_MODEL {
+            let (file, _) = self.fitted.as_ref().ok_or_else(|| {
+                anyhow!("{FITTED_MODEL}: run Study::fit_on_lap_1 before its cases")
+            })?;
+            parameters(&self.fmu, &self.prepared, Some(file), &[estimator])?
+        } else {
+            let model = MODELS
+                .iter()
+                .find(|(name, _)| *name == case.model)
+                .map(|(_, item)| *item)
+                .ok_or_else(|| anyhow!("model {:?}: expected one of {MODELS:?}", case.model))?;
+            let extra = [self.enumeration("model", model)?, estimator];
+            parameters(&self.fmu, &self.prepared, None, &extra)?
+        };
         let feeds = if case.wheel_speeds {
             &self.with_wheel_speeds
         } else {
@@ -458,6 +497,14 @@ pub fn markdown(study: &Study, rows: &[Row]) -> String {
         p.linear_kalman_filter_deg,
         p.factor_graph_deg,
     );
+    if let Some((file, _)) = &study.fitted {
+        text += &format!(
+            "`{FITTED_MODEL}`: the grip model with the parameters `harness fit` wrote when trained \
+             and validated on lap 1 alone (`{}`; its summary: `fit_on_lap_1.txt`); laps 2-6 stay \
+             unseen by the fit.\n\n",
+            file.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned())
+        );
+    }
     text += "| model | estimator | wheel speeds | sideslip RMSE (deg) | NEES | max \\|vx error\\| (m/s) | vs zero | vs formula |\n";
     text += "| :--- | :--- | :--- | ---: | ---: | ---: | :--- | :--- |\n";
     for row in rows {
@@ -521,12 +568,16 @@ pub fn run_study(options: &StudyOptions) -> Result<StudyOutcome> {
     }
     std::fs::create_dir_all(&options.out)
         .with_context(|| format!("creating {}", options.out.display()))?;
-    let study = Study::load(&options.fmu, &options.out.join(".fmu-work"))?;
+    let mut study = Study::load(&options.fmu, &options.out.join(".fmu-work"))?;
+    study.fit_on_lap_1(&options.out)?;
     let rows = study.run_all(&cases(options.full))?;
     let markdown_text = markdown(&study, &rows);
     let markdown_path = options.out.join("mbds_replay.md");
     let csv_path = options.out.join("mbds_replay.csv");
     write_file(&markdown_path, &markdown_text)?;
+    if let Some((_, summary)) = &study.fitted {
+        write_file(&options.out.join("fit_on_lap_1.txt"), summary)?;
+    }
     let csv = csv_text(&rows);
     write_file(&csv_path, &csv)?;
     if options.update_committed {
