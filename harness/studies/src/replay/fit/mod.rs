@@ -703,4 +703,18 @@ mod tests {
         );
         assert!(worse_held_out(&after, &before).is_empty());
     }
+
+    #[test]
+    fn the_starting_parameters_are_kept_when_the_fit_makes_the_held_out_segment_worse() {
+        let sideslip = |rmse| [score("sideslip", report::ESTIMATOR, rmse)];
+        // The MBDS lap-1 fit with every process noise scaled: 1.06 -> 4.82 deg.
+        let refused = refusal(&sideslip(1.06), &sideslip(4.82), (1.48, 0.28));
+        assert!(refused.is_some_and(|r| r.contains("4.8200") && r.contains("1.0600")));
+        assert_eq!(refusal(&sideslip(1.06), &sideslip(0.53), (1.48, 9.0)), None);
+        assert!(refusal(&sideslip(1.06), &sideslip(f64::NAN), (1.0, 1.0)).is_some());
+        // Without a sideslip reference the NIS per degree of freedom's distance from 1 decides.
+        let vy = [score("vy", report::ESTIMATOR, 0.1)];
+        assert_eq!(refusal(&vy, &vy, (3.0, 1.2)), None);
+        assert!(refusal(&vy, &vy, (1.2, 0.5)).is_some());
+    }
 }
