@@ -1,4 +1,4 @@
-"""Replay a CSV log through the VehicleStateEstimator FMU with fmpy alone (issue 14, point 3).
+"""Replay a CSV log through the VehicleStateEstimator FMU with fmpy alone, as `harness replay` does.
 
     python harness/replay_with_fmpy.py LOG.csv MAP.toml [CAR.ssv] [--fmu PATH] [--out estimates.csv]
 
@@ -8,12 +8,14 @@ columns. The map's [estimator.parameters] become fmpy's `start_values`, and the 
 written by `harness fit`) is applied after them (the last of a name wins), as `harness replay`
 does. Samples are aligned as `harness replay` does with
 align = "hold": each step takes the latest present sample at or before it, NaN once it is older
-than 2.5 of the channel's median sample intervals (the FMU skips a NaN sample). Prints the RMSE
-of every estimate the map has a reference for.
+than 2.5 of the channel's median sample intervals (the FMU skips a NaN sample). A sensor input
+(`*_meas`) the map leaves out is missing: a warning names it and it gets NaN on every step, never
+its start value. Prints the RMSE of every estimate the map has a reference for.
 """
 
 import argparse
 import math
+import sys
 import tomllib
 import xml.etree.ElementTree as ET
 
@@ -98,10 +100,18 @@ def main():
     start_values.setdefault("sample_time", step)
 
     names = list(mapping["inputs"])
-    table = np.zeros(len(grid), dtype=[("time", float)] + [(name, float) for name in names])
+    sensors = [v.name for v in read_model_description(args.fmu).modelVariables
+               if v.causality == "input" and v.name.endswith("_meas")]
+    missing = [name for name in sensors if name not in names]
+    for name in missing:
+        print(f"warning: map {args.map} leaves out the FMU sensor input {name}: fed as missing (NaN) on every row",
+              file=sys.stderr)
+    table = np.zeros(len(grid), dtype=[("time", float)] + [(name, float) for name in names + missing])
     table["time"] = grid
     for name in names:
         table[name] = converted(mapping["inputs"][name], log, times, grid)
+    for name in missing:
+        table[name] = np.nan
 
     references = {name: converted(entry, log, times, grid) for name, entry in mapping.get("reference", {}).items()}
     outputs = ["vx_est", "vy_est", "yaw_rate_est", "sideslip_est", "sideslip_std", "nis", "status"]

@@ -1,4 +1,4 @@
-"""Issue 14, point 3: the fmpy-only example script (harness/replay_with_fmpy.py) replays the shipped
+"""The fmpy-only example script (harness/replay_with_fmpy.py) replays the shipped
 example log through the VehicleStateEstimator FMU exactly as `harness replay` does (same map, same
 alignment rule, same parameter file), so both give the same estimates bit for bit."""
 

@@ -48,10 +48,15 @@ enum Command {
     /// Replay a recorded drive (CSV or ASAM MDF4 .mf4) through the estimator FMU: estimates CSV,
     /// plots against the log's reference channels, score table (format: harness/logs/README.md)
     Replay(commands::logs::Replay),
-    /// Fit the estimator to a car from a recorded drive: model A's per-axle cornering-stiffness
-    /// scales by EM, model B's stiffness level by the log's sideslip reference (where the map
-    /// names one), the noise levels from the innovations; held-out score against the defaults;
-    /// writes an SSP parameter-value file (.ssv)
+    /// The real track recording (harness/logs/mbds/) per model and estimator, with and without
+    /// wheel speeds, scored on laps 2-6 beside zero, the steady-state formula and the published
+    /// estimators: mbds_replay.md and mbds_replay.csv
+    ReplayStudy(commands::logs::ReplayStudy),
+    /// Fit the estimator to a car from a recorded drive: the grip model's sensor noise from the
+    /// log, its tyre level by the log's sideslip reference (where the map names one) and its
+    /// consistency; model A's per-axle cornering-stiffness scales by EM, model B's tyre level;
+    /// held-out score against the starting parameters, which are kept when the fit makes it
+    /// worse; writes an SSP parameter-value file (.ssv)
     Fit(commands::logs::Fit),
     /// The robustness cases (glitches, outages, standstill, out-of-range inputs) and the mismatch
     /// campaigns on real cars' parameter files: the demo's sections "Robustness" and "Mismatch
@@ -97,6 +102,7 @@ fn execute(cli: Cli, stdout: commands::Stdout) -> Result<()> {
         Command::Mismatch(command) => command.run(stdout),
         Command::Consistency(command) => command.run(stdout),
         Command::Replay(command) => command.run(stdout),
+        Command::ReplayStudy(command) => command.run(stdout),
         Command::Fit(command) => command.run(stdout),
         Command::Robustness(command) => command.run(stdout),
         Command::Population(command) => command.run(stdout),

@@ -8,6 +8,7 @@ mod mismatch;
 mod mismatch_identification;
 mod population;
 mod replay;
+mod replay_mbds;
 mod robustness;
 // The scratch folder of fmi-master's tests (removed at the end of a test, KEEP_TEST_DIRS=1 keeps
 // a failing test's): one definition for the workspace's test binaries.

@@ -1,4 +1,4 @@
-//! `harness replay` and `harness fit` (issue 14) on logs the project makes itself: a drive of the
+//! `harness replay` and `harness fit` on logs the project makes itself: a drive of the
 //! ReferenceVehicle's full vehicle (model 3, the Ford Escort car file, sensor corruption on,
 //! torques left out of the log) recorded through the master and written as CSV and as MDF4
 //! (`harness::replay::record`), then fed through the estimator FMU.
@@ -330,12 +330,12 @@ fn fit_recovers_the_stiffness_and_writes_a_parameter_file_replay_accepts() {
 
 /// `fit --model b` on a log with a sideslip reference fits the level of model B's tyre
 /// stiffness to it (harness/studies/src/replay/reference_fit.rs) and scales every covariance by
-/// one factor (fit.rs, point 2). Trained on 2-8 s (|ay| up to 4.7 m/s²), the level carries over
-/// to 8-14 s: held-out sideslip 0.159 -> 0.085 deg (measured 2026-12-04; the BMW 320i's and the
+/// one factor (fit/model_b.rs). Trained on 2-8 s (|ay| up to 4.7 m/s²), the level carries over
+/// to 8-14 s: held-out sideslip 0.159 -> 0.085 deg (the BMW 320i's and the
 /// VW Vanagon's same drive 0.070 -> 0.038 and 0.041 -> 0.039, harness/logs/README.md). Replayed
 /// with the written file under the example map, whose `model = 1` comes before the file, the
-/// run is the fit's own model-B run: before the file was applied after the map, it replayed as
-/// model A.
+/// run is the fit's own model-B run (the file comes after the map, so the map's model cannot
+/// override the fitted one's).
 #[test]
 fn fit_of_model_b_sets_its_tyre_level_by_the_sideslip_reference() {
     use harness::replay::reference_fit::TyreFit;
@@ -411,7 +411,7 @@ fn fit_of_model_b_sets_its_tyre_level_by_the_sideslip_reference() {
 /// ReferenceVehicle's `road_friction` 0.7): the car levels off at 6.9 m/s² instead of 9.0, and
 /// model B with the map's (dry) tyres scores 0.56° on the held-out 20-30 s. The level the
 /// sideslip reference fits on 0-20 s (1.17) takes up the lower friction on this plateau, and the
-/// held-out sideslip falls to 0.05° (measured 2026-12-04; a friction factor searched after the
+/// held-out sideslip falls to 0.05° (a friction factor searched after the
 /// level gained 2 % on training and was left out, harness/logs/README.md).
 #[test]
 fn fit_of_model_b_follows_a_wet_road_by_the_sideslip_reference() {
@@ -450,10 +450,10 @@ fn fit_of_model_b_follows_a_wet_road_by_the_sideslip_reference() {
 }
 
 /// Without a sideslip reference `fit --model b` fits no tyre factor and scales every covariance
-/// of model B by one factor (harness/studies/src/replay/fit.rs, point 2), so its gains and its
-/// estimate stay: only the reported covariance is fitted. Before `ay_model_error` and the
-/// initial state's std were scaled with the noise, the factor changed the estimate (example
-/// log, held-out sideslip 0.16 -> 0.21 deg).
+/// of model B by one factor (harness/studies/src/replay/fit/model_b.rs), so its gains and its
+/// estimate stay: only the reported covariance is fitted. `ay_model_error` and the initial
+/// state's std must be scaled with the noise: left out, the factor changed the estimate
+/// (example log, held-out sideslip 0.16 -> 0.21 deg).
 #[test]
 fn fit_of_model_b_without_a_sideslip_reference_scales_its_covariances_and_keeps_the_estimate() {
     use harness::replay::reference_fit::TyreFit;
@@ -491,8 +491,8 @@ fn fit_of_model_b_without_a_sideslip_reference_scales_its_covariances_and_keeps_
 /// The default split trains on 0-20 s, up to 8.3 m/s² (99th percentile): the innovation
 /// likelihood's peak friction there (f00 ≈ 1.15) cannot carry that lateral acceleration on model
 /// A's front axle, and with it the FMU ran away on the held-out 20-30 s (sideslip RMSE 8.3°
-/// against 0.60° with the map's parameters, before the friction was checked against the
-/// measured ay). It is refused now (`harness::replay::friction`), and the stiffness scales come
+/// against 0.60° with the map's parameters, when the friction was not checked against the
+/// measured ay). It is refused (`harness::replay::friction`), and the stiffness scales come
 /// from the segment's linear part.
 #[test]
 fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimate() {
@@ -531,15 +531,15 @@ fn fit_up_to_the_limit_refuses_a_friction_the_car_exceeded_and_keeps_the_estimat
     );
 }
 
-/// The second drive (`harness/logs/record_ford_escort_limit.toml`, issue 14 point 2) must go past
+/// The second drive (`harness/logs/record_ford_escort_limit.toml`, the drive that tests the fit beyond the tyres' limit) must go past
 /// the car's limit in both default segments of `harness fit` (train 0-20 s, held-out 20-30 s):
 /// the measured |ay| of each reaches the HSRI sliding threshold 0.5 f0 g of model A's default
 /// tyre (`harness::replay::friction::reach`), and the true ay levels off and falls while the
 /// steering keeps rising (the front axle past its peak). harness/logs/README.md ("The drive past
 /// the limit") measures what the fit makes of it; no fit runs here (30 s of CPU). Replayed with
-/// the map's parameters, model A's estimate beats answering β = 0 over the drive, which it did
-/// not while the gate let the gyro drag it along the flat top of its tyre curve past the peak
-/// (2.22° against 2.06°; 1.36° since `tyres_hold_the_sideslip` in the estimator's model A).
+/// the map's parameters, model A's estimate beats answering β = 0 over the drive, which it does
+/// not when the gate lets the gyro drag it along the flat top of its tyre curve past the peak
+/// (2.22° against 2.06°; 1.36° with `tyres_hold_the_sideslip` in the estimator's model A).
 #[test]
 fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
     let scratch = Scratch::new("replay-limit-drive");
@@ -611,10 +611,10 @@ fn default_real(name: &str) -> f64 {
 /// The grip model (`model = 3`) ties its speed to the measured `ax` (dvx/dt = ax + r vy), and
 /// with the measured speed that ties the lateral speed to the sensors; without an accelerometer
 /// its sideslip rests on its tyre law with grip states that a slow steer to the limit cannot
-/// pin (README, "Which model"). On the recorded drive (the log's `longitudinal_acceleration`,
-/// measured 2026-12-04): with it 0.31° over the drive, without it (`ax_meas` NaN) 1.40°, and
-/// model B 0.176° → 0.087°. Before zero torques meant unknown ones also without `ax`, the
-/// grip model without it was 4.53° off on this drive (2c22beb^).
+/// pin (README, "Which model"). On the recorded drive (the log's `longitudinal_acceleration`):
+/// with it 0.31° over the drive, without it (`ax_meas` NaN) 1.40°, and model B 0.176° →
+/// 0.087°. Zero torques count as unknown ones when there is no `ax`: taken as known, the grip
+/// model without `ax` was 4.53° off on this drive.
 #[test]
 fn the_grip_model_takes_the_logs_accelerometer_and_holds_without_one() {
     let scratch = Scratch::new("replay-ax");
@@ -655,4 +655,95 @@ fn the_grip_model_takes_the_logs_accelerometer_and_holds_without_one() {
         "grip model without ax: {grip_without} deg"
     );
     assert!(b_with < b_without && b_without < grip_without);
+}
+
+/// A sensor input the map leaves out is missing, never its start value read as a measurement:
+/// the example map leaves out `ax_meas`, and the replay warns and feeds NaN, which the FMU
+/// takes as "no sample" (the same run, bit for bit, as a map that feeds NaN on purpose).
+#[test]
+fn a_sensor_input_the_map_leaves_out_is_fed_as_missing_with_a_warning() {
+    let scratch = Scratch::new("replay-missing");
+    let csv = &csv_log(&scratch.0);
+    let left_out = replay(&replay_options(csv, scratch.0.join("left_out")))
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(left_out.prepared.missing_sensors, ["ax_meas"]);
+    let warnings = left_out.prepared.warnings();
+    assert_eq!(warnings.len(), 1);
+    assert!(
+        warnings[0].contains("ax_meas") && warnings[0].contains("missing (NaN)"),
+        "{warnings:?}"
+    );
+    let ax = left_out
+        .prepared
+        .feeds
+        .iter()
+        .find(|f| f.input == "ax_meas")
+        .expect("the left-out sensor is fed");
+    assert!(ax.values.iter().all(|v| v.is_nan()));
+    let map_text = std::fs::read_to_string(map()).unwrap() + "\n[inputs.ax_meas]\nvalue = nan\n";
+    let nan_map = scratch.0.join("ax_nan.toml");
+    std::fs::write(&nan_map, map_text).unwrap();
+    let fed_nan = replay(&ReplayOptions {
+        map: nan_map,
+        ..replay_options(csv, scratch.0.join("fed_nan"))
+    })
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(fed_nan.prepared.missing_sensors.is_empty());
+    let sideslip = |outcome: &harness::replay::ReplayOutcome| {
+        outcome
+            .recording
+            .column("sideslip_est")
+            .expect("sideslip_est")
+            .iter()
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(sideslip(&left_out), sideslip(&fed_nan));
+}
+
+/// `harness fit` of the default (grip) model on the committed example log: the sensor noise it
+/// learns from the log is the noise the ReferenceVehicle put on the sensors
+/// (`record_ford_escort.toml`: yaw rate 0.002 rad/s, ay 0.05 m/s², wheel speeds 0.05 rad/s, vx
+/// 0.02 m/s, plus quantisation), an estimate the fit did not build; and on the default split,
+/// whose held-out 20-30 s goes past the limit the training 0-20 s did not reach, the fitted
+/// parameters make the held-out sideslip worse, so the file keeps the starting ones and says so.
+#[test]
+fn fit_of_the_grip_model_learns_the_simulated_sensor_noise_and_keeps_the_start_when_worse() {
+    let scratch = Scratch::new("replay-fit-grip");
+    let log = workspace_root().join("harness/logs/ford_escort_sis.csv");
+    let out = scratch.0.join("grip.ssv");
+    let fitted = fit_and_print(FitOptions {
+        model: FitModel::Grip,
+        ..fit_options(&log, &out, None, None)
+    });
+    let truth = [
+        ("measurement_noise_std_yaw_rate", 0.002),
+        ("measurement_noise_std_ay", 0.05),
+        ("measurement_noise_std_omega_front", 0.05),
+        ("measurement_noise_std_omega_rear", 0.05),
+        ("measurement_noise_std_vx", 0.02),
+    ];
+    for (parameter, value) in truth {
+        let learned = fitted
+            .sensor_noise
+            .iter()
+            .find(|s| s.parameter == parameter)
+            .unwrap_or_else(|| panic!("{parameter} not learned"));
+        // Quantisation adds q²/12 to the variance (at most 7 % of the ay noise's here).
+        assert!(
+            (learned.std / value - 1.0).abs() < 0.1,
+            "{learned:?}, the simulated sensor's {value}"
+        );
+    }
+    let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
+    let text = std::fs::read_to_string(&out).unwrap();
+    if after > before {
+        assert!(fitted.kept_start.is_some());
+        // The map does not set the lateral process noise; only a written fit does.
+        assert!(!text.contains("process_noise_std_vy"), "{text}");
+        assert!(fitted.summary().contains("NOT WRITTEN"));
+    } else {
+        assert!(fitted.kept_start.is_none());
+        assert!(text.contains("process_noise_std_vy"), "{text}");
+    }
 }

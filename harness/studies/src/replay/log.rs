@@ -1,5 +1,5 @@
-//! Recorded drives: a CSV file with a header line, or an ASAM MDF4 file (`.mf4`, read with the
-//! `mf4-rs` crate). Each signal is a series of (time, value) samples on its own time axis; a
+//! Recorded drives: a CSV file with a header line (plain, or gzip-compressed as `.csv.gz`), or
+//! an ASAM MDF4 file (`.mf4`, read with the `mf4-rs` crate). Each signal is a series of (time, value) samples on its own time axis; a
 //! missing sample (an empty CSV cell, `NaN`, an MF4 sample flagged invalid) is a NaN value,
 //! which alignment skips ([`super::align`]). Every error names the file and, for a CSV, the line
 //! and column (column number and header name) at fault.
@@ -29,8 +29,8 @@ pub struct Log {
 
 impl Log {
     /// Reads the columns `wanted` (and the time axis) of `path`: MF4 when the extension is
-    /// `.mf4` or `.mdf`, otherwise CSV with the time stamps in `time_column` (× `time_factor`
-    /// to seconds). Columns the file lacks are simply absent from the result.
+    /// `.mf4` or `.mdf`, otherwise CSV (gzip-compressed when the name ends in `.gz`) with the
+    /// time stamps in `time_column` (× `time_factor` to seconds). Columns the file lacks are simply absent from the result.
     pub fn read(path: &Path, time_column: &str, time_factor: f64, wanted: &[&str]) -> Result<Log> {
         let extension = path
             .extension()
@@ -77,7 +77,7 @@ fn read_csv(
     wanted: &[&str],
 ) -> Result<Vec<Signal>> {
     let name = path.display();
-    let bytes = std::fs::read(path).with_context(|| format!("log {name}: cannot read the file"))?;
+    let bytes = read_bytes(path)?;
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         bail!("log {name}, line 1: the file is empty; expected a header line naming the columns ({time_column}, ...) and rows of numbers");
     }
@@ -157,6 +157,27 @@ fn read_csv(
             values,
         })
         .collect())
+}
+
+/// The file's bytes, decompressed when its name ends in `.gz` (a log kept compressed in the
+/// repository, such as the MBDS recording).
+fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    let name = path.display();
+    let bytes = std::fs::read(path).with_context(|| format!("log {name}: cannot read the file"))?;
+    let gzip = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gz"));
+    if !gzip {
+        return Ok(bytes);
+    }
+    let mut text = Vec::new();
+    std::io::Read::read_to_end(
+        &mut flate2::read::GzDecoder::new(bytes.as_slice()),
+        &mut text,
+    )
+    .with_context(|| format!("log {name}: not a readable gzip file"))?;
+    Ok(text)
 }
 
 /// An empty cell or NaN is a missing sample; anything else must be a number.

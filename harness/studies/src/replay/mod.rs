@@ -1,4 +1,4 @@
-//! `harness replay` and `harness fit` (issue 14): a recorded drive (CSV or ASAM MDF4) fed
+//! `harness replay` and `harness fit`: a recorded drive (CSV or ASAM MDF4) fed
 //! through the VehicleStateEstimator FMU, scored against the log's reference channels, and the
 //! estimator fitted to the car.
 //!
@@ -7,7 +7,8 @@
 //! * [`align`]: how non-uniform, multi-rate and missing samples meet the communication grid;
 //! * [`drive`]: the FMU loop over the master's public API;
 //! * [`report`]: the estimates CSV, the score table and the plots;
-//! * [`fit`]: cornering-stiffness scales by EM, noise levels from the innovations.
+//! * [`fit`]: cornering-stiffness scales by EM, noise levels from the innovations;
+//! * [`study`]: the real track recording (MBDS) per model and estimator (`harness replay-study`).
 
 pub mod align;
 pub mod drive;
@@ -19,6 +20,7 @@ pub mod noise;
 pub mod record;
 pub mod reference_fit;
 pub mod report;
+pub mod study;
 pub mod units;
 
 use std::collections::HashMap;
@@ -114,6 +116,33 @@ pub struct Prepared {
     pub feeds: Vec<Feed>,
     /// Every reference channel, SI, one value per grid row.
     pub references: Vec<(Channel, Vec<f64>)>,
+    /// The FMU's sensor inputs the map leaves out: each is in `feeds` as missing (NaN) on every
+    /// row, never its start value, which would be read as a measurement.
+    pub missing_sensors: Vec<String>,
+}
+
+impl Prepared {
+    /// One warning per sensor input the map leaves out (empty when it maps them all).
+    pub fn warnings(&self) -> Vec<String> {
+        self.missing_sensors
+            .iter()
+            .map(|name| {
+                format!(
+                    "warning: map {} leaves out the FMU sensor input {name}: fed as missing (NaN) on every row",
+                    self.map.path.display()
+                )
+            })
+            .collect()
+    }
+}
+
+/// The estimator FMU's sensor inputs: its Real inputs named `*_meas`.
+pub fn sensor_inputs(fmu: &LoadedFmu) -> Vec<String> {
+    fmu.variables
+        .iter()
+        .filter(|v| v.is_input() && v.name.ends_with("_meas"))
+        .map(|v| v.name.clone())
+        .collect()
 }
 
 /// The FMU to use: `fmu` as given, or `VehicleStateEstimator.fmu` in `fmu_dir`.
@@ -142,7 +171,7 @@ pub fn prepare(log_path: &Path, map_path: &Path, fmu: &LoadedFmu) -> Result<Prep
             .ok_or_else(|| anyhow!("log {}: fewer than two time stamps", log_path.display()))?,
     };
     let grid = Grid::new(start, end, step);
-    let feeds = map
+    let mut feeds: Vec<Feed> = map
         .inputs
         .iter()
         .map(|c| Feed {
@@ -150,6 +179,14 @@ pub fn prepare(log_path: &Path, map_path: &Path, fmu: &LoadedFmu) -> Result<Prep
             values: aligned(c, &map, &log, &grid),
         })
         .collect();
+    let missing_sensors: Vec<String> = sensor_inputs(fmu)
+        .into_iter()
+        .filter(|name| !feeds.iter().any(|f| &f.input == name))
+        .collect();
+    feeds.extend(missing_sensors.iter().map(|name| Feed {
+        input: name.clone(),
+        values: vec![f64::NAN; grid.rows],
+    }));
     let references = map
         .references
         .iter()
@@ -161,6 +198,7 @@ pub fn prepare(log_path: &Path, map_path: &Path, fmu: &LoadedFmu) -> Result<Prep
         grid,
         feeds,
         references,
+        missing_sensors,
     })
 }
 
@@ -284,6 +322,9 @@ pub fn replay(options: &ReplayOptions) -> Result<ReplayOutcome> {
     let work = fmi_master::runner::WorkFolder::new(options.out.join(".fmu-work"));
     let fmu = LoadedFmu::load(&options.fmu, work.path())?;
     let prepared = prepare(&options.log, &options.map, &fmu)?;
+    for warning in prepared.warnings() {
+        eprintln!("{warning}");
+    }
     let values = parameters(&fmu, &prepared, options.parameters.as_deref(), &[])?;
     let recording = drive::run(&fmu, &values, &prepared.grid, &prepared.feeds)?;
     let seconds = started.elapsed().as_secs_f64();

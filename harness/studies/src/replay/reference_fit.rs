@@ -15,7 +15,7 @@
 //! the HSRI law's stiffness at each axle's load) stays. Fitted freely, the two factors moved
 //! along the narrow valley of the training RMSE that a segment of moderate lateral acceleration
 //! leaves open, and the balance they chose did not carry over to the held-out segment's higher
-//! lateral acceleration (measured 2026-12-04 with a Nelder-Mead simplex on the Ford Escort's,
+//! lateral acceleration (measured with a Nelder-Mead simplex on the Ford Escort's,
 //! BMW 320i's and VW Vanagon's drives, `--train 2:8 --validate 8:14`: training sideslip RMSE
 //! 0.026-0.043° down to 0.012-0.016°, held-out 0.159 / 0.070 / 0.041° to 0.131 / 0.303 /
 //! 0.263°). The level alone: 0.159 / 0.070 / 0.041° to 0.085 / 0.038 / 0.039°
@@ -44,7 +44,7 @@ pub const LEVEL_TOLERANCE: f64 = 2e-3;
 /// this was measured) keeps once the level is fitted: the level that fits a training segment is not the one that fits a
 /// drive beyond it (the held-out segments' own best levels lay 0-7 % from the fitted ones; the
 /// BMW 320i's held-out 20-30 s at the limit wanted 0.96 against 1.034), and the reported
-/// sideslip std must cover that. Measured 2026-12-04 on the three cars' drives, both splits
+/// sideslip std must cover that. Measured on the three cars' drives, both splits
 /// (harness/logs/README.md): held-out sideslip NEES 0.00-0.12 with 0.25, 0.02-0.72 with 0.1 (at
 /// least 99 % of the samples inside the 95 % bound), while 0.05 gave 2.25 with 80 % inside on
 /// the BMW's drive to the limit. The fit writes the smaller of this and the starting value.
@@ -79,9 +79,9 @@ pub enum TyreFit {
 impl TyreFit {
     pub fn summary(&self) -> String {
         match self {
-            TyreFit::NoReference => "  model B: tyre stiffness not fitted (the map names no reference.sideslip with samples in the training segment, and the sensors do not tell its level: harness/logs/README.md), covariances only\n".to_string(),
+            TyreFit::NoReference => "  tyre stiffness not fitted (the map names no reference.sideslip with samples in the training segment, and the sensors do not tell its level: harness/logs/README.md)\n".to_string(),
             TyreFit::Fitted(f) => format!(
-                "  cornering_stiffness_scale_front = {:.4}, cornering_stiffness_scale_rear = {:.4} (model B: level {:.4} on {:.4}, {:.4} by the training sideslip reference, RMSE {:.4} -> {:.4} deg)\n",
+                "  cornering_stiffness_scale_front = {:.4}, cornering_stiffness_scale_rear = {:.4} (level {:.4} on {:.4}, {:.4} by the training sideslip reference, RMSE {:.4} -> {:.4} deg)\n",
                 f.scales[0], f.scales[1], f.level, f.start[0], f.start[1], f.rmse_start, f.rmse
             ),
         }

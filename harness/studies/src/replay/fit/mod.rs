@@ -1,4 +1,12 @@
-//! `harness fit`: fits the estimator to a car from a recorded drive.
+//! `harness fit`: fits the estimator to a car from a recorded drive. One type per estimator
+//! model does the model's part ([`model_a::ModelA`], [`model_b::ModelB`], [`grip::Grip`], the
+//! default); this module holds what every model shares: the segments, the held-out score, the
+//! guard that keeps the starting parameters when the fitted ones make the held-out segment
+//! worse, and the `.ssv` file.
+//!
+//! The grip model ([`grip`]): each sensor's noise from the log, the tyre level by the log's
+//! sideslip reference where it has one, and its covariances scaled to the training segment's
+//! consistency. Models A and B:
 //!
 //! 1. **Cornering stiffness** (model A): the per-axle scales `k_F`, `k_R` on the HSRI cornering
 //!    stiffness (000: 5.70) by the accelerated EM of seed 003 (003: §3.1) — the identification
@@ -41,7 +49,9 @@
 //!    flat in the friction (harness/logs/README.md, "Why `--model b` fits no peak friction").
 //! 4. **Held-out score**: the FMU replays the validation segment with the starting parameters
 //!    and with the fitted ones; RMSE and NEES of every reference, and the NIS per degree of
-//!    freedom (1 for a consistent filter) when the log has no reference.
+//!    freedom (1 for a consistent filter) when the log has no reference. When the fitted
+//!    parameters make the held-out segment worse ([`refusal`]), the file gets the starting ones
+//!    and the summary says why: a fit must never leave a user worse off than not fitting.
 //! 5. The `.ssv` holds every parameter the map and `--parameters` set (the car's basic data) and
 //!    the fitted values; `harness run` (`parameter_files`), `replay --parameters` and fmpy
 //!    (`start_values`) read it.
@@ -50,12 +60,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
-use estimation::models::single_track_identification::{
-    identify_scales_from_arrays, SingleTrackHsri, PARAMETER_NAMES,
-};
-use vehicle_models::parameters::ParameterSource;
-use vehicle_models::single_track::{SingleTrackModel, SingleTrackParams};
-use vehicle_models::HsriTyre;
+use estimation::models::single_track_identification::PARAMETER_NAMES;
 
 use fmi_master::cosim::ParameterValue;
 use fmi_master::fmu::{LoadedFmu, VariableInfo, VariableType};
@@ -63,34 +68,84 @@ use fmi_master::scoring::StateScore;
 
 use super::align::Grid;
 use super::drive::{self, Feed, Recording};
-use super::reference_fit::{TyreFit, FITTED_LEVEL_UNCERTAINTY};
+use super::reference_fit::TyreFit;
 use super::{prepare, report, Prepared};
 
-/// The estimator model to fit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub mod grip;
+pub mod model_a;
+pub mod model_b;
+
+/// The estimator model to fit: its name on the command line; [`FitModel::fitter`] gives the
+/// type that fits it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FitModel {
     A,
     B,
+    /// The FMU's default model.
+    #[default]
+    Grip,
 }
 
 impl FitModel {
     pub fn parse(text: &str) -> Result<FitModel> {
-        match text {
-            "a" | "A" => Ok(FitModel::A),
-            "b" | "B" => Ok(FitModel::B),
+        match text.to_ascii_lowercase().as_str() {
+            "a" => Ok(FitModel::A),
+            "b" => Ok(FitModel::B),
+            "grip" => Ok(FitModel::Grip),
             other => {
-                bail!("--model {other:?}: expected a (single track, HSRI) or b (3-state two-track)")
+                bail!("--model {other:?}: expected grip (the default: single track with grip states), a (single track, HSRI) or b (3-state two-track)")
             }
         }
     }
 
-    /// The FMU's `model` enumeration value.
-    fn number(self) -> i32 {
+    /// The type that fits this model.
+    pub fn fitter(self) -> &'static dyn ModelFit {
         match self {
-            FitModel::A => 1,
-            FitModel::B => 2,
+            FitModel::A => &model_a::ModelA,
+            FitModel::B => &model_b::ModelB,
+            FitModel::Grip => &grip::Grip,
         }
     }
+}
+
+/// What one estimator model's fit needs: the FMU, the log and the starting parameters (the
+/// map's, `--parameters`' and the model's number).
+pub struct FitContext<'a> {
+    pub fmu: &'a LoadedFmu,
+    pub prepared: &'a Prepared,
+    pub start: &'a [(VariableInfo, ParameterValue)],
+    pub train_rows: Range<usize>,
+}
+
+/// One estimator model's part of `harness fit`.
+pub trait ModelFit: Sync {
+    /// The FMU's `model` enumeration item.
+    fn item(&self) -> &'static str;
+    /// Fits the model on `cx.train_rows`.
+    fn fit(&self, cx: &FitContext) -> Result<Found>;
+}
+
+/// What a model's fit found (the fields a model does not fit stay `None` or empty).
+#[derive(Debug, Clone, Default)]
+pub struct Found {
+    /// The fitted parameters, in order (the last of a name wins).
+    pub fitted: Vec<(String, f64)>,
+    /// `[k_F, k_R]` by EM (model A) and whether the EM converged.
+    pub scales: Option<([f64; 2], bool)>,
+    /// Model A: the rows the scales were identified on.
+    pub scale_rows: Option<Range<usize>>,
+    /// The tyre level by the log's sideslip reference (model B, grip).
+    pub tyre_fit: Option<TyreFit>,
+    /// Factors on the process- and on the measurement-noise standard deviations.
+    pub noise_factors: (f64, f64),
+    /// Model A: the likelihood search behind them.
+    pub noise_fit: Option<super::noise::NoiseFit>,
+    /// Model A: peak friction.
+    pub friction: Option<super::friction::FrictionFit>,
+    /// Grip: each sensor's noise from the log.
+    pub sensor_noise: Vec<grip::SensorNoise>,
+    /// Lines the summary adds for this model.
+    pub notes: Vec<String>,
 }
 
 /// `t0:t1` in seconds.
@@ -138,6 +193,13 @@ pub struct FitOutcome {
     pub noise_fit: Option<super::noise::NoiseFit>,
     /// Model A: peak friction, fitted where the training segment reaches the limit.
     pub friction: Option<super::friction::FrictionFit>,
+    /// Grip: each sensor's noise from the log.
+    pub sensor_noise: Vec<grip::SensorNoise>,
+    /// Lines the summary adds for this model.
+    pub notes: Vec<String>,
+    /// Why the written file holds the starting parameters instead of the fitted ones (the
+    /// fitted ones made the held-out segment worse); `None` when the fitted ones were written.
+    pub kept_start: Option<String>,
     pub train_rows: Range<usize>,
     pub validate_rows: Range<usize>,
     pub step: f64,
@@ -150,40 +212,6 @@ pub struct FitOutcome {
     /// The fitted parameters written to the .ssv.
     pub fitted: Vec<(String, f64)>,
 }
-
-/// Noise standard deviations the FMU declares; each is multiplied by the fitted noise scale.
-const NOISE_PARAMETERS: [&str; 12] = [
-    "process_noise_std_vx",
-    "process_noise_std_vy",
-    "process_noise_std_yaw_rate",
-    "process_noise_std_omega_front",
-    "process_noise_std_omega_rear",
-    "process_noise_std_sideslip",
-    "process_noise_std_ay",
-    "measurement_noise_std_yaw_rate",
-    "measurement_noise_std_ay",
-    "measurement_noise_std_omega_front",
-    "measurement_noise_std_omega_rear",
-    "measurement_noise_std_vx",
-];
-
-/// Model B: every standard deviation behind its filter's covariances, which the common factor
-/// scales together so that the gains, and so the estimate, stay (see the module text): the
-/// noise of the states and sensors, the initial state's, and `ay_model_error`, whose term
-/// `(k ay)²` is added to the ay row's `R`. Without the last two the factor changed the estimate:
-/// on the example log (--train 2:8 --validate 8:14) the held-out sideslip went 0.16 -> 0.21 deg
-/// and the held-out NIS per degree of freedom 0.79 -> 1.52.
-const MODEL_B_COVARIANCE_PARAMETERS: [&str; 9] = [
-    "process_noise_std_yaw_rate",
-    "process_noise_std_sideslip",
-    "process_noise_std_ay",
-    "measurement_noise_std_yaw_rate",
-    "measurement_noise_std_ay",
-    "initial_std_sideslip",
-    "initial_std_yaw_rate",
-    "initial_std_ay",
-    "ay_model_error",
-];
 
 /// `harness fit` (see the module text).
 pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
@@ -198,76 +226,20 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
     );
     let fmu = LoadedFmu::load(&options.fmu, work.path())?;
     let prepared = prepare(&options.log, &options.map, &fmu)?;
-    let model = (
-        drive::parameter(&fmu, "model")?.clone(),
-        ParameterValue::Integer(options.model.number()),
-    );
+    for warning in prepared.warnings() {
+        eprintln!("{warning}");
+    }
+    let fitter = options.model.fitter();
+    let model = enumeration_value(&fmu, "model", fitter.item())?;
     let start = super::parameters(&fmu, &prepared, options.parameters.as_deref(), &[model])?;
     let (train_rows, validate_rows) = segments(&prepared.grid, options)?;
-
-    let mut fitted: Vec<(String, f64)> = Vec::new();
-    let (scales, scale_rows) = match options.model {
-        FitModel::A => {
-            let rows = linear_rows(&fmu, &prepared, &start, train_rows.clone())?;
-            let (scales, converged) = identify_scales(&fmu, &prepared, &start, rows.clone())?;
-            fitted.extend(scale_values(scales));
-            (Some((scales, converged)), Some(rows))
-        }
-        FitModel::B => (None, None),
-    };
-    let tyre_fit = match options.model {
-        FitModel::A => None,
-        FitModel::B => {
-            let found = fit_tyres_b(&fmu, &prepared, &start, train_rows.clone())?;
-            if let TyreFit::Fitted(f) = found {
-                fitted.extend(scale_values(f.scales));
-                let uncertainty = real_value(&fmu, &start, "cornering_stiffness_uncertainty")?;
-                fitted.push((
-                    "cornering_stiffness_uncertainty".to_string(),
-                    uncertainty.min(FITTED_LEVEL_UNCERTAINTY),
-                ));
-            }
-            Some(found)
-        }
-    };
-    let with_scales = with_reals(&fmu, &start, &fitted)?;
-    let (noise_factors, noise_fit) = match options.model {
-        FitModel::A => {
-            let found = fit_noise_a(&fmu, &prepared, &with_scales, train_rows.clone())?;
-            ((found.process, found.measurement), Some(found))
-        }
-        FitModel::B => {
-            let s = common_noise_scale(&fmu, &prepared, &with_scales, train_rows.clone())?;
-            ((s, s), None)
-        }
-    };
-    let scaled: &[&str] = match options.model {
-        FitModel::A => &NOISE_PARAMETERS,
-        FitModel::B => &MODEL_B_COVARIANCE_PARAMETERS,
-    };
-    for &name in scaled {
-        let factor = if name.starts_with("process") {
-            noise_factors.0
-        } else {
-            noise_factors.1
-        };
-        fitted.push((
-            name.to_string(),
-            real_value(&fmu, &with_scales, name)? * factor,
-        ));
-    }
-    let friction = match options.model {
-        FitModel::A => {
-            let with_noise = with_reals(&fmu, &start, &fitted)?;
-            let found = fit_friction(&fmu, &prepared, &with_noise, train_rows.clone())?;
-            if let super::friction::FrictionFit::Fitted { f00, .. } = found {
-                fitted.push(("tyre_f00".to_string(), f00));
-            }
-            Some(found)
-        }
-        FitModel::B => None,
-    };
-    let final_parameters = with_reals(&fmu, &start, &fitted)?;
+    let found = fitter.fit(&FitContext {
+        fmu: &fmu,
+        prepared: &prepared,
+        start: &start,
+        train_rows: train_rows.clone(),
+    })?;
+    let final_parameters = with_reals(&fmu, &start, &found.fitted)?;
 
     // The held-out rows are scored in a run from the log's first row, so that the filter meets
     // them warm, as on a continuous drive. A run started at the split began from the parameters'
@@ -276,31 +248,92 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
     let (run_grid, run_feeds) = segment(&prepared, 0..validate_rows.end);
     let before = drive::run(&fmu, &start, &run_grid, &run_feeds)?;
     let after = drive::run(&fmu, &final_parameters, &run_grid, &run_feeds)?;
-    write_ssv(&fmu, &final_parameters, &options.out, &options.log)?;
+    let before_scores = report::scores(&prepared, &before, validate_rows.clone());
+    let after_scores = report::scores(&prepared, &after, validate_rows.clone());
+    let (nis_before, nis_after) = (
+        nis_per_dof(&before, validate_rows.clone()),
+        nis_per_dof(&after, validate_rows.clone()),
+    );
+    let kept_start = refusal(&before_scores, &after_scores, (nis_before, nis_after));
+    let written = if kept_start.is_some() {
+        &start
+    } else {
+        &final_parameters
+    };
+    write_ssv(&fmu, written, &options.out, &options.log)?;
     drop(fmu);
     drop(work);
     Ok(FitOutcome {
         model: options.model,
-        scales,
-        scale_rows,
-        tyre_fit,
-        noise_factors,
-        noise_fit,
-        friction,
+        scales: found.scales,
+        scale_rows: found.scale_rows,
+        tyre_fit: found.tyre_fit,
+        noise_factors: found.noise_factors,
+        noise_fit: found.noise_fit,
+        friction: found.friction,
+        sensor_noise: found.sensor_noise,
+        notes: found.notes,
+        kept_start,
         step: prepared.grid.step,
-        before: report::scores(&prepared, &before, validate_rows.clone()),
-        after: report::scores(&prepared, &after, validate_rows.clone()),
-        nis_before: nis_per_dof(&before, validate_rows.clone()),
-        nis_after: nis_per_dof(&after, validate_rows.clone()),
+        before: before_scores,
+        after: after_scores,
+        nis_before,
+        nis_after,
         train_rows,
         validate_rows,
-        fitted,
+        fitted: found.fitted,
     })
 }
 
-/// Model B: the level of `cornering_stiffness_scale_front/_rear` by the training sideslip
-/// reference, where the map names one with samples in `rows` ([`super::reference_fit`]).
-fn fit_tyres_b(
+/// Why the fitted parameters must not be written, if they make the held-out segment worse than
+/// the starting ones: a larger sideslip RMSE where the log has a sideslip reference (the
+/// estimate a user fits for); without one, a held-out NIS per degree of freedom further from 1
+/// (the consistency the sensors alone can tell).
+pub fn refusal(
+    before: &[StateScore],
+    after: &[StateScore],
+    (nis_before, nis_after): (f64, f64),
+) -> Option<String> {
+    if let (Some(start), Some(fitted)) = (
+        report::estimator_rmse(before, "sideslip"),
+        report::estimator_rmse(after, "sideslip"),
+    ) {
+        let worse = fitted.is_nan() || fitted > start;
+        return worse.then(|| {
+            format!("the fitted parameters give a held-out sideslip RMSE of {fitted:.4} deg, the starting ones {start:.4} deg")
+        });
+    }
+    let distance = |nis: f64| nis.ln().abs();
+    let worse = distance(nis_after).is_nan() || distance(nis_after) > distance(nis_before);
+    worse.then(|| {
+        format!("the log has no sideslip reference, and the fitted parameters give a held-out NIS per degree of freedom of {nis_after:.3}, further from 1 than the starting ones' {nis_before:.3}")
+    })
+}
+
+/// The enumeration parameter `name` set to its item `item`.
+fn enumeration_value(
+    fmu: &LoadedFmu,
+    name: &str,
+    item: &str,
+) -> Result<(VariableInfo, ParameterValue)> {
+    let var = drive::parameter(fmu, name)?.clone();
+    let number = fmu
+        .enumeration_items(name)
+        .iter()
+        .find(|(n, _)| n == item)
+        .map(|&(_, number)| number)
+        .ok_or_else(|| {
+            anyhow!(
+                "the estimator FMU {} has no {name} {item:?}",
+                fmu.path.display()
+            )
+        })?;
+    Ok((var, ParameterValue::Integer(number)))
+}
+
+/// The level of `cornering_stiffness_scale_front/_rear` by the training sideslip reference,
+/// where the map names one with samples in `rows` ([`super::reference_fit`]).
+fn fit_tyre_level(
     fmu: &LoadedFmu,
     prepared: &Prepared,
     values: &[(VariableInfo, ParameterValue)],
@@ -345,166 +378,6 @@ fn scale_values(scales: [f64; 2]) -> Vec<(String, f64)> {
         .map(|n| n.to_string())
         .zip(scales)
         .collect()
-}
-
-/// Model B: the common noise factor `sqrt(Σ NIS / Σ dof)` of an FMU run on the training rows.
-fn common_noise_scale(
-    fmu: &LoadedFmu,
-    prepared: &Prepared,
-    values: &[(VariableInfo, ParameterValue)],
-    rows: Range<usize>,
-) -> Result<f64> {
-    let (grid, feeds) = segment(prepared, rows);
-    let scale = nis_per_dof(&drive::run(fmu, values, &grid, &feeds)?, 0..grid.rows).sqrt();
-    if !(scale.is_finite() && scale > 0.0) {
-        bail!("the training segment gave no measurement update (NIS per degree of freedom {scale}); choose a segment where the car drives");
-    }
-    Ok(scale)
-}
-
-/// Model A: the noise factors of greatest innovation likelihood on the training rows.
-fn fit_noise_a(
-    fmu: &LoadedFmu,
-    prepared: &Prepared,
-    values: &[(VariableInfo, ParameterValue)],
-    rows: Range<usize>,
-) -> Result<super::noise::NoiseFit> {
-    let (inputs, measurements) = training_rows(prepared, rows);
-    let vehicle = vehicle(fmu, values)?;
-    super::noise::fit_noise(&noise_problem(
-        fmu,
-        prepared,
-        values,
-        &vehicle,
-        (&inputs, &measurements),
-    )?)
-}
-
-/// Model A's likelihood problem on training rows with the noise `values` set.
-fn noise_problem<'a>(
-    fmu: &LoadedFmu,
-    prepared: &Prepared,
-    values: &[(VariableInfo, ParameterValue)],
-    vehicle: &'a SingleTrackHsri,
-    (inputs, measurements): (&'a [[f64; 3]], &'a [[f64; 4]]),
-) -> Result<super::noise::NoiseProblem<'a>> {
-    let std = |names: &[&str]| {
-        names
-            .iter()
-            .map(|n| real_value(fmu, values, n))
-            .collect::<Result<Vec<f64>>>()
-    };
-    let process = std(&NOISE_PARAMETERS[..5])?;
-    let measurement = std(&NOISE_PARAMETERS[7..11])?;
-    Ok(super::noise::NoiseProblem {
-        vehicle,
-        sample_time: prepared.grid.step,
-        process_std: [process[0], process[1], process[2], process[3], process[4]],
-        measurement_std: [
-            measurement[0],
-            measurement[1],
-            measurement[2],
-            measurement[3],
-        ],
-        initial_std: crate::mismatch::identification_config().initial_std,
-        inputs,
-        measurements,
-    })
-}
-
-/// Model A: `tyre_f00` where the training rows reach the friction limit
-/// ([`super::friction`]), with the fitted scales and noise in `values`.
-fn fit_friction(
-    fmu: &LoadedFmu,
-    prepared: &Prepared,
-    values: &[(VariableInfo, ParameterValue)],
-    rows: Range<usize>,
-) -> Result<super::friction::FrictionFit> {
-    use super::friction::{
-        axle_ceilings, golden_section, reach, FrictionFit, F00_RANGE, F00_TOLERANCE,
-    };
-    let (inputs, measurements) = training_rows(prepared, rows);
-    let f00_start = real_value(fmu, values, "tyre_f00")?;
-    // f0 at the reference load, q = 1 (000: 5.67).
-    let f0 = f00_start - real_value(fmu, values, "tyre_f01")?;
-    let ay: Vec<f64> = measurements.iter().map(|y| y[1]).collect();
-    let reach = reach(&ay, f0);
-    if !reach.identifiable() {
-        return Ok(FrictionFit::NotIdentifiable(reach));
-    }
-    let data = (inputs.as_slice(), measurements.as_slice());
-    let likelihood = |f00: f64| -> Result<f64> {
-        let trial = with_reals(fmu, values, &[("tyre_f00".to_string(), f00)])?;
-        let vehicle = vehicle(fmu, &trial)?;
-        super::noise::negative_log_likelihood(
-            &noise_problem(fmu, prepared, &trial, &vehicle, data)?,
-            1.0,
-            1.0,
-        )
-    };
-    let negative_log_likelihood_start = likelihood(f00_start)?;
-    let (f00, negative_log_likelihood) = golden_section(likelihood, F00_RANGE, F00_TOLERANCE)?;
-    let trial = with_reals(fmu, values, &[("tyre_f00".to_string(), f00)])?;
-    let speed = cornering_speed(&vehicle(fmu, &trial)?, &measurements, reach.sliding_ay);
-    let ceiling_ay = axle_ceilings(&vehicle(fmu, &trial)?, speed)
-        .into_iter()
-        .fold(f64::INFINITY, f64::min);
-    if ceiling_ay < reach.high_ay {
-        return Ok(FrictionFit::Refused {
-            reach,
-            f00,
-            ceiling_ay,
-        });
-    }
-    Ok(FrictionFit::Fitted {
-        reach,
-        f00,
-        f00_start,
-        negative_log_likelihood,
-        negative_log_likelihood_start,
-    })
-}
-
-/// The speed of the rows beyond the sliding threshold `sliding_ay` (m/s², measured `|ay|`), the
-/// median of the wheel speeds times their radii: the speed at which the friction was tested,
-/// which sets the sliding speed in µ (000: 5.66, 5.69).
-fn cornering_speed(vehicle: &SingleTrackHsri, measurements: &[[f64; 4]], sliding_ay: f64) -> f64 {
-    let chassis = &vehicle.vehicle.chassis;
-    let mut speeds: Vec<f64> = measurements
-        .iter()
-        .filter(|y| y[1].abs() > sliding_ay)
-        .flat_map(|y| {
-            [
-                y[2] * chassis.front_wheel_radius,
-                y[3] * chassis.rear_wheel_radius,
-            ]
-        })
-        .filter(|v| v.is_finite())
-        .map(f64::abs)
-        .collect();
-    speeds.sort_by(f64::total_cmp);
-    speeds.get(speeds.len() / 2).copied().unwrap_or(0.0)
-}
-
-/// Model A: the longest run of `rows` where the measured `|ay|` stays below the sliding
-/// threshold of the starting tyre ([`super::friction::reach`]), or all of `rows` when that run
-/// is shorter than 10 rows (module text, step 1).
-fn linear_rows(
-    fmu: &LoadedFmu,
-    prepared: &Prepared,
-    values: &[(VariableInfo, ParameterValue)],
-    rows: Range<usize>,
-) -> Result<Range<usize>> {
-    let (_, measurements) = training_rows(prepared, rows.clone());
-    let ay: Vec<f64> = measurements.iter().map(|y| y[1]).collect();
-    // f0 at the reference load, q = 1 (000: 5.67), as the friction rule reads it.
-    let f0 = real_value(fmu, values, "tyre_f00")? - real_value(fmu, values, "tyre_f01")?;
-    let run = super::friction::longest_linear_run(&ay, super::friction::reach(&ay, f0).sliding_ay);
-    Ok(if run.len() < 10 {
-        rows
-    } else {
-        rows.start + run.start..rows.start + run.end
-    })
 }
 
 /// The training and validation rows: as given, or the first two thirds and the last third.
@@ -605,103 +478,6 @@ fn with_reals(
     Ok(out)
 }
 
-/// Model A's vehicle as the FMU builds it from `values` (and its start values).
-fn vehicle(fmu: &LoadedFmu, values: &[(VariableInfo, ParameterValue)]) -> Result<SingleTrackHsri> {
-    let source = ParameterSource::new(|name| real_value(fmu, values, name).ok());
-    let [front, rear] = starting_scales(fmu, values)?;
-    let params = SingleTrackParams {
-        chassis: source.chassis().map_err(|e| anyhow!(e))?,
-        cornering_stiffness_scale_front: front,
-        cornering_stiffness_scale_rear: rear,
-        ..SingleTrackParams::default()
-    };
-    Ok(SingleTrackModel::new(
-        params,
-        HsriTyre::new(source.hsri().map_err(|e| anyhow!(e))?),
-    ))
-}
-
-/// `[k_F, k_R]` by EM on the training rows.
-fn identify_scales(
-    fmu: &LoadedFmu,
-    prepared: &Prepared,
-    values: &[(VariableInfo, ParameterValue)],
-    rows: Range<usize>,
-) -> Result<([f64; 2], bool)> {
-    let (inputs, measurements) = training_rows(prepared, rows);
-    let mut config = crate::mismatch::identification_config();
-    config.sample_time = prepared.grid.step;
-    config.measurement_noise_std = [
-        "measurement_noise_std_yaw_rate",
-        "measurement_noise_std_ay",
-        "measurement_noise_std_omega_front",
-        "measurement_noise_std_omega_rear",
-    ]
-    .map(|name| real_value(fmu, values, name).unwrap_or(f64::NAN));
-    let result =
-        identify_scales_from_arrays(&vehicle(fmu, values)?, &inputs, &measurements, &config)
-            .map_err(|e| {
-                anyhow!("identifying the cornering-stiffness scales on the training segment: {e}")
-            })?;
-    Ok((
-        [result.parameters[0], result.parameters[1]],
-        result.converged,
-    ))
-}
-
-/// The rows as model A reads them: inputs `[δ, drive, brake]` and measurements `[r, ay, ωF, ωR]`.
-fn training_rows(prepared: &Prepared, rows: Range<usize>) -> (Vec<[f64; 3]>, Vec<[f64; 4]>) {
-    let feed = |name: &str| {
-        prepared
-            .feeds
-            .iter()
-            .find(|f| f.input == name)
-            .map(|f| &f.values[rows.clone()])
-    };
-    let held = |name: &str| held_input(feed(name), rows.len());
-    let (steering, drive_torque, brake_torque) = (
-        held("steering_angle"),
-        held("drive_torque"),
-        held("brake_torque"),
-    );
-    let inputs = (0..rows.len())
-        .map(|k| [steering[k], drive_torque[k], brake_torque[k]])
-        .collect();
-    let measured = |name: &str| {
-        feed(name)
-            .map(<[f64]>::to_vec)
-            .unwrap_or_else(|| vec![f64::NAN; rows.len()])
-    };
-    let y = [
-        measured("yaw_rate_meas"),
-        measured("ay_meas"),
-        measured("omega_front_meas"),
-        measured("omega_rear_meas"),
-    ];
-    let measurements = (0..rows.len())
-        .map(|k| [y[0][k], y[1][k], y[2][k], y[3][k]])
-        .collect();
-    (inputs, measurements)
-}
-
-/// A driver input on the rows: a missing sample holds the previous one (0 before the first),
-/// an input the map does not feed is 0, as the FMU's start value.
-fn held_input(values: Option<&[f64]>, rows: usize) -> Vec<f64> {
-    let Some(values) = values else {
-        return vec![0.0; rows];
-    };
-    let mut last = 0.0;
-    values
-        .iter()
-        .map(|v| {
-            if v.is_finite() {
-                last = *v;
-            }
-            last
-        })
-        .collect()
-}
-
 /// Writes the SSP 1.0 parameter-value file (the last value of each name; enumerations by item
 /// name), under a temporary name renamed when complete.
 fn write_ssv(
@@ -791,23 +567,34 @@ impl FitOutcome {
                 }
             }
         }
+        for noise in &self.sensor_noise {
+            text += &noise.summary();
+        }
         let (process, measurement) = self.noise_factors;
-        text += &format!(
-            "  noise: process-noise stds x {process:.3}, measurement-noise stds x {measurement:.3}"
-        );
-        match self.noise_fit {
-            Some(f) => {
-                text += &format!(
-                    " (innovation likelihood: -log L per sample {:.3} -> {:.3})\n",
-                    f.negative_log_likelihood_start, f.negative_log_likelihood
-                )
+        if self.model != FitModel::Grip {
+            text += &format!(
+                "  noise: process-noise stds x {process:.3}, measurement-noise stds x {measurement:.3}"
+            );
+            match self.noise_fit {
+                Some(f) => {
+                    text += &format!(
+                        " (innovation likelihood: -log L per sample {:.3} -> {:.3})\n",
+                        f.negative_log_likelihood_start, f.negative_log_likelihood
+                    )
+                }
+                None => text += " (model B: sqrt of the training NIS per degree of freedom)\n",
             }
-            None => text += " (model B: sqrt of the training NIS per degree of freedom)\n",
+        }
+        for note in &self.notes {
+            text += note;
         }
         if let Some(friction) = self.friction {
             text += &friction.summary();
         }
         text += &format!("  held-out NIS per degree of freedom: {:.2} with the starting parameters, {:.2} fitted\n", self.nis_before, self.nis_after);
+        if let Some(reason) = &self.kept_start {
+            text += &format!("  NOT WRITTEN: {reason}; the file holds the starting parameters (the map's and --parameters') instead of the fitted ones.\n");
+        }
         text += "  held-out scores, starting parameters:\n";
         text += &report::score_table(&self.before);
         text += "  held-out scores, fitted parameters:\n";
@@ -915,5 +702,19 @@ mod tests {
             }]
         );
         assert!(worse_held_out(&after, &before).is_empty());
+    }
+
+    #[test]
+    fn the_starting_parameters_are_kept_when_the_fit_makes_the_held_out_segment_worse() {
+        let sideslip = |rmse| [score("sideslip", report::ESTIMATOR, rmse)];
+        // The MBDS lap-1 fit with every process noise scaled: 1.06 -> 4.82 deg.
+        let refused = refusal(&sideslip(1.06), &sideslip(4.82), (1.48, 0.28));
+        assert!(refused.is_some_and(|r| r.contains("4.8200") && r.contains("1.0600")));
+        assert_eq!(refusal(&sideslip(1.06), &sideslip(0.53), (1.48, 9.0)), None);
+        assert!(refusal(&sideslip(1.06), &sideslip(f64::NAN), (1.0, 1.0)).is_some());
+        // Without a sideslip reference the NIS per degree of freedom's distance from 1 decides.
+        let vy = [score("vy", report::ESTIMATOR, 0.1)];
+        assert_eq!(refusal(&vy, &vy, (3.0, 1.2)), None);
+        assert!(refusal(&vy, &vy, (1.2, 0.5)).is_some());
     }
 }

@@ -1,0 +1,150 @@
+//! The real track recording (MBDS, `harness/logs/mbds/`) in the tests: the replay study's
+//! representative subset against its committed rows (`docs/data/mbds_replay.csv`, which the
+//! full study writes), and `harness fit` of the default model on what the log has (no wheel
+//! speeds, no torques).
+//!
+//! Needs the packaged FMUs (`cargo run --release -p packaging`) in
+//! `fmi_master::runner::default_fmu_dir()`.
+
+use std::collections::BTreeMap;
+
+use fmi_master::runner::{default_fmu_dir, workspace_root};
+use harness::replay::estimator_path;
+use harness::replay::fit::{fit, FitModel, FitOptions};
+use harness::replay::study::{cases, Case, Study, COMMITTED_CSV, CSV_HEADER, FITTED_MODEL};
+
+use crate::scratch::Scratch;
+
+/// The committed rows by (model, estimator, wheel speeds).
+fn committed() -> BTreeMap<(String, String, String), String> {
+    let path = workspace_root().join(COMMITTED_CSV);
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e}; write it with `harness replay-study --full --update-committed`",
+            path.display()
+        )
+    });
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(CSV_HEADER), "{}", path.display());
+    lines
+        .map(|line| {
+            let fields: Vec<&str> = line.split(',').collect();
+            assert_eq!(fields.len(), 10, "{line}");
+            assert_eq!(&fields[..2], ["real", "mbds_laps_2_6"], "{line}");
+            (
+                (
+                    fields[2].to_string(),
+                    fields[3].to_string(),
+                    fields[4].to_string(),
+                ),
+                line.to_string(),
+            )
+        })
+        .collect()
+}
+
+/// The default configuration (grip model, EKF) with and without wheel speeds, model B with
+/// them, and the grip model fitted on lap 1 without them, rerun, must give the committed rows
+/// to the digit: the committed file is the study's
+/// output, not a hand-kept copy (regenerate it with `cargo run --release -p harness --
+/// replay-study --full --update-committed` after a change to the estimator).
+#[test]
+fn the_replay_studys_subset_reproduces_its_committed_rows() {
+    let rows = committed();
+    for case in cases(true) {
+        let key = (
+            case.model.clone(),
+            case.estimator.clone(),
+            case.wheel_speeds_label().to_string(),
+        );
+        assert!(
+            rows.contains_key(&key),
+            "{COMMITTED_CSV} lacks the case {key:?}"
+        );
+    }
+    let scratch = Scratch::new("replay-mbds-study");
+    let mut study = Study::load(
+        &estimator_path(None, &default_fmu_dir()),
+        &scratch.0.join("fmu"),
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    study
+        .fit_on_lap_1(&scratch.0)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let subset = [
+        Case::new(FITTED_MODEL, "ekf", false),
+        Case::new("grip", "ekf", true),
+        Case::new("grip", "ekf", false),
+        Case::new("model_b", "ekf", true),
+    ];
+    let rerun = study.run_all(&subset).unwrap_or_else(|e| panic!("{e:#}"));
+    for row in &rerun {
+        let key = (
+            row.case.model.clone(),
+            row.case.estimator.clone(),
+            row.case.wheel_speeds_label().to_string(),
+        );
+        assert_eq!(
+            row.csv_line(),
+            rows[&key],
+            "rerun against {COMMITTED_CSV}: regenerate it with `cargo run --release -p harness -- replay-study --full --update-committed`"
+        );
+        // The yardsticks need no filter: zero answers 1.82 deg, as published.
+        assert!((row.zero_rmse_deg - study.baselines.published.zero_deg).abs() < 0.005);
+    }
+}
+
+/// `harness fit` of the default model on lap 1 alone, as a new user with this log would run it:
+/// no wheel speeds, no torques, the INS sideslip as the training reference. The accelerometer's
+/// noise comes from the log (about 1.1 m/s² of vibration where the FMU's default assumes 0.1), and the
+/// written file never makes the held-out part of lap 1 worse than the map's parameters.
+#[test]
+fn fit_of_the_grip_model_on_lap_1_learns_the_sensor_noise_and_never_writes_a_worse_file() {
+    let scratch = Scratch::new("replay-mbds-fit");
+    let logs = workspace_root().join("harness/logs/mbds");
+    let out = scratch.0.join("mbds.ssv");
+    let outcome = fit(&FitOptions {
+        log: logs.join("mbds_20140222_01_01_03_250lm.csv.gz"),
+        map: logs.join("mbds.toml"),
+        parameters: None,
+        fmu: estimator_path(None, &default_fmu_dir()),
+        model: FitModel::default(),
+        out: out.clone(),
+        train: Some((149.99, 220.0)),
+        validate: Some((220.0, 253.46)),
+    })
+    .unwrap_or_else(|e| panic!("fit: {e:#}"));
+    eprintln!("{}", outcome.summary());
+    assert_eq!(outcome.model, FitModel::Grip);
+    let ay = outcome
+        .sensor_noise
+        .iter()
+        .find(|s| s.parameter == "measurement_noise_std_ay")
+        .expect("the ay noise from the log");
+    // 1.16 m/s² on 150-220 s, 1.05 over the whole of lap 1: the vibration, not the cornering.
+    assert!((1.0..1.3).contains(&ay.std), "{ay:?}");
+    assert!(
+        !outcome
+            .sensor_noise
+            .iter()
+            .any(|s| s.input.starts_with("omega")),
+        "the log has no wheel speeds"
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    let (before, after) = outcome.rmse("sideslip").expect("a sideslip reference");
+    match &outcome.kept_start {
+        Some(reason) => {
+            assert!(after > before, "{reason}");
+            assert!(!text.contains("measurement_noise_std_ay"), "{text}");
+            assert!(outcome.summary().contains("NOT WRITTEN"));
+        }
+        None => {
+            assert!(after <= before, "{before} -> {after} deg written");
+            assert!(text.contains("measurement_noise_std_ay"), "{text}");
+        }
+    }
+    assert!(
+        text.contains("<ssv:Enumeration value=\"single_track_grip\"/>"),
+        "{text}"
+    );
+}
