@@ -5,7 +5,9 @@
 //! refuses what it must not run (not a zip, no `modelDescription.xml`, an entry that would land
 //! outside the extraction folder, a symbolic link, no Co-Simulation interface, no binary for this
 //! platform), extracts into a temporary folder *inside the run's output folder* (nothing is
-//! written elsewhere) and only then hands the folder to `fmi::fmi2::import::Fmi2Import`.
+//! written elsewhere) and only then hands the folder to `fmi::fmi2::import::Fmi2Import`. A run
+//! through FMI 3.0 also loads the FMU's FMI 3.0 archive the same way
+//! ([`LoadedFmu::load_fmi3`], `fmi::fmi3::import::Fmi3Import`).
 
 use std::collections::HashMap;
 use std::fs;
