@@ -69,6 +69,7 @@ pub mod model_description {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 
+pub mod estimation_model;
 mod gauss_markov;
 pub mod lateral_accelerometer;
 pub mod model_a;
@@ -76,6 +77,7 @@ pub mod model_b;
 pub mod model_grip;
 pub mod parameters;
 pub mod runner;
+pub mod sensors;
 pub mod speed_filter;
 mod state;
 pub mod yaw_rate_offset;

@@ -535,7 +535,7 @@ pub(crate) fn keep_sideslip(
 }
 
 /// The outputs of one sample as the filter's state and covariance give them (the grip model's
-/// too), before the runner adds the consider term of [`crate::runner::with_stiffness_consider`].
+/// too), before the runner adds the consider term of `runner::outputs::with_stiffness_consider`.
 pub(crate) fn estimate_outputs<Extra>(
     model: &ModelA,
     sample: &OutputSample<STATE_DIM, Extra>,
