@@ -75,7 +75,15 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
 
     /// Where each measurement row is physically plausible, for the gate (a broken sample never re-seeds);
     /// `state` is the predicted estimate.
-    fn plausible(&self, sensors: &Sensors, state: &SVector<f64, N>, min_speed: f64) -> [bool; M];
+    /// `measurement_std` is each row's noise std as the filter uses it (learned or tuned), so
+    /// that a limit can widen with a sensor's own noise.
+    fn plausible(
+        &self,
+        sensors: &Sensors,
+        state: &SVector<f64, N>,
+        min_speed: f64,
+        measurement_std: &[f64; M],
+    ) -> [bool; M];
 
     /// The rows whose persistent disagreement with the model is the model's error, not the
     /// sensor's: inertial sensors (gyro, accelerometer) the model predicts from its states. The
@@ -154,6 +162,19 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
         _v: &Variables,
     ) -> Option<SMatrix<f64, M, M>> {
         None
+    }
+
+    /// The sideslip at the centre of gravity at `state` and its variance from `covariance`
+    /// (to first order), rad and rad², for the integrity guard (`runner::guard`).
+    fn sideslip_of(&self, state: &SVector<f64, N>, covariance: &SMatrix<f64, N, N>) -> (f64, f64);
+
+    /// Puts the sideslip of `estimate` to `sideslip` with the variance `variance`, uncorrelated
+    /// with the other states (the guard's re-seed).
+    fn reseed_sideslip(&self, estimate: &mut InitialEstimate<N>, sideslip: f64, variance: f64);
+
+    /// The rear axle's grip factor the model has learned at `state` (1 where it has none).
+    fn rear_grip(&self, _state: &SVector<f64, N>) -> f64 {
+        1.0
     }
 
     /// The outputs of one sample's result, as the filter's state and covariance give them; the

@@ -316,13 +316,36 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         model_a::reported_speed_sample(runner, sensors)
     }
 
+    fn sideslip_of(
+        &self,
+        state: &StateGrip,
+        covariance: &SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>,
+    ) -> (f64, f64) {
+        model_a::single_track_sideslip(state, covariance)
+    }
+
+    fn reseed_sideslip(
+        &self,
+        estimate: &mut InitialEstimate<GRIP_STATE_DIM>,
+        sideslip: f64,
+        variance: f64,
+    ) {
+        model_a::reseed_single_track_sideslip(estimate, sideslip, variance);
+    }
+
+    fn rear_grip(&self, state: &StateGrip) -> f64 {
+        state[GRIP_FACTORS[1]]
+    }
+
     fn plausible(
         &self,
         sensors: &Sensors,
         state: &StateGrip,
         min_speed: f64,
+        measurement_std: &[f64; ANCHORED_MEASUREMENT_DIM],
     ) -> [bool; ANCHORED_MEASUREMENT_DIM] {
-        self.anchored().plausible(sensors, &body(state), min_speed)
+        self.anchored()
+            .plausible(sensors, &body(state), min_speed, measurement_std)
     }
 
     /// Model A's: the yaw rate. A tyre law that is not the car's shows in the gyro's innovations

@@ -16,7 +16,22 @@ pub struct Sensors {
     pub ax: f64,
 }
 
+/// The number of sensor inputs.
+pub const SENSOR_COUNT: usize = 6;
+
 impl Sensors {
+    /// `[yaw_rate, ay, omega_front, omega_rear, vx, ax]`.
+    pub fn values(&self) -> [f64; SENSOR_COUNT] {
+        [
+            self.yaw_rate,
+            self.ay,
+            self.omega_front,
+            self.omega_rear,
+            self.vx,
+            self.ax,
+        ]
+    }
+
     pub fn of(v: &Variables) -> Self {
         Self {
             yaw_rate: v.yaw_rate_meas,

@@ -169,7 +169,7 @@ fn run(
         corrupt(t, &mut sensors);
         assert_eq!(s.set_real(vr::STEERING_ANGLE, input[0]), Fmi2Status::Ok);
         assert_eq!(s.set_reals(&SENSORS, &sensors), Fmi2Status::Ok);
-        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok, "{:?}", s.log.last());
+        assert_step(s.do_step(t, STEP), t, &sensors, s);
         truth.step(&input);
         let estimate = s.reals(&[vr::VX_EST, vr::VY_EST]);
         assert!(estimate.iter().all(|v| v.is_finite()), "t = {t}");
@@ -181,6 +181,17 @@ fn run(
         });
     }
     records
+}
+
+/// A doStep answered fmi2OK, or at the first, where a measurement-row sensor never had a finite
+/// value, fmi2Warning saying it is treated as missing (tests/unconnected_sensors.rs).
+pub(crate) fn assert_step(status: Fmi2Status, t: f64, sensors: &Sensors, s: &Slave) {
+    let unconnected = sensors[..4].iter().any(|value| !value.is_finite());
+    if t == 0.0 && unconnected {
+        assert_eq!(status, Fmi2Status::Warning, "{:?}", s.log.last());
+    } else {
+        assert_eq!(status, Fmi2Status::Ok, "{:?}", s.log.last());
+    }
 }
 
 /// The largest relative speed error after `from` seconds.
@@ -278,7 +289,7 @@ fn slow_ramp_torques_unknown_on(
         }
         assert_eq!(s.set_real(vr::STEERING_ANGLE, steering), Fmi2Status::Ok);
         assert_eq!(s.set_reals(&SENSORS, &sensors), Fmi2Status::Ok);
-        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok, "{:?}", s.log.last());
+        assert_step(s.do_step(t, STEP), t, &sensors, &s);
         truth.step(&input);
         let vx = s.get_real(vr::VX_EST).1;
         if t + STEP >= 1.0 {
@@ -908,7 +919,7 @@ fn braking_in_a_turn_with_the_torques_unknown_the_grip_model_s_ay_follows_the_ca
         let sensors = truth.sensors(&input);
         assert_eq!(s.set_real(vr::STEERING_ANGLE, steer), Fmi2Status::Ok);
         assert_eq!(s.set_reals(&SENSORS, &sensors), Fmi2Status::Ok);
-        assert_eq!(s.do_step(t, STEP), Fmi2Status::Ok, "{:?}", s.log.last());
+        assert_step(s.do_step(t, STEP), t, &sensors, &s);
         truth.step(&input);
         if t >= 2.5 {
             let ay = truth

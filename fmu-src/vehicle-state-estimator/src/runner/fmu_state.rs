@@ -36,6 +36,10 @@ where
         if let Some(scaling) = &self.observer_scaling {
             scaling.save(&mut Sink(writer));
         }
+        if let Some(noise) = &self.noise {
+            noise.save(&mut Sink(writer));
+        }
+        writer.u64(u64::from(self.guard_samples));
         if let Some(offset) = &self.yaw_rate_offset {
             offset.write(writer);
         }
@@ -80,6 +84,13 @@ where
                 .restore(&mut Source(reader))
                 .map_err(|e| StateError::new(e.0))?;
         }
+        if let Some(noise) = runner.noise.as_mut() {
+            noise
+                .restore(&mut Source(reader))
+                .map_err(|e| StateError::new(e.0))?;
+        }
+        runner.guard_samples = u32::try_from(reader.u64("guard samples")?)
+            .map_err(|_| StateError::new(String::from("guard samples out of range")))?;
         if let Some(offset) = runner.yaw_rate_offset.as_mut() {
             offset.read(reader)?;
         }

@@ -200,7 +200,8 @@ where
         };
         let state = *self.filter.state();
         let covariance = *self.filter.covariance();
-        let plausible = self.model.plausible(sensors, &state, self.min_speed);
+        let std = self.measurement_std();
+        let plausible = self.model.plausible(sensors, &state, self.min_speed, &std);
         let (predicted, jacobian) = self.model.measurement_and_jacobian(&state, &sample.input);
         let mut noise = self.model.measurement_noise();
         if let Some(extra) = extra_noise {

@@ -5,11 +5,14 @@
 
 mod fmu_state;
 mod gate;
+mod guard;
+mod noise;
 mod outputs;
 
 use estimation::adaptive::{AdaptationStatus, Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
 use estimation::innovation_scaling::InnovationScaling;
 use estimation::kalman::InitialEstimate;
+use estimation::measurement_noise::NoiseMatching;
 use estimation::registry::{self, BoxedEstimator, EstimatorChoice, EstimatorSettings};
 use estimation::{FilterIssue, UpdateReport};
 use nalgebra::{SMatrix, SVector};
@@ -75,6 +78,33 @@ fn schedule_threshold(v: &Variables, choice: EstimatorChoice) -> Result<f64, Str
     } else {
         non_negative("schedule_threshold", v.schedule_threshold)
     }
+}
+
+/// The integrity guard's car from the parameters: the rear axle's cornering stiffness is model
+/// A's HSRI tyre at the static rear wheel load, with `cornering_stiffness_scale_rear`, for
+/// every model (model B's Magic Formula tyres are matched to it).
+fn guard_car(v: &Variables) -> Result<guard::GuardCar, String> {
+    use crate::model_a::ModelA;
+    let model = <ModelA as EstimationModel<
+        { vehicle_models::single_track::STATE_DIM },
+        { estimation::models::single_track::ANCHORED_MEASUREMENT_DIM },
+        { estimation::models::single_track::ANCHORED_INPUT_DIM },
+    >>::from_parameters(v)?;
+    let vehicle = model.vehicle();
+    let chassis = &vehicle.vehicle.chassis;
+    let rear = vehicle
+        .tyre
+        .params
+        .cornering_stiffness(chassis.rear_wheel_load)
+        * vehicle_models::single_track::WHEELS_PER_AXLE
+        * vehicle.vehicle.cornering_stiffness_scale_rear;
+    Ok(guard::GuardCar {
+        mass: chassis.mass,
+        cog_to_front_axle: chassis.cog_to_front_axle,
+        cog_to_rear_axle: chassis.cog_to_rear_axle,
+        rear_cornering_stiffness: positive("rear cornering stiffness", rear)?,
+        yaw_rate_std: v.measurement_noise_std_yaw_rate,
+    })
 }
 
 /// A sensor learner after a retune: what it has learned (`current`) with `tuned`'s settings, or
@@ -150,6 +180,13 @@ where
     adaptation: Option<NoiseAdaptation<N>>,
     /// The Luenberger observer's reported covariance scaled to its innovations (FMU state).
     observer_scaling: Option<InnovationScaling>,
+    /// Each row's noise variance learned from the innovations (`learn_measurement_noise`;
+    /// FMU state).
+    noise: Option<NoiseMatching<M>>,
+    /// The integrity guard's car (`integrity_guard`), and the samples in a row the estimate
+    /// has been outside its reference (FMU state).
+    guard_car: Option<guard::GuardCar>,
+    guard_samples: u32,
     /// The gyro's offset, taken off `yaw_rate_meas` before the filter sees it
     /// (`yaw_rate_offset_std`; FMU state).
     yaw_rate_offset: Option<YawRateOffset>,
@@ -208,6 +245,7 @@ where
             gate.filter(|_| error_rows[row])
                 .map(|gate| InnovationWindow::new(gate.window))
         });
+        let noise = noise::learner(v, &model, sample_time, choice);
         Ok(Self {
             extra: Model::start_extra(v, min_speed),
             model,
@@ -239,6 +277,9 @@ where
                 .map(NoiseAdaptation::new)
                 .transpose()
                 .map_err(|e| e.0)?,
+            noise,
+            guard_car: v.integrity_guard.then(|| guard_car(v)).transpose()?,
+            guard_samples: 0,
             observer_scaling: (choice == EstimatorChoice::Luenberger)
                 .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
                 .transpose()
@@ -273,6 +314,11 @@ where
             tuned.yaw_rate_offset,
             YawRateOffset::retuned,
         );
+        self.guard_car = tuned.guard_car;
+        self.noise = match (&self.noise, tuned.noise) {
+            (Some(current), Some(tuned)) => Some(current.retuned_as(&tuned)),
+            (_, tuned) => tuned,
+        };
         self.lateral_accelerometer = carried_over(
             self.lateral_accelerometer,
             tuned.lateral_accelerometer,
@@ -411,6 +457,7 @@ where
         }
         // The model's extra noise at the predicted estimate, for the gate's S and the update's R:
         // evaluated once, again only if the gate re-seeded the filter to another estimate.
+        self.learn_noise(sensors, &sample);
         let mut extra_noise = self.extra_measurement_noise(&sample.input);
         let (mut mask, gate_bits) = self.gate(sensors, &mut sample, extra_noise.as_ref());
         if gate_bits & status::SENSOR_READMITTED != 0 {
@@ -446,6 +493,7 @@ where
         let correction = prior.map(|(x, p)| {
             Correction::between((&x, &p), (self.filter.state(), self.filter.covariance()))
         });
+        bits |= self.guard(sensors);
         self.reschedule(&sample.input);
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
@@ -461,8 +509,27 @@ where
         bits | self.adapt(&report, correction.as_ref()) | self.scale_observer(&report)
     }
 
-    /// The model's extra measurement noise at the filter's current (predicted) estimate.
+    /// The model's extra measurement noise at the filter's current (predicted) estimate, with
+    /// what the noise learner adds to each row's tuned variance (`None`: nothing to add).
     fn extra_measurement_noise(&self, input: &SVector<f64, U>) -> Option<SMatrix<f64, M, M>> {
+        let model = self.model_measurement_noise(input);
+        let Some(learner) = &self.noise else {
+            return model;
+        };
+        let mut extra = model.unwrap_or_else(SMatrix::zeros);
+        let mut added = model.is_some();
+        for row in 0..M {
+            let excess = learner.excess(row);
+            if excess > 0.0 {
+                extra[(row, row)] += excess;
+                added = true;
+            }
+        }
+        added.then_some(extra)
+    }
+
+    /// The model's own extra measurement noise at the filter's current (predicted) estimate.
+    fn model_measurement_noise(&self, input: &SVector<f64, U>) -> Option<SMatrix<f64, M, M>> {
         self.model
             .extra_measurement_noise(self.filter.state(), input, &self.parameters)
     }
