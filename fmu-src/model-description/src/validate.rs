@@ -10,7 +10,7 @@
 //! calculated and the calculated parameters, in variable order; dependencies are valid, ascending
 //! indices.
 //!
-//! Project rules (SPEC §2, issue 4): Co-Simulation only; every variable has a non-empty
+//! Project rules (SPEC §2): Co-Simulation only; every variable has a non-empty
 //! description; every Real variable declares a unit (directly or through its declared type);
 //! log category names are unique; the default experiment is sensible.
 

@@ -23,7 +23,7 @@
 //! (bits 32 + 8), else it holds (bit 32, low-speed mode); filter repairs are reported in bits 2,
 //! 4, 8, 16; no output is ever NaN.
 //!
-//! **Issue 12** (each a Boolean parameter, on by default; the seed scenarios and the tests of
+//! **Robustness switches** (each a Boolean parameter, on by default; the seed scenarios and the tests of
 //! the seeds' behaviour switch them off):
 //! - `use_speed_measurements` (model A): `vx_meas` is a fifth row and a finite `ax_meas` drives
 //!   `vx` by the kinematics `dvx/dt = ax + r vy` (`SpeedAnchoredModel` of the estimation crate),
@@ -97,7 +97,7 @@ pub mod status {
     pub const WEIGHTS_RESET: i32 = 16;
     pub const BELOW_MIN_SPEED: i32 = 32;
     pub const INPUT_HELD: i32 = 64;
-    /// A row failed the gate (issue 12, point 3).
+    /// A row failed the gate.
     pub const ROW_GATED: i32 = 128;
     /// A row was locked out for `readmit_time` and the filter re-seeded from the sensors.
     pub const SENSOR_READMITTED: i32 = 256;
@@ -107,11 +107,11 @@ pub mod status {
     /// answered fmi2Warning) since the previous doStep (`CoSimulationModel::value_adjusted`).
     pub const INPUT_CLAMPED: i32 = 1024;
     /// Model B: the load transfer at the estimated ay lifts an inner wheel, whose load is
-    /// clamped at 0 (`TwoTrackParams::wheel_loads`, issue 17 point 4).
+    /// clamped at 0 (`TwoTrackParams::wheel_loads`).
     pub const WHEEL_LIFTED: i32 = 2048;
-    /// `adaptive_process_noise` has scaled `Q` up (issue 17 point 3).
+    /// `adaptive_process_noise` has scaled `Q` up.
     pub const ADAPTING: i32 = 4096;
-    /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band (issue 17 point 3).
+    /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band.
     pub const INCONSISTENT: i32 = 8192;
     /// The integrity guard re-seeded the sideslip where the car's own data put it
     /// (`runner::guard`).
@@ -297,7 +297,7 @@ impl CoSimulationModel for VehicleStateEstimator {
     const LOG_CATEGORIES: &'static [&'static str] = model_description::LOG_CATEGORIES;
 
     /// One filter step per sample: fmi-export bounds the samples one doStep may process
-    /// (issue 15: a doStep of 1e6 s ran 1e9 filter steps, about half an hour).
+    /// (a doStep of 1e6 s ran 1e9 filter steps, about half an hour).
     fn internal_step_size(&self) -> Option<f64> {
         Some(self.variables.sample_time)
     }

@@ -1,5 +1,5 @@
 //! Model A (the 5-state single-track model with HSRI tyres of seed 000,
-//! `SingleTrackEstimationModel`, with the speed anchor of issue 12 `SpeedAnchoredModel`) as the
+//! `SingleTrackEstimationModel`, with the speed anchor `SpeedAnchoredModel`) as the
 //! FMU runs it: `y = [yaw_rate, ay, omega_front, omega_rear, vx]` from the sensors (the `vx` row
 //! and the `ax` kinematics only with `use_speed_measurements`), `u` = the driver input and the
 //! measured `ax`, outputs from the state and one model evaluation; re-seeded from the measured
@@ -112,8 +112,8 @@ const MAX_KEPT_SIDESLIP: f64 = 0.2;
 /// speed).
 pub(crate) const KINEMATIC_SPEED: f64 = 5.0;
 
-/// The road-wheel angle of full lock, rad: 45°, the declared range of `steering_angle` (issue 12
-/// point 5, parking manoeuvres).
+/// The road-wheel angle of full lock, rad: 45°, the declared range of `steering_angle` (parking
+/// manoeuvres).
 const FULL_LOCK: f64 = std::f64::consts::FRAC_PI_4;
 
 /// Above this |vx_meas| is a glitch, m/s (360 km/h).
@@ -339,7 +339,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     /// (only with `use_speed_measurements`: the seeds' filters stay seed 000's). Each wheel gets
     /// the larger of:
     ///
-    /// - **Torques unknown** (issue 12 point 1): while every torque input reads exactly 0,
+    /// - **Torques unknown**: while every torque input reads exactly 0,
     ///   `(unknown_torque_slip_std |vx| / r)²`. A wheel speed measures the car's speed only
     ///   through the wheel's slip, `r ω = v (1 + s)`, and the model knows the slip from the torque
     ///   on the wheel (000: 5.45-5.46). Told 0 while the engine drives (or the brakes act), the
@@ -353,7 +353,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     ///   The drive layout is not a parameter and unknown brakes slow every wheel, so both axles
     ///   get it. The slip settles within a sample (time constant `J vx / (r² Cs)`, a few ms),
     ///   hence a per-sample variance sized by the slip itself rather than a torque rate.
-    /// - **Low speed** (issue 12 point 4): the seed scheme damps the wheel step by
+    /// - **Low speed**: the seed scheme damps the wheel step by
     ///   `1 / (1 − T ∂ω̇/∂ω)` (000: 6.1-6.5), which vanishes once the tyre slides (its force no
     ///   longer depends on ω). One sample of a sliding axle's friction force moves the wheel by
     ///   up to `Δω = f00 (2 FZ) r T / J` (f00 the HSRI friction at zero load, its largest; 4.5
@@ -367,7 +367,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     ///   wheel state gets `Δω²`, so each update puts it back on its measurement (the wheel is
     ///   algebraic at this sample time) and the limit cycle cannot build up.
     ///
-    /// And below [`KINEMATIC_SPEED`] (manoeuvring, issue 12 point 4) `vx` and `vy` each get
+    /// And below [`KINEMATIC_SPEED`] (manoeuvring) `vx` and `vy` each get
     /// `(|δ| / δ_lock · f00 g T)²`, δ_lock = [`FULL_LOCK`]: at full lock one sample of the
     /// friction-limited acceleration. At walking pace and full lock the single-track model's
     /// tyre forces are its largest error (the front tyres scrub at their limit, the slip angles
@@ -495,7 +495,7 @@ where
     sample
 }
 
-/// Model A's reported speed (issue 12 point 1). Model A's own `vx` is a state of its force
+/// Model A's reported speed. Model A's own `vx` is a state of its force
 /// balance, and with the torques unknown it is where the model's error of the tyre forces goes:
 /// braked or spinning wheels whose slip the HSRI combined slip reads as lost side force pull it
 /// off the car's speed by up to 9 % on the campaigns, and every attempt to hold it on `vx_meas`

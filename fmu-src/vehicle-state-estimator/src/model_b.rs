@@ -48,7 +48,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         // The same car as model A with model B's geometry and each axle's Magic Formula tyre,
-        // matched to the HSRI parameters (issue 17 point 4, SPEC §4), built where `harness
+        // matched to the HSRI parameters (SPEC §4), built where `harness
         // fit` builds it too.
         let vehicle = parameters::source(v).two_track_lateral()?;
         // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).

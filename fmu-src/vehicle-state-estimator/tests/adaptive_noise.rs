@@ -1,4 +1,4 @@
-//! Issue 17 point 3 through the C ABI: a process noise given as a spectral density is the
+//! The adaptive process noise through the C ABI: a process noise given as a spectral density is the
 //! per-sample noise `sqrt(q T)`, and `adaptive_process_noise` reports status bits 4096
 //! (adapting) and 8192 (inconsistent) when the model cannot explain the sensors, never when it
 //! is off, and widens only the uncertainty of the states the model gets wrong (per-state

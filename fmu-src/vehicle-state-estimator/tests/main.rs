@@ -1,5 +1,5 @@
 //! The crate's integration tests, one module per file, in one test binary: the crate and its
-//! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
+//! dependencies are compiled and linked once instead of once per file.
 //! `cargo test -p vehicle-state-estimator --test integration <module>::` runs one file's tests.
 
 mod adaptive_noise;

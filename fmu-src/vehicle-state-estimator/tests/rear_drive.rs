@@ -1,4 +1,4 @@
-//! Issue 12, point 1: a rear-drive car through the C ABI. The car is the BMW 320i of
+//! A rear-drive car, its torques unknown, through the C ABI. The car is the BMW 320i of
 //! fmu-src/vehicle-models/cars/bmw_320i.toml (CommonRoad "vehicle 2", rear-wheel drive: mass,
 //! yaw inertia, axle distances, wheel radius 0.344 m, wheel inertia 1.7 kg m² per wheel, brake
 //! split 0.66), as model A with the seed's HSRI tyre; the truth is model A with a drive torque on
