@@ -48,6 +48,9 @@ pub mod adaptive;
 /// A fixed-gain observer's reported covariance scaled to its windowed NIS.
 pub mod innovation_scaling;
 
+/// Each measurement row's noise variance learned from its innovations (covariance matching).
+pub mod measurement_noise;
+
 pub mod registry;
 pub mod running;
 pub mod snapshot;

@@ -4,7 +4,7 @@
 //! identifier; names are unique, value references unique per base type (enumerations share the
 //! Integer space); causality/variability/initial combinations of the standard's table; `start`
 //! present exactly where required (inputs, parameters, initial exact/approx) and absent for
-//! `initial="calculated"`; `min <= start <= max`; only Real variables are continuous; declared
+//! `initial="calculated"`; `min <= start <= max` (a Real input may start at NaN: missing); only Real variables are continuous; declared
 //! types and units exist; enumeration starts are item values; `<Outputs>` lists exactly the
 //! outputs in variable order; `<InitialUnknowns>` lists exactly the outputs with initial approx or
 //! calculated and the calculated parameters, in variable order; dependencies are valid, ascending
@@ -380,7 +380,11 @@ fn validate_variable(
                     return fail(format!("{name} is NaN; expected a number"));
                 }
             }
-            check_range(min, max, *start).or_else(fail)?;
+            // A Real input may start at NaN: the FMU's "not connected, treated as missing"
+            // (an importer that leaves the input unset feeds NaN); any other NaN start is a typo.
+            let missing_input = variable.causality == C::Input && start.is_some_and(f64::is_nan);
+            let checked_start = if missing_input { None } else { *start };
+            check_range(min, max, checked_start).or_else(fail)?;
             if let Some(nominal) = nominal {
                 if *nominal <= 0.0 {
                     return fail(format!("nominal {nominal} is not positive"));

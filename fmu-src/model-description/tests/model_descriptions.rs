@@ -214,6 +214,22 @@ fn start_outside_min_max_is_rejected() {
 }
 
 #[test]
+fn a_nan_start_is_missing_for_a_real_input_and_a_typo_elsewhere() {
+    let message = rejected(
+        r#"min="1" max="80" start="18""#,
+        r#"min="1" max="80" start="NaN""#,
+    );
+    assert!(message.contains("variable 'vx0'"), "{message}");
+    assert!(message.contains("start is NaN"), "{message}");
+    let estimator = text("VehicleStateEstimator");
+    assert!(
+        estimator.contains(r#"<Real unit="rad/s" displayUnit="deg/s" start="NaN"/>"#),
+        "the estimator's sensor inputs start at NaN (missing)"
+    );
+    parse_str(&estimator, "VehicleStateEstimator.xml").expect("NaN starts of inputs accepted");
+}
+
+#[test]
 fn an_output_missing_from_the_model_structure_is_rejected() {
     let message = rejected(r#"<Unknown index="7" dependencies=""/>"#, "");
     assert!(message.contains("<ModelStructure><Outputs>"), "{message}");

@@ -23,7 +23,7 @@
 //! (bits 32 + 8), else it holds (bit 32, low-speed mode); filter repairs are reported in bits 2,
 //! 4, 8, 16; no output is ever NaN.
 //!
-//! **Issue 12** (each a Boolean parameter, on by default; the seed scenarios and the tests of
+//! **Robustness switches** (each a Boolean parameter, on by default; the seed scenarios and the tests of
 //! the seeds' behaviour switch them off):
 //! - `use_speed_measurements` (model A): `vx_meas` is a fifth row and a finite `ax_meas` drives
 //!   `vx` by the kinematics `dvx/dt = ax + r vy` (`SpeedAnchoredModel` of the estimation crate),
@@ -69,6 +69,7 @@ pub mod model_description {
     include!(concat!(env!("OUT_DIR"), "/model_description.rs"));
 }
 
+pub mod estimation_model;
 mod gauss_markov;
 pub mod lateral_accelerometer;
 pub mod model_a;
@@ -76,6 +77,7 @@ pub mod model_b;
 pub mod model_grip;
 pub mod parameters;
 pub mod runner;
+pub mod sensors;
 pub mod speed_filter;
 mod state;
 pub mod yaw_rate_offset;
@@ -84,7 +86,7 @@ use model_a::RunnerA;
 use model_b::RunnerB;
 use model_description::{EstimatorModel, Variables};
 use model_grip::RunnerGrip;
-use runner::Sensors;
+use sensors::{Sensors, SENSOR_COUNT};
 
 /// Bits of the `status` output (see its description in the XML).
 pub mod status {
@@ -95,7 +97,7 @@ pub mod status {
     pub const WEIGHTS_RESET: i32 = 16;
     pub const BELOW_MIN_SPEED: i32 = 32;
     pub const INPUT_HELD: i32 = 64;
-    /// A row failed the gate (issue 12, point 3).
+    /// A row failed the gate.
     pub const ROW_GATED: i32 = 128;
     /// A row was locked out for `readmit_time` and the filter re-seeded from the sensors.
     pub const SENSOR_READMITTED: i32 = 256;
@@ -105,12 +107,15 @@ pub mod status {
     /// answered fmi2Warning) since the previous doStep (`CoSimulationModel::value_adjusted`).
     pub const INPUT_CLAMPED: i32 = 1024;
     /// Model B: the load transfer at the estimated ay lifts an inner wheel, whose load is
-    /// clamped at 0 (`TwoTrackParams::wheel_loads`, issue 17 point 4).
+    /// clamped at 0 (`TwoTrackParams::wheel_loads`).
     pub const WHEEL_LIFTED: i32 = 2048;
-    /// `adaptive_process_noise` has scaled `Q` up (issue 17 point 3).
+    /// `adaptive_process_noise` has scaled `Q` up.
     pub const ADAPTING: i32 = 4096;
-    /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band (issue 17 point 3).
+    /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band.
     pub const INCONSISTENT: i32 = 8192;
+    /// The integrity guard re-seeded the sideslip where the car's own data put it
+    /// (`runner::guard`).
+    pub const GUARDED: i32 = 16384;
 }
 
 /// The runner of the selected estimation model.
@@ -204,6 +209,59 @@ pub struct VehicleStateEstimator {
     /// The parameters as set when the filter was built or last retuned (the tunable ones are
     /// compared with the current values before each doStep).
     applied: Option<Box<Variables>>,
+    /// Which sensor inputs have had a finite value, and whether the first doStep has told the
+    /// importer about those that never had ([`UnconnectedSensors`]).
+    sensors_seen: UnconnectedSensors,
+}
+
+/// The sensor inputs an importer never set. Every sensor input starts at NaN (XML), the value
+/// the filter reads as "sample missing", so an input a master leaves unconnected is treated as
+/// missing rather than as a measurement of its start value; the first doStep answers
+/// fmi2Warning naming each measurement-row sensor (gyro, lateral accelerometer, wheel speeds)
+/// that has not had a finite value yet, once, so that a user sees a mapping left out instead
+/// of a silently worse estimate. `vx_meas` and `ax_meas` are optional by design (the filter
+/// falls back to the wheels and to unknown torques), so leaving them out is no warning.
+#[derive(Clone, Copy, Debug, Default)]
+struct UnconnectedSensors {
+    /// `[yaw_rate, ay, omega_front, omega_rear, vx, ax]`, in [`Sensors::values`] order.
+    finite: [bool; SENSOR_COUNT],
+    reported: bool,
+}
+
+/// The sensors of the measurement rows, the first of [`SENSOR_NAMES`].
+const REQUIRED_SENSORS: usize = 4;
+
+/// The sensor inputs' names, in [`Sensors::values`] order.
+const SENSOR_NAMES: [&str; SENSOR_COUNT] = [
+    "yaw_rate_meas",
+    "ay_meas",
+    "omega_front_meas",
+    "omega_rear_meas",
+    "vx_meas",
+    "ax_meas",
+];
+
+impl UnconnectedSensors {
+    fn see(&mut self, sensors: &Sensors) {
+        for (seen, value) in self.finite.iter_mut().zip(sensors.values()) {
+            *seen |= value.is_finite();
+        }
+    }
+
+    /// The warning of the first doStep, if some sensor input never had a finite value.
+    fn first_report(&mut self) -> Option<String> {
+        if std::mem::replace(&mut self.reported, true) {
+            return None;
+        }
+        let missing: Vec<String> = SENSOR_NAMES
+            .iter()
+            .zip(self.finite)
+            .take(REQUIRED_SENSORS)
+            .filter(|(_, seen)| !seen)
+            .map(|(name, _)| format!("{name} not connected: treated as missing"))
+            .collect();
+        (!missing.is_empty()).then(|| missing.join("; "))
+    }
 }
 
 impl VehicleStateEstimator {
@@ -300,7 +358,7 @@ impl CoSimulationModel for VehicleStateEstimator {
     }
 
     /// One filter step per sample: fmi-export bounds the samples one doStep may process
-    /// (issue 15: a doStep of 1e6 s ran 1e9 filter steps, about half an hour).
+    /// (a doStep of 1e6 s ran 1e9 filter steps, about half an hour).
     fn internal_step_size(&self) -> Option<f64> {
         Some(self.variables.sample_time)
     }
@@ -312,6 +370,7 @@ impl CoSimulationModel for VehicleStateEstimator {
             status_awaits_publish: false,
             input_clamped: false,
             applied: None,
+            sensors_seen: UnconnectedSensors::default(),
         }
     }
 
@@ -332,6 +391,8 @@ impl CoSimulationModel for VehicleStateEstimator {
     fn initialize(&mut self, start_time: f64) -> Result<(), String> {
         let mut runner = ModelRunner::build(&self.variables, start_time)?;
         let sensors = Sensors::of(&self.variables);
+        self.sensors_seen = UnconnectedSensors::default();
+        self.sensors_seen.see(&sensors);
         self.variables.status = on_runner!(&mut runner, r => r.initialisation_bits(&sensors));
         self.runner = Some(runner);
         self.applied = Some(Box::new(self.variables.clone()));
@@ -354,6 +415,7 @@ impl CoSimulationModel for VehicleStateEstimator {
             v.drive_torque_rear,
         ];
         let sensors = Sensors::of(v);
+        self.sensors_seen.see(&sensors);
         let Some(runner) = self.runner.as_mut() else {
             return StepOutcome::Error(String::from("the estimator was not initialised"));
         };
@@ -377,7 +439,10 @@ impl CoSimulationModel for VehicleStateEstimator {
         }
         self.variables.status = bits;
         self.status_awaits_publish = processed;
-        StepOutcome::Ok
+        match self.sensors_seen.first_report() {
+            Some(warning) => StepOutcome::Warning(warning),
+            None => StepOutcome::Ok,
+        }
     }
 
     fn refresh_outputs(&mut self) {
@@ -396,8 +461,10 @@ impl CoSimulationModel for VehicleStateEstimator {
     }
 
     fn read_state(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
-        // The outputs were published before the state was taken (see `refresh_outputs`).
+        // The outputs were published before the state was taken (see `refresh_outputs`); a
+        // restored run has passed its first doStep.
         self.status_awaits_publish = false;
+        self.sensors_seen.reported = true;
         self.runner = if reader.bool("estimator present")? {
             Some(ModelRunner::read_state(&self.variables, reader)?)
         } else {

@@ -1,5 +1,5 @@
 //! Model A (the 5-state single-track model with HSRI tyres of seed 000,
-//! `SingleTrackEstimationModel`, with the speed anchor of issue 12 `SpeedAnchoredModel`) as the
+//! `SingleTrackEstimationModel`, with the speed anchor `SpeedAnchoredModel`) as the
 //! FMU runs it: `y = [yaw_rate, ay, omega_front, omega_rear, vx]` from the sensors (the `vx` row
 //! and the `ax` kinematics only with `use_speed_measurements`), `u` = the driver input and the
 //! measured `ax`, outputs from the state and one model evaluation; re-seeded from the measured
@@ -27,6 +27,44 @@ use crate::runner::{
 use crate::speed_filter::{SpeedFilter, SpeedSample};
 use crate::status;
 
+/// The sideslip `β = atan2(vy, vx)` of a state whose first entries are model A's `(vx, vy, …)`
+/// and its variance to first order (`∂β/∂vx = −vy / v²`, `∂β/∂vy = vx / v²`), for the
+/// integrity guard.
+pub(crate) fn single_track_sideslip<const N: usize>(
+    state: &SVector<f64, N>,
+    covariance: &SMatrix<f64, N, N>,
+) -> (f64, f64) {
+    let (vx, vy) = (state[state_index::VX], state[state_index::VY]);
+    let speed_squared = (vx * vx + vy * vy).max(f64::MIN_POSITIVE);
+    let (dvx, dvy) = (-vy / speed_squared, vx / speed_squared);
+    let (pxx, pxy, pyy) = (
+        covariance[(state_index::VX, state_index::VX)],
+        covariance[(state_index::VX, state_index::VY)],
+        covariance[(state_index::VY, state_index::VY)],
+    );
+    (
+        vy.atan2(vx),
+        dvx * dvx * pxx + 2.0 * dvx * dvy * pxy + dvy * dvy * pyy,
+    )
+}
+
+/// Puts `vy = vx tan β` with the variance `(vx / cos² β)² σβ²`, uncorrelated with the other
+/// states, into a state whose first entries are model A's (the guard's re-seed).
+pub(crate) fn reseed_single_track_sideslip<const N: usize>(
+    estimate: &mut InitialEstimate<N>,
+    sideslip: f64,
+    variance: f64,
+) {
+    let vx = estimate.state[state_index::VX];
+    let cos = sideslip.cos();
+    let vy = state_index::VY;
+    estimate.state[vy] = vx * sideslip.tan();
+    estimate.covariance.row_mut(vy).fill(0.0);
+    estimate.covariance.column_mut(vy).fill(0.0);
+    let gain = vx / (cos * cos);
+    estimate.covariance[(vy, vy)] = gain * gain * variance;
+}
+
 /// Model A as the filters see it.
 pub type ModelA = SpeedAnchoredModel<HsriTyre>;
 type StateA = SVector<f64, STATE_DIM>;
@@ -35,8 +73,21 @@ type StateA = SVector<f64, STATE_DIM>;
 pub type RunnerA = Runner<ModelA, STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM>;
 
 /// Above this |ay| no passenger car's tyres transmit the force (1.5 g, road friction at most
-/// about 1.2): the sample is a glitch (issue 12, point 3).
+/// about 1.2): the sample is a glitch, unless the sensor's own noise reaches it
+/// ([`plausible_ay`]).
 pub const MAX_PLAUSIBLE_AY: f64 = 15.0;
+
+/// How many of the accelerometer's noise standard deviations a reading may lie beyond
+/// [`MAX_PLAUSIBLE_AY`]: a body that vibrates (1-4 m/s² RMS on a real car) puts its peaks on
+/// top of 12-13 m/s² of cornering, and those are the car's, not glitches. Four standard
+/// deviations of a Gaussian are passed by all but 6 in 100 000 samples.
+const PLAUSIBLE_AY_NOISE_SIGMAS: f64 = 4.0;
+
+/// Whether a lateral acceleration reading is physically possible for a car whose accelerometer
+/// has the noise std `noise_std` (learned or tuned, `learn_measurement_noise`).
+pub fn plausible_ay(ay: f64, noise_std: f64) -> bool {
+    ay.abs() <= MAX_PLAUSIBLE_AY + PLAUSIBLE_AY_NOISE_SIGMAS * noise_std
+}
 
 /// Above this a wheel speed is a glitch (1000 rad/s is 1080 km/h on a 0.3 m wheel).
 pub const MAX_PLAUSIBLE_WHEEL_SPEED: f64 = 1e3;
@@ -61,8 +112,8 @@ const MAX_KEPT_SIDESLIP: f64 = 0.2;
 /// speed).
 pub(crate) const KINEMATIC_SPEED: f64 = 5.0;
 
-/// The road-wheel angle of full lock, rad: 45°, the declared range of `steering_angle` (issue 12
-/// point 5, parking manoeuvres).
+/// The road-wheel angle of full lock, rad: 45°, the declared range of `steering_angle` (parking
+/// manoeuvres).
 const FULL_LOCK: f64 = std::f64::consts::FRAC_PI_4;
 
 /// Above this |vx_meas| is a glitch, m/s (360 km/h).
@@ -200,17 +251,36 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
 
     /// `|ay| <= 1.5 g`, wheel speeds up to 1000 rad/s, `|vx| <= 100 m/s`, and no row of an
     /// all-zero sample while the estimate moves.
+    fn sideslip_of(
+        &self,
+        state: &StateA,
+        covariance: &SMatrix<f64, STATE_DIM, STATE_DIM>,
+    ) -> (f64, f64) {
+        single_track_sideslip(state, covariance)
+    }
+
+    fn reseed_sideslip(
+        &self,
+        estimate: &mut InitialEstimate<STATE_DIM>,
+        sideslip: f64,
+        variance: f64,
+    ) {
+        reseed_single_track_sideslip(estimate, sideslip, variance);
+    }
+
     fn plausible(
         &self,
         sensors: &Sensors,
         state: &StateA,
         min_speed: f64,
+        measurement_std: &[f64; ANCHORED_MEASUREMENT_DIM],
     ) -> [bool; ANCHORED_MEASUREMENT_DIM] {
         if sensors.all_zero() && state[state_index::VX].abs() >= min_speed {
             return [false; ANCHORED_MEASUREMENT_DIM];
         }
         let mut plausible = [true; ANCHORED_MEASUREMENT_DIM];
-        plausible[measurement_index::LATERAL_ACCELERATION] = sensors.ay.abs() <= MAX_PLAUSIBLE_AY;
+        let ay_row = measurement_index::LATERAL_ACCELERATION;
+        plausible[ay_row] = plausible_ay(sensors.ay, measurement_std[ay_row]);
         plausible[measurement_index::OMEGA_FRONT] =
             sensors.omega_front.abs() <= MAX_PLAUSIBLE_WHEEL_SPEED;
         plausible[measurement_index::OMEGA_REAR] =
@@ -269,7 +339,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     /// (only with `use_speed_measurements`: the seeds' filters stay seed 000's). Each wheel gets
     /// the larger of:
     ///
-    /// - **Torques unknown** (issue 12 point 1): while every torque input reads exactly 0,
+    /// - **Torques unknown**: while every torque input reads exactly 0,
     ///   `(unknown_torque_slip_std |vx| / r)²`. A wheel speed measures the car's speed only
     ///   through the wheel's slip, `r ω = v (1 + s)`, and the model knows the slip from the torque
     ///   on the wheel (000: 5.45-5.46). Told 0 while the engine drives (or the brakes act), the
@@ -283,7 +353,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     ///   The drive layout is not a parameter and unknown brakes slow every wheel, so both axles
     ///   get it. The slip settles within a sample (time constant `J vx / (r² Cs)`, a few ms),
     ///   hence a per-sample variance sized by the slip itself rather than a torque rate.
-    /// - **Low speed** (issue 12 point 4): the seed scheme damps the wheel step by
+    /// - **Low speed**: the seed scheme damps the wheel step by
     ///   `1 / (1 − T ∂ω̇/∂ω)` (000: 6.1-6.5), which vanishes once the tyre slides (its force no
     ///   longer depends on ω). One sample of a sliding axle's friction force moves the wheel by
     ///   up to `Δω = f00 (2 FZ) r T / J` (f00 the HSRI friction at zero load, its largest; 4.5
@@ -297,7 +367,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     ///   wheel state gets `Δω²`, so each update puts it back on its measurement (the wheel is
     ///   algebraic at this sample time) and the limit cycle cannot build up.
     ///
-    /// And below [`KINEMATIC_SPEED`] (manoeuvring, issue 12 point 4) `vx` and `vy` each get
+    /// And below [`KINEMATIC_SPEED`] (manoeuvring) `vx` and `vy` each get
     /// `(|δ| / δ_lock · f00 g T)²`, δ_lock = [`FULL_LOCK`]: at full lock one sample of the
     /// friction-limited acceleration. At walking pace and full lock the single-track model's
     /// tyre forces are its largest error (the front tyres scrub at their limit, the slip angles
@@ -425,7 +495,7 @@ where
     sample
 }
 
-/// Model A's reported speed (issue 12 point 1). Model A's own `vx` is a state of its force
+/// Model A's reported speed. Model A's own `vx` is a state of its force
 /// balance, and with the torques unknown it is where the model's error of the tyre forces goes:
 /// braked or spinning wheels whose slip the HSRI combined slip reads as lost side force pull it
 /// off the car's speed by up to 9 % on the campaigns, and every attempt to hold it on `vx_meas`
@@ -535,7 +605,7 @@ pub(crate) fn keep_sideslip(
 }
 
 /// The outputs of one sample as the filter's state and covariance give them (the grip model's
-/// too), before the runner adds the consider term of [`crate::runner::with_stiffness_consider`].
+/// too), before the runner adds the consider term of `runner::outputs::with_stiffness_consider`.
 pub(crate) fn estimate_outputs<Extra>(
     model: &ModelA,
     sample: &OutputSample<STATE_DIM, Extra>,

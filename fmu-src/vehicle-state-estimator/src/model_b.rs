@@ -16,7 +16,7 @@ use vehicle_models::two_track_lateral::{
 };
 use vehicle_models::MagicFormulaTyre;
 
-use crate::model_a::{speed_measurements, MAX_PLAUSIBLE_AY};
+use crate::model_a::{plausible_ay, speed_measurements, MAX_PLAUSIBLE_AY};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
@@ -48,7 +48,7 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
 
     fn from_parameters(v: &Variables) -> Result<Self, String> {
         // The same car as model A with model B's geometry and each axle's Magic Formula tyre,
-        // matched to the HSRI parameters (issue 17 point 4, SPEC §4), built where `harness
+        // matched to the HSRI parameters (SPEC §4), built where `harness
         // fit` builds it too.
         let vehicle = parameters::source(v).two_track_lateral()?;
         // Q = diag(std²) per sample over [β, r, ay], R = diag(std²) over [ay, r] (001: eq 9 order).
@@ -157,8 +157,36 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
     }
 
     /// `|ay| <= 1.5 g` (as model A); an all-zero sample has no speed, so model B holds anyway.
-    fn plausible(&self, sensors: &Sensors, _: &StateB, _: f64) -> [bool; MEASUREMENT_DIM] {
-        [sensors.ay.abs() <= MAX_PLAUSIBLE_AY, true]
+    fn sideslip_of(
+        &self,
+        state: &StateB,
+        covariance: &SMatrix<f64, STATE_DIM, STATE_DIM>,
+    ) -> (f64, f64) {
+        let beta = state_index::SIDESLIP;
+        (state[beta], covariance[(beta, beta)])
+    }
+
+    fn reseed_sideslip(
+        &self,
+        estimate: &mut InitialEstimate<STATE_DIM>,
+        sideslip: f64,
+        variance: f64,
+    ) {
+        let beta = state_index::SIDESLIP;
+        estimate.state[beta] = sideslip;
+        estimate.covariance.row_mut(beta).fill(0.0);
+        estimate.covariance.column_mut(beta).fill(0.0);
+        estimate.covariance[(beta, beta)] = variance;
+    }
+
+    fn plausible(
+        &self,
+        sensors: &Sensors,
+        _: &StateB,
+        _: f64,
+        measurement_std: &[f64; MEASUREMENT_DIM],
+    ) -> [bool; MEASUREMENT_DIM] {
+        [plausible_ay(sensors.ay, measurement_std[0]), true]
     }
 
     /// Both rows: `ay` and the yaw rate are inertial sensors and states of the model (001: eq 9),

@@ -1,5 +1,5 @@
 //! Model 3: model A with per-axle lateral grip states (`SingleTrackGripModel` of the estimation
-//! crate, issue 17 points 3 and 4) as the FMU runs it. Everything the grip states do not change
+//! crate) as the FMU runs it. Everything the grip states do not change
 //! is model A's ([`crate::model_a`]): the car and noise parameters, the sensors' rows and the
 //! speed anchor, the reported speed (`model_a::step_reported_speed`), the plausibility limits,
 //! the start from the measurements, the wheels' extra process noise and the derived outputs.
@@ -316,13 +316,36 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         model_a::reported_speed_sample(runner, sensors)
     }
 
+    fn sideslip_of(
+        &self,
+        state: &StateGrip,
+        covariance: &SMatrix<f64, GRIP_STATE_DIM, GRIP_STATE_DIM>,
+    ) -> (f64, f64) {
+        model_a::single_track_sideslip(state, covariance)
+    }
+
+    fn reseed_sideslip(
+        &self,
+        estimate: &mut InitialEstimate<GRIP_STATE_DIM>,
+        sideslip: f64,
+        variance: f64,
+    ) {
+        model_a::reseed_single_track_sideslip(estimate, sideslip, variance);
+    }
+
+    fn rear_grip(&self, state: &StateGrip) -> f64 {
+        state[GRIP_FACTORS[1]]
+    }
+
     fn plausible(
         &self,
         sensors: &Sensors,
         state: &StateGrip,
         min_speed: f64,
+        measurement_std: &[f64; ANCHORED_MEASUREMENT_DIM],
     ) -> [bool; ANCHORED_MEASUREMENT_DIM] {
-        self.anchored().plausible(sensors, &body(state), min_speed)
+        self.anchored()
+            .plausible(sensors, &body(state), min_speed, measurement_std)
     }
 
     /// Model A's: the yaw rate. A tyre law that is not the car's shows in the gyro's innovations
@@ -335,7 +358,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     /// vehicle, model 1, model 2): plain test 1.23, 2.65, 2.51 deg with the Escort's step steers
     /// worse than zero on models 1 and 2 (0.152 and 0.180 deg against 0.090 and 0.124); the yaw
     /// rate 1.24, 2.41, 2.22 deg, those step steers 0.066 and 0.071 deg, no row worse than zero,
-    /// rows in issue 17 point 3's band 12, 1, 4 (before 12, 0, 4); UKF_G alike. (A session
+    /// rows with a NEES in 0.5-2 and 90 % inside 12, 1, 4 (before 12, 0, 4); UKF_G alike. (A session
     /// before the full vehicle's tyres and the consider terms had measured the step steers
     /// sharper with the plain test; on the full vehicle they are now the same to 0.001 deg.)
     fn model_error_rows(&self) -> [bool; ANCHORED_MEASUREMENT_DIM] {

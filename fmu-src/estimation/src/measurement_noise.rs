@@ -1,0 +1,193 @@
+//! Each measurement row's noise variance learned online from the filter's innovations, floored
+//! by the variance the filter was tuned with.
+//!
+//! **Why.** A sensor's data-sheet noise is not what it measures in a car: an accelerometer on a
+//! vibrating body reads the cornering acceleration plus 1-4 m/s² RMS of vibration, where the
+//! default assumes 0.1 m/s². With too small an `R` the filter trusts every vibration, the gate
+//! throws out the sensor's real peaks as outliers, and the reported standard deviation shrinks
+//! below the error.
+//!
+//! **How.** Innovation-based covariance matching (Mehra, "On the identification of variances
+//! and adaptive Kalman filtering", IEEE TAC 15(2), 1970, and "Approaches to adaptive filtering",
+//! IEEE TAC 17(5), 1972; Mohamed and Schwarz, "Adaptive Kalman filtering for INS/GPS",
+//! J. Geodesy 73, 1999, eq. 25): for a consistent filter the innovation `ν` of row `i` is white
+//! with the variance `S_ii = (H P⁻ Hᵀ)_ii + R_ii`, so `R̂_ii = E[ν²] − (H P⁻ Hᵀ)_ii`. On a car
+//! the innovations also hold the model's error, which is not white: a tyre law that is not the
+//! car's gives the `ay` row an offset that lasts through a corner, and taken into `R` it would
+//! switch the accelerometer off exactly where it carries the sideslip (measured on the MBDS
+//! recording: model A's sideslip drifted to 70° with `ν²` matching). So the variance is taken
+//! from successive differences of the innovations, `E[(ν_k − ν_{k−1})²] = S_k + S_{k−1}` for
+//! white innovations, in which a slowly varying model error cancels: the mean square successive
+//! difference (von Neumann, "Distribution of the ratio of the mean square successive difference
+//! to the variance", Ann. Math. Stat. 12, 1941; as a noise-variance estimator beside a smooth
+//! signal, Rice, "Bandwidth choice for nonparametric regression", Ann. Stat. 12, 1984). The
+//! expectation is a moving average, exponentially weighted with the time constant `τ` (weight
+//! `α = T / τ` per sample, a window of about `τ / T` samples), `p = (H P⁻ Hᵀ)_ii`:
+//!
+//! `R̂ ← (1 − α) R̂ + α (Δν_c² / 2 − (p_k + p_{k−1}) / 2)`,
+//!
+//! and the filter uses `max(R₀, R̂)`, never less than the tuned `R₀`: the learner only ever
+//! says a sensor is noisier than assumed. A single spike must not move the estimate, so the
+//! difference enters clipped, `Δν_c = clamp(Δν, ±c √(2S))` with `S` the innovation variance at
+//! the current `R`: Huber's bounded influence (Huber, "Robust estimation of a location parameter",
+//! Ann. Math. Stat. 35, 1964; for the Kalman filter Masreliez and Martin, IEEE TAC 22(3), 1977).
+//! One spike of any size moves `R̂` by at most `α (c² S)`, a fraction `α c²` of the variance;
+//! a noise that really is larger raises `R̂` by up to the factor `1 + α (c² − 1)` per sample,
+//! so a ten times larger std is learned within about `ln(100) / (α (c² − 1))` samples.
+//!
+//! The learned variances are part of the running state ([`NoiseMatching::save`]) and are kept
+//! when the filter is re-seeded: they belong to the sensor, not to the estimate.
+
+use crate::snapshot::{SnapshotError, SnapshotSink, SnapshotSource};
+
+/// The clip `c` of the innovation, in standard deviations of its predicted variance: 3, the
+/// edge of a Gaussian's 99.7 %. The clipped squares of a Gaussian innovation average 0.97 of its
+/// variance, a bias of 3 % towards a smaller `R̂`.
+pub const INNOVATION_CLIP: f64 = 3.0;
+
+/// The learned measurement noise of `M` rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseMatching<const M: usize> {
+    /// `R₀_ii`, the variances the filter was tuned with: the floor.
+    floor: [f64; M],
+    /// `R̂_ii`, the running estimates (may fall below the floor).
+    learned: [f64; M],
+    /// The previous sample's innovation and its `(H P⁻ Hᵀ)_ii` per row; NaN where that sample
+    /// had none (a difference needs two samples in a row).
+    previous: [(f64, f64); M],
+    /// `α = T / τ`.
+    weight: f64,
+}
+
+impl<const M: usize> NoiseMatching<M> {
+    /// Starts at the tuned variances `floor` with the weight `T / τ` per sample (in (0, 1]).
+    pub fn new(floor: [f64; M], weight: f64) -> Self {
+        Self {
+            floor,
+            learned: floor,
+            previous: [(f64::NAN, f64::NAN); M],
+            weight: weight.clamp(f64::MIN_POSITIVE, 1.0),
+        }
+    }
+
+    /// The values learned so far with `tuned`'s floor and weight (a retune of the tuned noise).
+    pub fn retuned_as(&self, tuned: &Self) -> Self {
+        Self {
+            learned: self.learned,
+            previous: self.previous,
+            ..tuned.clone()
+        }
+    }
+
+    /// The variance the filter uses for row `row`: `max(R₀, R̂)`.
+    pub fn variance(&self, row: usize) -> f64 {
+        self.floor[row].max(self.learned[row])
+    }
+
+    /// What the learner adds to row `row`'s tuned variance, `max(R₀, R̂) − R₀ >= 0`.
+    pub fn excess(&self, row: usize) -> f64 {
+        (self.learned[row] - self.floor[row]).max(0.0)
+    }
+
+    /// Takes the innovation `innovation` of row `row` in this sample, whose predicted part
+    /// `(H P⁻ Hᵀ)_ii` is `predicted_variance`; `None` (or a non-finite value) where the row has
+    /// none in this sample, which breaks the sequence of differences.
+    pub fn observe(&mut self, row: usize, innovation: Option<(f64, f64)>) {
+        let current = innovation
+            .filter(|(value, variance)| value.is_finite() && variance.is_finite())
+            .unwrap_or((f64::NAN, f64::NAN));
+        let (previous, previous_variance) = std::mem::replace(&mut self.previous[row], current);
+        let (value, predicted_variance) = current;
+        if !(value.is_finite() && previous.is_finite()) {
+            return;
+        }
+        let predicted = 0.5 * (predicted_variance + previous_variance);
+        let reach = INNOVATION_CLIP * (2.0 * (predicted + self.variance(row))).sqrt();
+        let difference = (value - previous).clamp(-reach, reach);
+        let sample = 0.5 * difference * difference - predicted;
+        let updated = self.learned[row] + self.weight * (sample - self.learned[row]);
+        if updated.is_finite() {
+            self.learned[row] = updated;
+        }
+    }
+
+    pub fn save(&self, sink: &mut dyn SnapshotSink) {
+        sink.f64s(&self.learned);
+        for (value, variance) in self.previous {
+            sink.f64(value);
+            sink.f64(variance);
+        }
+    }
+
+    pub fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
+        source.f64s_into(&mut self.learned, "learned measurement noise")?;
+        for previous in &mut self.previous {
+            *previous = (
+                source.f64("previous innovation")?,
+                source.f64("previous innovation variance")?,
+            );
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn a_noisier_sensor_than_tuned_is_learned_within_a_few_time_constants() {
+        let mut learner = NoiseMatching::<1>::new([0.1 * 0.1], 0.005);
+        let noise = Normal::new(0.0, 2.0).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..2000 {
+            learner.observe(0, Some((noise.sample(&mut rng), 0.0)));
+        }
+        let std = learner.variance(0).sqrt();
+        assert!((1.8..2.2).contains(&std), "learned std {std}, true 2");
+    }
+
+    #[test]
+    fn a_consistent_sensor_keeps_its_tuned_noise() {
+        let mut learner = NoiseMatching::<1>::new([1.0], 0.005);
+        let noise = Normal::new(0.0, 1.0).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        for _ in 0..5000 {
+            learner.observe(0, Some((noise.sample(&mut rng), 0.0)));
+        }
+        assert!(learner.variance(0) < 1.15, "{}", learner.variance(0));
+        assert!(learner.variance(0) >= 1.0);
+    }
+
+    #[test]
+    fn a_lasting_offset_of_the_model_is_not_taken_for_noise() {
+        let mut learner = NoiseMatching::<1>::new([0.1 * 0.1], 0.005);
+        let noise = Normal::new(0.0, 0.1).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for k in 0..4000 {
+            // a model error of 2 sigma... 30 sigma, changing over seconds
+            let offset = 3.0 * (k as f64 * 0.002).sin();
+            learner.observe(0, Some((offset + noise.sample(&mut rng), 0.0)));
+        }
+        assert!(
+            learner.variance(0).sqrt() < 0.12,
+            "{}",
+            learner.variance(0).sqrt()
+        );
+    }
+
+    #[test]
+    fn one_spike_moves_the_learned_noise_by_a_few_percent_at_most() {
+        let mut learner = NoiseMatching::<1>::new([1.0], 0.005);
+        learner.observe(0, Some((0.0, 0.0)));
+        learner.observe(0, Some((1e6, 0.0)));
+        learner.observe(0, Some((0.0, 0.0)));
+        assert!(learner.variance(0) < 1.1, "{}", learner.variance(0));
+        learner.observe(0, Some((f64::NAN, 0.0)));
+        learner.observe(0, None);
+        assert!(learner.variance(0).is_finite());
+    }
+}

@@ -1,0 +1,613 @@
+//! The estimator between samples, written once for every estimation model: the filter from
+//! the `estimation` registry, the sample clock, the last finite driver input and the outputs
+//! still to be computed. What differs between the models (how the sensors become a measurement
+//! and an input, how the outputs are derived) is the [`EstimationModel`] trait.
+
+mod fmu_state;
+mod gate;
+mod guard;
+mod noise;
+mod outputs;
+
+use estimation::adaptive::{AdaptationStatus, Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
+use estimation::innovation_scaling::InnovationScaling;
+use estimation::kalman::InitialEstimate;
+use estimation::measurement_noise::NoiseMatching;
+use estimation::registry::{self, BoxedEstimator, EstimatorChoice, EstimatorSettings};
+use estimation::{FilterIssue, UpdateReport};
+use nalgebra::{SMatrix, SVector};
+
+use crate::lateral_accelerometer::{AySample, LateralAccelerometer};
+use crate::model_description::Variables;
+use crate::parameters::{self, positive};
+use crate::status;
+use crate::yaw_rate_offset::{OffsetSample, YawRateOffset};
+
+pub(crate) use crate::estimation_model::ay_model_error_noise;
+pub use crate::estimation_model::{
+    EstimationModel, InputVector, OutputSample, Sample, DRIVER_DIM, REAR_DRIVE_TORQUE,
+};
+pub use crate::sensors::{HeldMeasurements, MeasuredSpeed, Sensors, WheelRadii};
+pub use gate::ChiSquareGate;
+use gate::{innovation_window, Gate, InnovationWindow};
+pub(crate) use outputs::stiffness_consider;
+pub use outputs::{kinematic_sideslip, LOW_SPEED_SIDESLIP_STD};
+
+fn issue_bit(issue: FilterIssue) -> i32 {
+    match issue {
+        FilterIssue::CovarianceRepaired => status::COVARIANCE_REPAIRED,
+        FilterIssue::UpdateSkipped => status::UPDATE_SKIPPED,
+        FilterIssue::StateReset => status::STATE_RESET,
+        FilterIssue::WeightsReset => status::WEIGHTS_RESET,
+    }
+}
+
+pub(crate) fn finite_or(value: f64, fallback: f64) -> f64 {
+    if value.is_finite() {
+        value
+    } else {
+        fallback
+    }
+}
+
+/// Status bits 4096 (adapting) and 8192 (inconsistent) of an adaptation's state.
+fn adaptation_bits(state: AdaptationStatus) -> i32 {
+    let adapting = i32::from(state.adapting) * status::ADAPTING;
+    adapting | (i32::from(state.inconsistent) * status::INCONSISTENT)
+}
+
+/// The window of the Luenberger observer's innovation scaling
+/// (`estimation::innovation_scaling`), in seconds. Measured on the mismatch campaigns (harness
+/// robustness, Luenberger_A's 15 rows with a sideslip NEES in 0.5-2 and 90 % inside, offline on the recorded NIS):
+/// no scaling 1, 1 s 10, 1.5 s 9, 2 s 8, 3 s 7: a longer window lags behind the manoeuvre's
+/// transients (a shorter one sums fewer degrees of freedom, so its ratio scatters more).
+const OBSERVER_SCALING_WINDOW: f64 = 1.0;
+
+/// [`OBSERVER_SCALING_WINDOW`] in samples, at least the least window the scaling takes.
+fn observer_scaling_window(sample_time: f64) -> usize {
+    let samples = (OBSERVER_SCALING_WINDOW / sample_time).round();
+    samples.clamp(MIN_WINDOW as f64, MAX_WINDOW as f64) as usize
+}
+
+/// The schedule threshold of the estimator `choice`: `observer_schedule_threshold` for the
+/// Luenberger observer, `schedule_threshold` for the others (only the LKF uses it), finite and at
+/// least 0.
+fn schedule_threshold(v: &Variables, choice: EstimatorChoice) -> Result<f64, String> {
+    if choice == EstimatorChoice::Luenberger {
+        non_negative("observer_schedule_threshold", v.observer_schedule_threshold)
+    } else {
+        non_negative("schedule_threshold", v.schedule_threshold)
+    }
+}
+
+/// The integrity guard's car from the parameters: the rear axle's cornering stiffness is model
+/// A's HSRI tyre at the static rear wheel load, with `cornering_stiffness_scale_rear`, for
+/// every model (model B's Magic Formula tyres are matched to it).
+fn guard_car(v: &Variables) -> Result<guard::GuardCar, String> {
+    use crate::model_a::ModelA;
+    let model = <ModelA as EstimationModel<
+        { vehicle_models::single_track::STATE_DIM },
+        { estimation::models::single_track::ANCHORED_MEASUREMENT_DIM },
+        { estimation::models::single_track::ANCHORED_INPUT_DIM },
+    >>::from_parameters(v)?;
+    let vehicle = model.vehicle();
+    let chassis = &vehicle.vehicle.chassis;
+    let rear = vehicle
+        .tyre
+        .params
+        .cornering_stiffness(chassis.rear_wheel_load)
+        * vehicle_models::single_track::WHEELS_PER_AXLE
+        * vehicle.vehicle.cornering_stiffness_scale_rear;
+    Ok(guard::GuardCar {
+        mass: chassis.mass,
+        cog_to_front_axle: chassis.cog_to_front_axle,
+        cog_to_rear_axle: chassis.cog_to_rear_axle,
+        rear_cornering_stiffness: positive("rear cornering stiffness", rear)?,
+        yaw_rate_std: v.measurement_noise_std_yaw_rate,
+    })
+}
+
+/// A sensor learner after a retune: what it has learned (`current`) with `tuned`'s settings, or
+/// `tuned` as it starts where there was none; `None` where the tuned parameters switch it off.
+fn carried_over<T: Copy>(current: Option<T>, tuned: Option<T>, carry: fn(&T, T) -> T) -> Option<T> {
+    match (current, tuned) {
+        (Some(current), Some(tuned)) => Some(carry(&current, tuned)),
+        (_, tuned) => tuned,
+    }
+}
+
+/// A parameter that must be finite and at least 0.
+fn non_negative(name: &str, value: f64) -> Result<f64, String> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(format!(
+            "parameter {name} = {value}; expected a finite value >= 0"
+        ))
+    }
+}
+
+/// How many doSteps with a sample may pass without an output read before the outputs are
+/// computed anyway (bounds the memory; one evaluation per this many doSteps).
+const PENDING_CAPACITY: usize = 8;
+
+/// The estimator of one model between samples.
+#[derive(Clone, Debug)]
+pub struct Runner<Model, const N: usize, const M: usize, const U: usize>
+where
+    Model: EstimationModel<N, M, U>,
+{
+    pub(crate) model: Model,
+    pub(crate) filter: BoxedEstimator<N, M, U>,
+    choice: EstimatorChoice,
+    settings: EstimatorSettings<N, U>,
+    pub(crate) extra: Model::Extra,
+    sample_time: f64,
+    start_time: f64,
+    /// Index of the next sample to process, at `start_time + next_sample * sample_time`.
+    next_sample: u64,
+    pub(crate) input: InputVector,
+    pub(crate) min_speed: f64,
+    pub(crate) nis: f64,
+    pub(crate) rows_used: i32,
+    /// The last sample held the estimate (for its outputs; not part of the FMU state, whose
+    /// outputs are published before it is taken).
+    holding: bool,
+    /// What the sensors measured in the last held sample (for its outputs, like `holding`).
+    held: HeldMeasurements,
+    gate: Option<Gate>,
+    /// `schedule_threshold` (the LKF) or `observer_schedule_threshold` (the Luenberger
+    /// observer): the linear estimators re-linearise when their linearisation errs at the
+    /// estimate by more than this many noise standard deviations; 0 never.
+    schedule_threshold: f64,
+    /// Samples in a row for which each plausible row was gated (FMU state).
+    gated_samples: [u64; M],
+    /// The recent innovations of each model-error row while gating (FMU state).
+    innovations: [Option<InnovationWindow>; M],
+    /// The filter has started: from the parameters, or with `start_from_measurements` from the
+    /// first sample that showed a speed (FMU state).
+    started: bool,
+    /// The parameters, to rebuild the filter when it has to be re-seeded and for the outputs.
+    pub(crate) parameters: Box<Variables>,
+    /// The derived outputs (slip quantities, ay, standard deviations, sideslip) cost about as
+    /// much as a filter step, so they are computed lazily: each doStep that processed a sample
+    /// stores what its outputs are computed from, and the first output read (`publish`)
+    /// computes them. The values are exactly those of publishing after every doStep: an output
+    /// that is not finite keeps its previous value, so the samples since the last publish are
+    /// kept and a non-finite output is looked up in the older ones, newest first.
+    pending: Vec<OutputSample<N, Model::Extra>>,
+    /// The adaptive process noise (`adaptive_process_noise`; FMU state).
+    adaptation: Option<NoiseAdaptation<N>>,
+    /// The Luenberger observer's reported covariance scaled to its innovations (FMU state).
+    observer_scaling: Option<InnovationScaling>,
+    /// Each row's noise variance learned from the innovations (`learn_measurement_noise`;
+    /// FMU state).
+    noise: Option<NoiseMatching<M>>,
+    /// The integrity guard's car (`integrity_guard`), and the samples in a row the estimate
+    /// has been outside its reference (FMU state).
+    guard_car: Option<guard::GuardCar>,
+    guard_samples: u32,
+    /// The gyro's offset, taken off `yaw_rate_meas` before the filter sees it
+    /// (`yaw_rate_offset_std`; FMU state).
+    yaw_rate_offset: Option<YawRateOffset>,
+    /// The lateral accelerometer's offset and gain, taken off `ay_meas` before the filter sees
+    /// it (`ay_offset_std`, `ay_gain_std`; FMU state).
+    lateral_accelerometer: Option<LateralAccelerometer>,
+}
+
+impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
+where
+    Model: EstimationModel<N, M, U>,
+{
+    pub fn build(v: &Variables, start_time: f64) -> Result<Self, String> {
+        let v = &parameters::with_spectral_densities(v)?;
+        let model = Model::from_parameters(v)?;
+        let initial = Model::initial_estimate(v)?;
+        let (kind, choice) = parameters::estimator_choice(v)?;
+        let settings = model.registry_settings(v);
+        let filter = registry::build(model.clone(), choice, &settings, &initial).map_err(|e| {
+            let model_item = parameters::estimator_model(v).map_or("?", |m| m.name());
+            format!(
+                "parameter estimator = {} ({}) with model = {} ({model_item}): {}",
+                i32::from(kind),
+                kind.name(),
+                v.model,
+                e.0
+            )
+        })?;
+        let min_speed = positive("min_speed", v.min_speed)?;
+        non_negative("ay_model_error", v.ay_model_error)?;
+        non_negative(
+            "cornering_stiffness_uncertainty",
+            v.cornering_stiffness_uncertainty,
+        )?;
+        let sample_time = positive("sample_time", v.sample_time)?;
+        let gate = if v.gate_measurements {
+            let readmit_time = finite_or(v.readmit_time, -1.0);
+            if readmit_time < 0.0 {
+                return Err(format!(
+                    "parameter readmit_time = {}; expected a time >= 0 s",
+                    v.readmit_time
+                ));
+            }
+            Some(Gate {
+                test: ChiSquareGate {
+                    threshold: positive("gate_threshold", v.gate_threshold)?,
+                    readmit_samples: (readmit_time / sample_time).ceil().max(1.0) as u64,
+                },
+                window: innovation_window(sample_time),
+            })
+        } else {
+            None
+        };
+        let error_rows = model.model_error_rows();
+        let innovations = std::array::from_fn(|row| {
+            gate.filter(|_| error_rows[row])
+                .map(|gate| InnovationWindow::new(gate.window))
+        });
+        let noise = noise::learner(v, &model, sample_time, choice);
+        Ok(Self {
+            extra: Model::start_extra(v, min_speed),
+            model,
+            filter,
+            choice,
+            settings,
+            sample_time,
+            start_time,
+            next_sample: 0,
+            input: InputVector::new(
+                finite_or(v.steering_angle, 0.0),
+                finite_or(v.drive_torque, 0.0),
+                finite_or(v.brake_torque, 0.0),
+                finite_or(v.drive_torque_rear, 0.0),
+            ),
+            min_speed,
+            nis: 0.0,
+            rows_used: 0,
+            holding: false,
+            held: HeldMeasurements::default(),
+            gate,
+            schedule_threshold: schedule_threshold(v, choice)?,
+            gated_samples: [0; M],
+            innovations,
+            started: !v.start_from_measurements,
+            parameters: Box::new(v.clone()),
+            pending: Vec::with_capacity(PENDING_CAPACITY),
+            adaptation: parameters::adaptation(v)?
+                .map(NoiseAdaptation::new)
+                .transpose()
+                .map_err(|e| e.0)?,
+            noise,
+            guard_car: v.integrity_guard.then(|| guard_car(v)).transpose()?,
+            guard_samples: 0,
+            observer_scaling: (choice == EstimatorChoice::Luenberger)
+                .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
+                .transpose()
+                .map_err(|e| e.0)?,
+            yaw_rate_offset: YawRateOffset::from_parameters(v)?,
+            lateral_accelerometer: LateralAccelerometer::from_parameters(
+                v,
+                !Model::ESTIMATES_AY_GAIN,
+            )?,
+        })
+    }
+
+    /// Takes the tunable parameters of `v` (XML variability `tunable`: the noise levels, the
+    /// gate, the cornering-stiffness scales) from the next sample on: the model, the settings
+    /// and the gate are built from `v` as at initialisation, and the filter continues from its
+    /// current estimate and covariance (the particle filter redraws its particles from them).
+    /// The linear estimators keep the operating point they run at.
+    pub fn retune(&mut self, v: &Variables) -> Result<(), String> {
+        let tuned = Self::build(v, self.start_time)?;
+        let current = InitialEstimate {
+            state: *self.filter.state(),
+            covariance: *self.filter.covariance(),
+        };
+        let operating_point = self.settings.operating_point.clone();
+        self.model = tuned.model;
+        self.settings = tuned.settings;
+        self.settings.operating_point = operating_point;
+        self.gate = tuned.gate;
+        self.parameters = tuned.parameters;
+        self.yaw_rate_offset = carried_over(
+            self.yaw_rate_offset,
+            tuned.yaw_rate_offset,
+            YawRateOffset::retuned,
+        );
+        self.guard_car = tuned.guard_car;
+        self.noise = match (&self.noise, tuned.noise) {
+            (Some(current), Some(tuned)) => Some(current.retuned_as(&tuned)),
+            (_, tuned) => tuned,
+        };
+        self.lateral_accelerometer = carried_over(
+            self.lateral_accelerometer,
+            tuned.lateral_accelerometer,
+            LateralAccelerometer::retuned,
+        );
+        if self.rebuild(&current) {
+            Ok(())
+        } else {
+            Err(String::from(
+                "the estimator cannot continue from its estimate with the tuned parameters",
+            ))
+        }
+    }
+
+    /// The gate's test (`gate_measurements`), for a model's own tests of a measurement outside
+    /// the filter (the speed filter of models A and B).
+    pub(crate) fn speed_gate(&self) -> Option<ChiSquareGate> {
+        self.gate.map(|gate| gate.test)
+    }
+
+    /// Whether the running filter's covariance carries its tyres' force scale
+    /// ([`EstimationModel::estimates_tyre_scale`]).
+    pub(crate) fn estimates_tyre_scale(&self) -> bool {
+        Model::estimates_tyre_scale(self.choice, self.schedule_threshold > 0.0)
+    }
+
+    /// The factor on the covariance the estimator reports ([`OutputSample::covariance_scale`]).
+    pub(crate) fn covariance_scale(&self) -> f64 {
+        self.observer_scaling.as_ref().map_or(1.0, |s| s.scale())
+    }
+
+    /// The running filter (for tests and benchmarks).
+    pub fn filter(&self) -> &BoxedEstimator<N, M, U> {
+        &self.filter
+    }
+
+    /// Replaces the filter by a new one of the same kind and settings started at `initial`;
+    /// returns whether that worked.
+    pub(crate) fn rebuild(&mut self, initial: &InitialEstimate<N>) -> bool {
+        match registry::build(self.model.clone(), self.choice, &self.settings, initial) {
+            Ok(rebuilt) => {
+                self.filter = rebuilt;
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// [`Self::rebuild`] from a start taken from the measurements, the linear estimators
+    /// linearised about straight driving at the measured speed
+    /// ([`EstimationModel::operating_state_at`]).
+    fn rebuild_at_measured(&mut self, initial: &InitialEstimate<N>) -> bool {
+        if let (Some(state), Ok((_, input))) = (
+            self.model.operating_state_at(&initial.state),
+            &self.settings.operating_point,
+        ) {
+            self.settings.operating_point = Ok((state, *input));
+        }
+        self.reseed(initial)
+    }
+
+    /// [`Self::rebuild`] for a filter that lost its estimate (or starts): the gate forgets the
+    /// innovations of the old estimate.
+    pub(crate) fn reseed(&mut self, initial: &InitialEstimate<N>) -> bool {
+        let rebuilt = self.rebuild(initial);
+        if rebuilt {
+            self.innovations
+                .iter_mut()
+                .flatten()
+                .for_each(InnovationWindow::clear);
+        }
+        rebuilt
+    }
+
+    /// The sensors as the filters take them: the gyro's offset and the lateral accelerometer's
+    /// offset and gain learned from this sample ([`crate::yaw_rate_offset`],
+    /// [`crate::lateral_accelerometer`]) and taken off their signals.
+    fn calibrated(&mut self, sensors: &Sensors) -> Sensors {
+        let mut corrected = *sensors;
+        if self.yaw_rate_offset.is_none() && self.lateral_accelerometer.is_none() {
+            return corrected;
+        }
+        let measured = MeasuredSpeed::of(sensors, &self.parameters);
+        let all_zero = sensors.all_zero();
+        let steering = self.input[0];
+        if let Some(offset) = self.yaw_rate_offset.as_mut() {
+            offset.step(&OffsetSample {
+                yaw_rate: sensors.yaw_rate,
+                ay: sensors.ay,
+                all_zero,
+                steering,
+                speed: measured.map(|measured| (measured.speed, measured.std)),
+            });
+            corrected.yaw_rate -= offset.offset;
+        }
+        if let Some(accelerometer) = self.lateral_accelerometer.as_mut() {
+            accelerometer.step(&AySample {
+                ay: sensors.ay,
+                yaw_rate: corrected.yaw_rate,
+                all_zero,
+                steering,
+                speed: measured.map(|measured| measured.speed),
+            });
+            corrected.ay = accelerometer.corrected(sensors.ay);
+        }
+        corrected
+    }
+
+    /// One sample: measurement update with the sensors, then time update to the next sample.
+    /// Returns the status bits of the sample.
+    pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
+        let corrected = self.calibrated(sensors);
+        let sensors = &corrected;
+        let mut bits = 0;
+        self.holding = false;
+        if !self.started {
+            match Model::measured_start(self, sensors) {
+                Some(initial) if self.rebuild_at_measured(&initial) => {
+                    self.started = true;
+                    bits |= status::INITIALISING;
+                }
+                _ => return self.hold(sensors, status::INITIALISING),
+            }
+        }
+        let mut sample = match Model::sample(self, sensors) {
+            Ok(sample) => sample,
+            Err(hold_bits) => return self.hold(sensors, bits | hold_bits),
+        };
+        bits |= sample.bits;
+        let offered_rows = sample.offered.iter().zip(sample.measurement.iter());
+        if offered_rows
+            .into_iter()
+            .any(|(&offered, value)| offered && !value.is_finite())
+        {
+            bits |= status::ROW_SKIPPED;
+        }
+        // The model's extra noise at the predicted estimate, for the gate's S and the update's R:
+        // evaluated once, again only if the gate re-seeded the filter to another estimate.
+        self.learn_noise(sensors, &sample);
+        let mut extra_noise = self.extra_measurement_noise(&sample.input);
+        let (mut mask, gate_bits) = self.gate(sensors, &mut sample, extra_noise.as_ref());
+        if gate_bits & status::SENSOR_READMITTED != 0 {
+            extra_noise = self.extra_measurement_noise(&sample.input);
+        }
+        bits |= gate_bits;
+        for (used, offered) in mask.iter_mut().zip(sample.offered) {
+            *used &= offered;
+        }
+        // Non-finite rows are skipped by the filters themselves (SPEC §6).
+        // The adaptation compares the update's correction with the variance it removed.
+        let prior = self
+            .adaptation
+            .is_some()
+            .then(|| (*self.filter.state(), *self.filter.covariance()));
+        let report = match &extra_noise {
+            Some(extra) => self.filter.update_with_extra_noise(
+                &sample.measurement,
+                &sample.input,
+                &mask,
+                extra,
+            ),
+            None => self
+                .filter
+                .update(&sample.measurement, &sample.input, &mask),
+        };
+        let report = report.unwrap_or_else(|issue| {
+            bits |= issue_bit(issue);
+            self.filter.last_report()
+        });
+        self.nis = report.nis;
+        self.rows_used = report.rows_used as i32;
+        let correction = prior.map(|(x, p)| {
+            Correction::between((&x, &p), (self.filter.state(), self.filter.covariance()))
+        });
+        bits |= self.guard(sensors);
+        self.reschedule(&sample.input);
+        if let Err(issue) = self.filter.predict(&sample.input) {
+            bits |= issue_bit(issue);
+        }
+        if let Some(extra) = self.model.extra_process_noise(
+            self.filter.state(),
+            &self.input,
+            &sample.input,
+            &self.parameters,
+        ) {
+            self.filter.inflate_covariance(&extra);
+        }
+        bits | self.adapt(&report, correction.as_ref()) | self.scale_observer(&report)
+    }
+
+    /// The model's extra measurement noise at the filter's current (predicted) estimate, with
+    /// what the noise learner adds to each row's tuned variance (`None`: nothing to add).
+    fn extra_measurement_noise(&self, input: &SVector<f64, U>) -> Option<SMatrix<f64, M, M>> {
+        let model = self.model_measurement_noise(input);
+        let Some(learner) = &self.noise else {
+            return model;
+        };
+        let mut extra = model.unwrap_or_else(SMatrix::zeros);
+        let mut added = model.is_some();
+        for row in 0..M {
+            let excess = learner.excess(row);
+            if excess > 0.0 {
+                extra[(row, row)] += excess;
+                added = true;
+            }
+        }
+        added.then_some(extra)
+    }
+
+    /// The model's own extra measurement noise at the filter's current (predicted) estimate.
+    fn model_measurement_noise(&self, input: &SVector<f64, U>) -> Option<SMatrix<f64, M, M>> {
+        self.model
+            .extra_measurement_noise(self.filter.state(), input, &self.parameters)
+    }
+
+    /// Gain scheduling of the linear estimators (`schedule_threshold`; the others ignore it):
+    /// between the update and the prediction, so the prediction runs on a linearisation about
+    /// the corrected estimate (see `RunningEstimator::reschedule`).
+    fn reschedule(&mut self, input: &SVector<f64, U>) {
+        if self.schedule_threshold == 0.0 {
+            return;
+        }
+        if let Ok((_, operating)) = &self.settings.operating_point {
+            let input = self.model.scheduling_input(operating, input);
+            self.filter.reschedule(&input, self.schedule_threshold);
+        }
+    }
+
+    /// The adaptive process noise (`adaptive_process_noise`, `estimation::adaptive`): the
+    /// update's NIS and state correction into the window, the prior just predicted inflated by
+    /// `diag((s_i − 1) Q_ii)`; returns status bits 4096 and 8192.
+    fn adapt(&mut self, report: &UpdateReport<M>, correction: Option<&Correction<N>>) -> i32 {
+        let (Some(adaptation), Some(correction)) = (self.adaptation.as_mut(), correction) else {
+            return 0;
+        };
+        let process_noise = self.model.process_noise();
+        let state = adaptation.observe(report, correction, &process_noise);
+        if let Some(extra) = adaptation.inflation(&process_noise) {
+            self.filter.inflate_covariance(&extra);
+        }
+        adaptation_bits(state)
+    }
+
+    /// The Luenberger observer's innovation scaling ([`OBSERVER_SCALING_WINDOW`]): the update's
+    /// NIS into its window; returns status bits 4096 and 8192.
+    fn scale_observer(&mut self, report: &UpdateReport<M>) -> i32 {
+        let Some(scaling) = self.observer_scaling.as_mut() else {
+            return 0;
+        };
+        adaptation_bits(scaling.observe(report))
+    }
+
+    /// Status bits of the outputs of initialisation, before any sample is processed: while
+    /// the filter waits for its measured start (`start_from_measurements`), those outputs are
+    /// the held ones of the sensors set so far (the measured speed, the steering geometry's
+    /// sideslip with a std that says it is a guess), not the parameters' start (`vx_initial`)
+    /// with its confident std, and `status` says the filter is initialising, so that no importer reads a guess as an estimate.
+    pub fn initialisation_bits(&mut self, sensors: &Sensors) -> i32 {
+        if self.started {
+            0
+        } else {
+            self.hold(sensors, status::INITIALISING)
+        }
+    }
+
+    /// A sample on which the filter holds its estimate.
+    fn hold(&mut self, sensors: &Sensors, bits: i32) -> i32 {
+        self.nis = 0.0;
+        self.rows_used = 0;
+        self.holding = true;
+        let offset = self.yaw_rate_offset.map_or(0.0, |offset| offset.offset);
+        self.held = HeldMeasurements::of(sensors, &self.parameters, offset);
+        bits
+    }
+
+    /// Processes every sample in `[t, t + h)`; returns the status bits and whether any ran.
+    pub fn advance(&mut self, t: f64, h: f64, sensors: &Sensors) -> (i32, bool) {
+        let tolerance = 1e-6 * self.sample_time;
+        let mut bits = 0;
+        let mut processed = false;
+        loop {
+            let sample_time = self.start_time + self.next_sample as f64 * self.sample_time;
+            if sample_time >= t + h - tolerance {
+                break;
+            }
+            bits |= self.process_sample(sensors);
+            self.next_sample += 1;
+            processed = true;
+        }
+        (bits, processed)
+    }
+}
