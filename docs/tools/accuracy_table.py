@@ -21,9 +21,12 @@ END = "<!-- accuracy-table:end -->"
 STUDIES = ["mbds_replay.csv", "campaigns_sideslip.csv"]
 MODEL_NAMES = {"grip": "grip model", "3": "grip model", "single_track_grip": "grip model",
                "a": "model A", "1": "model A", "single_track_5_state": "model A",
-               "b": "model B", "2": "model B", "two_track_3_state": "model B"}
+               "b": "model B", "2": "model B", "two_track_3_state": "model B",
+               "grip_fitted_on_lap_1": "grip model fitted by `harness fit` on lap 1",
+               "model_a": "model A", "model_b": "model B"}
 PENDING_MARK = " ¹"
-SOURCE_NAMES = {"mbds": "MBDS track recording (real)"}
+SOURCE_NAMES = {"mbds": "MBDS track recording (real)", "real": "MBDS track recording (real)"}
+CASE_NAMES = {"mbds_laps_2_6": "laps 2-6"}
 
 
 def rows_of(name: str) -> tuple[list[dict], bool]:
@@ -61,10 +64,12 @@ def table() -> str:
         for row in filter(default_estimator, rows):
             model = MODEL_NAMES.get(row["model"].strip().lower(), row["model"])
             wheels = {"synthesised": "wheel speeds from the INS speed",
+                      "with": "wheel speeds (from the INS speed on MBDS)",
+                      "without": "no wheel speeds",
                       "missing": "no wheel speeds", "measured": "all"}.get(
                 row["wheel_speeds"].strip(), row["wheel_speeds"])
             lines.append(
-                f"| {SOURCE_NAMES.get(row['source'].strip(), row['source'])}, {row['case']}{PENDING_MARK if pending else ''} | {model} "
+                f"| {SOURCE_NAMES.get(row['source'].strip(), row['source'])}, {CASE_NAMES.get(row['case'].strip(), row['case'])}{PENDING_MARK if pending else ''} | {model} "
                 f"| {wheels} | {degrees(row['rmse_deg'])} | {plain(row['nees'])} "
                 f"| {degrees(row['zero_rmse_deg'])} | {degrees(row['yardstick_rmse_deg'])} |")
     with (DATA / "published_baselines.csv").open(newline="", encoding="utf-8") as file:

@@ -372,10 +372,25 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &bar,
         &mut failures,
     );
+    bar.set_message("the real track recording (MBDS): every model and estimator");
+    let real_recording = keep(
+        REAL_RECORDING_STUDY,
+        crate::replay::study::run_study(&crate::replay::study::StudyOptions {
+            fmu: crate::replay::estimator_path(None, &env.fmu_dir),
+            out: env.out_dir.join("mbds"),
+            full: false,
+            update_committed: false,
+        }),
+        &bar,
+        &mut failures,
+    );
     bar.finish_with_message("all experiments done");
     // Every study that scores the sideslip adds its accuracy CSV here; the report's opening
     // answer reads them all.
     let mut accuracy_csvs = Vec::new();
+    if let Some(outcome) = &real_recording {
+        accuracy_csvs.push(outcome.csv.clone());
+    }
     if let Some(real_cars) = &real_cars {
         let path = env.out_dir.join("accuracy_simulated.csv");
         summary::write_rows(&path, &summary::campaign_rows(&real_cars.campaigns))?;
@@ -525,6 +540,7 @@ fn write_report(
             "The {CONSISTENCY_STUDY} failed; the error is listed above."
         )),
     }
+    real_recording_section(&mut doc, accuracy);
     match real_cars {
         Some(report) => report.sections(&mut doc, out),
         None => doc.paragraph(format!(
@@ -538,6 +554,60 @@ fn write_report(
         &doc.to_html("Vehicle state estimation: seed experiments"),
     )?;
     Ok(())
+}
+
+/// The report's section on the real track recording: every model and estimator of the replay
+/// study beside the answers without a filter (the full study, particle filter included, is
+/// `harness replay-study --full`).
+fn real_recording_section(doc: &mut Document, accuracy: &[AccuracyRow]) {
+    let rows: Vec<&AccuracyRow> = accuracy
+        .iter()
+        .filter(|r| r.source != summary::SIMULATED)
+        .collect();
+    doc.heading(2, "The real track recording (MBDS), laps 2-6");
+    if rows.is_empty() {
+        doc.paragraph(format!(
+            "The {REAL_RECORDING_STUDY} failed; the error is listed above."
+        ));
+        return;
+    }
+    doc.paragraph(
+        "The MBDS recording (982 kg car, 5.5 fast laps, INS sideslip reference) through the \
+         estimator FMU with the car's basic data and every other parameter at its default, scored \
+         on laps 2-6; wheel speeds synthesised from the INS speed or missing. `mbds/mbds_replay.md` \
+         has the study's own table and the fit on lap 1.",
+    );
+    let f = |x: Option<f64>, digits: usize| {
+        x.map_or_else(|| "–".to_string(), |v| format!("{v:.digits$}"))
+    };
+    doc.table(
+        [
+            "model",
+            "estimator",
+            "wheel speeds",
+            "sideslip RMSE [deg]",
+            "NEES",
+            "zero [deg]",
+            "steady-state formula [deg]",
+            "largest |vx error| [m/s]",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows.iter()
+            .map(|r| {
+                vec![
+                    r.model.clone(),
+                    r.estimator.clone(),
+                    if r.wheel_speeds { "with" } else { "without" }.to_string(),
+                    f(Some(r.rmse_deg), 2),
+                    f(Some(r.nees).filter(|n| n.is_finite()), 2),
+                    f(Some(r.zero_rmse_deg), 2),
+                    f(r.yardstick_rmse_deg, 2),
+                    f(r.max_vx_error_mps, 2),
+                ]
+            })
+            .collect(),
+    );
 }
 
 /// The figure of the report's opening answer, next to the report.
@@ -761,6 +831,10 @@ fn score_tables(doc: &mut Document, scores: &RunScores) {
             .collect(),
     );
 }
+
+/// How the report and the failure list name the replay of the real track recording.
+pub const REAL_RECORDING_STUDY: &str =
+    "real track recording study (harness/logs/mbds, `harness replay-study`)";
 
 /// How the report and the failure list name the consistency study.
 pub const CONSISTENCY_STUDY: &str =

@@ -155,9 +155,9 @@ fn parse_row(record: &csv::StringRecord) -> Result<AccuracyRow> {
         }
     };
     let wheel_speeds = match field(4).to_ascii_lowercase().as_str() {
-        "yes" | "true" | "1" => true,
-        "no" | "false" | "0" => false,
-        other => bail!("wheel_speeds: {other:?}; expected yes or no"),
+        "yes" | "with" | "true" | "1" => true,
+        "no" | "without" | "false" | "0" => false,
+        other => bail!("wheel_speeds: {other:?}; expected with or without (yes or no)"),
     };
     Ok(AccuracyRow {
         source: field(0).to_string(),
