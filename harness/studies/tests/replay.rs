@@ -455,7 +455,8 @@ fn fit_of_model_b_follows_a_wet_road_by_the_sideslip_reference() {
 /// state's std must be scaled with the noise: left out, the factor changed the estimate
 /// (example log, held-out sideslip 0.16 -> 0.21 deg).
 #[test]
-fn fit_of_model_b_without_a_sideslip_reference_scales_its_covariances_and_does_not_make_the_estimate_worse() {
+fn fit_of_model_b_without_a_sideslip_reference_scales_its_covariances_and_does_not_make_the_estimate_worse(
+) {
     use harness::replay::reference_fit::TyreFit;
     let scratch = Scratch::new("replay-fit-b-unreferenced");
     let csv = &csv_log(&scratch.0);
