@@ -41,7 +41,8 @@ def degrees(pattern: str, text: str) -> float:
 
 
 def test_every_example_is_tested():
-    tested = {"estimator_on_csv.py", "coupled_fmpy.py", "ssp_with_car.py", "master_on_scenario.sh"}
+    tested = {"estimator_on_csv.py", "coupled_fmpy.py", "ssp_with_car.py", "master_on_scenario.sh",
+              "fmi3_covariance.py"}
     shipped = {p.name for p in EXAMPLES.iterdir() if p.suffix in {".py", ".sh"}}
     assert shipped == tested
 
@@ -51,6 +52,15 @@ def test_estimator_on_csv_beats_answering_zero():
     rmse = degrees(r"sideslip RMSE ([\d.]+) deg", out)
     zero = degrees(r"answering zero: ([\d.]+) deg", out)
     assert 0 < rmse < zero, out
+
+
+def test_fmi3_example_reads_a_symmetric_covariance_of_the_running_model():
+    out = run_python("fmi3_covariance.py")
+    assert "state dimension 11;" in out, out
+    assert "covariance symmetric: True" in out, out
+    true = degrees(r"true (-?[\d.]+) deg", out)
+    estimate = degrees(r"estimate (-?[\d.]+) deg", out)
+    assert abs(true - estimate) < 0.05, out
 
 
 def test_both_fmus_coupled_track_the_step_steer():
