@@ -4,8 +4,8 @@
 use estimation::registry;
 use fmi_export::{StateError, StateReader, StateWriter};
 
+use super::EstimationModel;
 use super::Runner;
-use crate::estimation_model::EstimationModel;
 use crate::model_description::Variables;
 use crate::state::{Sink, Source};
 

@@ -5,8 +5,9 @@
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::SMatrix;
 
+use super::EstimationModel;
 use super::Runner;
-use crate::estimation_model::{EstimationModel, Sample};
+use crate::estimation_model::Sample;
 use crate::sensors::Sensors;
 use crate::status;
 

@@ -23,10 +23,36 @@
 //! after [`GUARD_TIME`] in a row the filter is re-seeded with `β_ref` and the variance
 //! `σ_ref² + (β − β_ref)² / 4`: it says where the car is, and that the filter was lost.
 
+use vehicle_models::single_track::WHEELS_PER_AXLE;
+use vehicle_models::HsriTyre;
+
+use super::EstimationModel;
 use super::Runner;
-use crate::estimation_model::EstimationModel;
+use crate::model_description::Variables;
+use crate::parameters::{self, positive};
 use crate::sensors::{MeasuredSpeed, Sensors};
 use crate::status;
+
+/// The guard's car from the parameters: the rear axle's cornering stiffness is model A's HSRI
+/// tyre (000: 5.70) at the static rear wheel load, with `cornering_stiffness_scale_rear`, for
+/// every model (model B's Magic Formula tyres are matched to it).
+pub(super) fn guard_car(v: &Variables) -> Result<GuardCar, String> {
+    let source = parameters::source(v);
+    let chassis = source.chassis()?;
+    let tyre = HsriTyre::new(source.hsri()?);
+    let scale = positive(
+        "cornering_stiffness_scale_rear",
+        v.cornering_stiffness_scale_rear,
+    )?;
+    let rear = tyre.params.cornering_stiffness(chassis.rear_wheel_load) * WHEELS_PER_AXLE * scale;
+    Ok(GuardCar {
+        mass: chassis.mass,
+        cog_to_front_axle: chassis.cog_to_front_axle,
+        cog_to_rear_axle: chassis.cog_to_rear_axle,
+        rear_cornering_stiffness: positive("rear cornering stiffness", rear)?,
+        yaw_rate_std: v.measurement_noise_std_yaw_rate,
+    })
+}
 
 /// How many standard deviations of the difference the estimate may be off the reference.
 const GUARD_SIGMAS: f64 = 5.0;

@@ -9,29 +9,193 @@ mod guard;
 mod noise;
 mod outputs;
 
+use std::fmt::Debug;
+
 use estimation::adaptive::{AdaptationStatus, Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
 use estimation::innovation_scaling::InnovationScaling;
 use estimation::kalman::InitialEstimate;
 use estimation::measurement_noise::NoiseMatching;
-use estimation::registry::{self, BoxedEstimator, EstimatorChoice, EstimatorSettings};
+use estimation::registry::{
+    self, BoxedEstimator, EstimatorChoice, EstimatorSettings, RegistryModel,
+};
 use estimation::{FilterIssue, UpdateReport};
+use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 
 use crate::lateral_accelerometer::{AySample, LateralAccelerometer};
-use crate::model_description::Variables;
+use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive};
 use crate::status;
 use crate::yaw_rate_offset::{OffsetSample, YawRateOffset};
 
 pub(crate) use crate::estimation_model::ay_model_error_noise;
 pub use crate::estimation_model::{
-    EstimationModel, InputVector, OutputSample, Sample, DRIVER_DIM, REAR_DRIVE_TORQUE,
+    InputVector, OutputSample, Sample, DRIVER_DIM, REAR_DRIVE_TORQUE,
 };
 pub use crate::sensors::{HeldMeasurements, MeasuredSpeed, Sensors, WheelRadii};
 pub use gate::ChiSquareGate;
 use gate::{innovation_window, Gate, InnovationWindow};
 pub(crate) use outputs::stiffness_consider;
 pub use outputs::{kinematic_sideslip, LOW_SPEED_SIDESLIP_STD};
+
+/// One estimation model as the FMU runs it: `N` states, `M` measurements, `U` filter inputs.
+pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
+    RegistryModel<N, M, U>
+{
+    /// What the runner keeps beside the filter (model B: the speed input and the wheel speeds
+    /// it passes through); part of the FMU state.
+    type Extra: Clone + Copy + Debug + Send;
+
+    /// Whether the model's filter estimates the lateral accelerometer's gain error itself (the
+    /// grip model's `ay_gain` state, with `ay_gain_std` as its prior): the runner's learner
+    /// (`lateral_accelerometer`) then learns the offset only, and the model reports
+    /// `ay_gain_est`.
+    const ESTIMATES_AY_GAIN: bool = false;
+
+    /// Whether the model's filter estimates its tyres' force scale with a covariance that
+    /// follows it (the grip model's EKF, UKFs and re-linearised LKF), so the reported std
+    /// already holds the stiffness uncertainty that `runner::outputs::with_stiffness_consider` adds for the
+    /// others, and the runner leaves that term out. `relinearised`: the linear estimators are
+    /// gain-scheduled (their schedule threshold is above 0).
+    fn estimates_tyre_scale(_choice: EstimatorChoice, _relinearised: bool) -> bool {
+        false
+    }
+
+    /// The model from the parameters.
+    fn from_parameters(v: &Variables) -> Result<Self, String>;
+
+    /// The filter's start from the parameters.
+    fn initial_estimate(v: &Variables) -> Result<InitialEstimate<N>, String>;
+
+    /// The registry's settings from the parameters.
+    fn registry_settings(&self, v: &Variables) -> EstimatorSettings<N, U>;
+
+    /// The extra values before the first sample.
+    fn start_extra(v: &Variables, min_speed: f64) -> Self::Extra;
+
+    /// The measurement and input of one sample, or the status bits of a sample on which the
+    /// filter holds. May re-seed the filter (`runner.rebuild`).
+    fn sample(runner: &mut Runner<Self, N, M, U>, sensors: &Sensors) -> Result<Sample<M, U>, i32>;
+
+    /// Where each measurement row is physically plausible, for the gate (a broken sample never re-seeds);
+    /// `state` is the predicted estimate.
+    /// `measurement_std` is each row's noise std as the filter uses it (learned or tuned), so
+    /// that a limit can widen with a sensor's own noise.
+    fn plausible(
+        &self,
+        sensors: &Sensors,
+        state: &SVector<f64, N>,
+        min_speed: f64,
+        measurement_std: &[f64; M],
+    ) -> [bool; M];
+
+    /// The rows whose persistent disagreement with the model is the model's error, not the
+    /// sensor's: inertial sensors (gyro, accelerometer) the model predicts from its states. The
+    /// gate tests such a row about the median of its recent innovations (`runner::gate::InnovationWindow`),
+    /// so that it is used again once the model's error has lasted a window; the other rows keep
+    /// the plain test, since a wheel speed that disagrees for long is a locked or spinning wheel
+    /// and must stay out.
+    fn model_error_rows(&self) -> [bool; M];
+
+    /// Whether the model can take a model-error row's persistent disagreement as its own error
+    /// at the predicted estimate `state` (`jacobian` = `∂h/∂x` there): where it cannot, the row
+    /// gets the plain test, as every other row. The default: always.
+    fn model_error_resolvable(
+        &self,
+        _state: &SVector<f64, N>,
+        _input: &SVector<f64, U>,
+        _jacobian: &SMatrix<f64, M, N>,
+    ) -> bool {
+        true
+    }
+
+    /// The start from the sensors of one sample (`start_from_measurements`, and the re-seed
+    /// after a lock-out), or `None` while they show no speed of at least `min_speed`.
+    fn measured_start(
+        runner: &Runner<Self, N, M, U>,
+        sensors: &Sensors,
+    ) -> Option<InitialEstimate<N>>;
+
+    /// Completes a start from the measurements on re-admission (`start` from
+    /// [`Self::measured_start`]) with what the sensors do not measure, from the estimate the
+    /// filter had (`current`). The default keeps the measured start as it is.
+    fn readmitted_start(&self, _current: &SVector<f64, N>, _start: &mut InitialEstimate<N>) {}
+
+    /// The operating point's state for the linear estimators (LKF, Luenberger) when the filter
+    /// starts at `start` from the measurements: straight driving at the measured speed, instead
+    /// of a parameter's guess. `None` keeps the parameters' operating point.
+    fn operating_state_at(&self, _start: &SVector<f64, N>) -> Option<SVector<f64, N>> {
+        None
+    }
+
+    /// The input the linear estimators are linearised about when gain scheduling re-schedules
+    /// them in a sample with the filter input `sample` (`schedule_threshold`); `operating` is
+    /// the input of the operating point from the parameters. The default is the sample's input.
+    fn scheduling_input(
+        &self,
+        _operating: &SVector<f64, U>,
+        sample: &SVector<f64, U>,
+    ) -> SVector<f64, U> {
+        *sample
+    }
+
+    /// Extra process noise for the coming sample, added to the covariance just predicted
+    /// (model A: the wheels' slip while the torques are unknown, `unknown_torque_slip_std`, and
+    /// the wheels' sliding step at low speed); `state` is the predicted estimate, `input` the
+    /// sample's driver input, `filter_input` the filter's input of the sample (with what the
+    /// sensors add, e.g. model A's measured `ax`). Estimators without a covariance (particle
+    /// filter, Luenberger observer) ignore it.
+    fn extra_process_noise(
+        &self,
+        _state: &SVector<f64, N>,
+        _input: &InputVector,
+        _filter_input: &SVector<f64, U>,
+        _v: &Variables,
+    ) -> Option<SMatrix<f64, N, N>> {
+        None
+    }
+
+    /// Extra measurement noise for this sample's update only, added to `R` (and to the gate's
+    /// `S`; model B: the `ay` row's model error, [`ay_model_error_noise`]); `state`
+    /// is the predicted estimate, `input` the sample's filter input. The Luenberger observer's
+    /// fixed gain ignores it (its reported covariance does not).
+    fn extra_measurement_noise(
+        &self,
+        _state: &SVector<f64, N>,
+        _input: &SVector<f64, U>,
+        _v: &Variables,
+    ) -> Option<SMatrix<f64, M, M>> {
+        None
+    }
+
+    /// The sideslip at the centre of gravity at `state` and its variance from `covariance`
+    /// (to first order), rad and rad², for the integrity guard (`runner::guard`).
+    fn sideslip_of(&self, state: &SVector<f64, N>, covariance: &SMatrix<f64, N, N>) -> (f64, f64);
+
+    /// Puts the sideslip of `estimate` to `sideslip` with the variance `variance`, uncorrelated
+    /// with the other states (the guard's re-seed).
+    fn reseed_sideslip(&self, estimate: &mut InitialEstimate<N>, sideslip: f64, variance: f64);
+
+    /// The rear axle's grip factor the model has learned at `state` (1 where it has none).
+    fn rear_grip(&self, _state: &SVector<f64, N>) -> f64 {
+        1.0
+    }
+
+    /// The outputs of one sample's result, as the filter's state and covariance give them; the
+    /// runner adds the rear stiffness's consider term (`runner::outputs::with_stiffness_consider`).
+    fn outputs(&self, sample: &OutputSample<N, Self::Extra>, v: &Variables) -> RealOutputs;
+
+    /// The rate of the rear slip angle at the sample's estimate, rad/s, as the model's own
+    /// derivatives give it, for models whose tyres build their force at once while a car's lag
+    /// (the runner's tyre-lag consider term, `runner::outputs::with_stiffness_consider`); `None`: no such term.
+    fn rear_slip_angle_rate(&self, _sample: &OutputSample<N, Self::Extra>) -> Option<f64> {
+        None
+    }
+
+    fn write_extra(extra: &Self::Extra, writer: &mut StateWriter);
+
+    fn read_extra(extra: &mut Self::Extra, reader: &mut StateReader<'_>) -> Result<(), StateError>;
+}
 
 fn issue_bit(issue: FilterIssue) -> i32 {
     match issue {
@@ -78,33 +242,6 @@ fn schedule_threshold(v: &Variables, choice: EstimatorChoice) -> Result<f64, Str
     } else {
         non_negative("schedule_threshold", v.schedule_threshold)
     }
-}
-
-/// The integrity guard's car from the parameters: the rear axle's cornering stiffness is model
-/// A's HSRI tyre at the static rear wheel load, with `cornering_stiffness_scale_rear`, for
-/// every model (model B's Magic Formula tyres are matched to it).
-fn guard_car(v: &Variables) -> Result<guard::GuardCar, String> {
-    use crate::model_a::ModelA;
-    let model = <ModelA as EstimationModel<
-        { vehicle_models::single_track::STATE_DIM },
-        { estimation::models::single_track::ANCHORED_MEASUREMENT_DIM },
-        { estimation::models::single_track::ANCHORED_INPUT_DIM },
-    >>::from_parameters(v)?;
-    let vehicle = model.vehicle();
-    let chassis = &vehicle.vehicle.chassis;
-    let rear = vehicle
-        .tyre
-        .params
-        .cornering_stiffness(chassis.rear_wheel_load)
-        * vehicle_models::single_track::WHEELS_PER_AXLE
-        * vehicle.vehicle.cornering_stiffness_scale_rear;
-    Ok(guard::GuardCar {
-        mass: chassis.mass,
-        cog_to_front_axle: chassis.cog_to_front_axle,
-        cog_to_rear_axle: chassis.cog_to_rear_axle,
-        rear_cornering_stiffness: positive("rear cornering stiffness", rear)?,
-        yaw_rate_std: v.measurement_noise_std_yaw_rate,
-    })
 }
 
 /// A sensor learner after a retune: what it has learned (`current`) with `tuned`'s settings, or
@@ -278,7 +415,7 @@ where
                 .transpose()
                 .map_err(|e| e.0)?,
             noise,
-            guard_car: v.integrity_guard.then(|| guard_car(v)).transpose()?,
+            guard_car: v.integrity_guard.then(|| guard::guard_car(v)).transpose()?,
             guard_samples: 0,
             observer_scaling: (choice == EstimatorChoice::Luenberger)
                 .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))

@@ -5,8 +5,9 @@
 use estimation::measurement_noise::NoiseMatching;
 use estimation::registry::EstimatorChoice;
 
+use super::EstimationModel;
 use super::Runner;
-use crate::estimation_model::{EstimationModel, Sample};
+use crate::estimation_model::Sample;
 use crate::model_description::Variables;
 use crate::sensors::Sensors;
 

@@ -3,8 +3,9 @@
 
 use vehicle_models::single_track::{guarded_speed, longitudinal_slip, DEFAULT_LOW_SPEED_GUARD};
 
+use super::EstimationModel;
 use super::{Runner, PENDING_CAPACITY};
-use crate::estimation_model::{EstimationModel, OutputSample};
+use crate::estimation_model::OutputSample;
 use crate::model_description::{RealOutputs, Variables};
 use crate::sensors::WheelRadii;
 use crate::status;
