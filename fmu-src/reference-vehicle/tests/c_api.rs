@@ -418,7 +418,7 @@ fn debug_logging_categories_are_checked() {
     assert_eq!(
         status,
         Fmi2Status::Warning,
-        "unknown categories are ignored (issue 15)"
+        "unknown categories are ignored"
     );
     assert_eq!(
         s.do_step(0.0, 0.01),
