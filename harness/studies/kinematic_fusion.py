@@ -1,4 +1,4 @@
-"""Issue 17 point 4: does a kinematic-dynamic combination of sideslip estimates win?
+"""Does a kinematic-dynamic combination of sideslip estimates win?
 
 The published state of the art blends a kinematic sideslip, integrated from the sensors alone,
 with the model-based (dynamic) estimate, trusting the kinematics where the tyres saturate and the
@@ -32,7 +32,7 @@ on the measured ay): the best a user who knows the car's roll gradient could do.
 
 prints the table (sideslip RMSE in deg; time-averaged NEES) and writes it to OUT/fusion.md.
 
-Measured (2026-12-02, on the defaults of HEAD 4d3b8c8), sideslip RMSE in deg:
+Measured on the estimator's defaults, sideslip RMSE in deg:
 
 - With the ideal accelerometer the combination wins everywhere, by a lot: BMW slow ramp EKF_A
   1.69 -> 0.29 (NEES 700 -> 1.6), EKF_B 0.99 -> 0.49; lane changes 0.43-0.47 -> 0.08-0.11 (NEES
@@ -50,7 +50,7 @@ Measured (2026-12-02, on the defaults of HEAD 4d3b8c8), sideslip RMSE in deg:
 
 So a kinematic-dynamic combination is not built into the FMU: it wins only with a roll-compensated
 (or roll-free) accelerometer, which needs the car's roll gradient and more than the basic data
-issue 12 point 6 allows, and even then not on a long drive at the limit.
+the campaigns give a user (campaigns/car.rs), and even then not on a long drive at the limit.
 """
 import argparse
 import csv

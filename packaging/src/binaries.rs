@@ -1,5 +1,6 @@
 //! Which binaries go into an FMU: the Linux x86-64 library built here, portable to glibc 2.17
-//! (issue 15, point 1), and libraries for other platforms built elsewhere and placed in a folder.
+//! (it loads on older distributions), and libraries for other platforms built elsewhere and
+//! placed in a folder.
 //!
 //! **glibc 2.17.** A library linked on this machine requires the symbol versions of this
 //! machine's glibc (`hypot@GLIBC_2.35`, `pthread_key_create@GLIBC_2.34`), so it does not load on

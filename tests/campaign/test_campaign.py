@@ -1,4 +1,4 @@
-"""Issue 16: campaigns on Dask. A small Monte Carlo on a LocalCluster of 2 workers gives the
+"""Campaigns on Dask. A small Monte Carlo on a LocalCluster of 2 workers gives the
 scores of `harness montecarlo` bit for bit; an interrupted campaign resumes without running a
 case twice or losing one; a case the FMU refuses is recorded with its error; a malformed campaign
 file is named in the error."""
@@ -131,7 +131,7 @@ def test_a_killed_campaign_resumes_with_only_the_missing_cases(
 def test_a_case_the_fmu_refuses_is_recorded_with_its_error(
         tmp_path, harness_binary, fmu_dir, dask_scheduler):
     # A sensor period of 1e-300 s gives the ReferenceVehicle an internal step it refuses at
-    # fmi2ExitInitializationMode (issue 15 point 2); the other cases of the chunk still run.
+    # fmi2ExitInitializationMode; the other cases of the chunk still run.
     path = write_campaign(tmp_path, '[[axis]]\nparameter = "vehicle.sensor_sample_period"\n'
                                     'values = [0.001, 1e-300]\n'
                                     '[[axis]]\nseeds = ["vehicle.seed"]\ncount = 2\n')

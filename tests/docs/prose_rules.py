@@ -28,7 +28,7 @@ ABBREVIATION = re.compile(r"\b(?:e\.g|i\.e|cf|sect|Sect|ed|eq|eqs|fig|ch|ref|vs|
 
 
 def history_in(text: str) -> list[str]:
-    """What in `text` tells history, as "a date: '2026-12-05'" items."""
+    """What in `text` tells history, as "a date: '<the date found>'" items."""
     found = []
     for pattern, what in HISTORY:
         found += [f"{what}: {match.group(0)!r}" for match in pattern.finditer(text)]

@@ -1,4 +1,4 @@
-"""Issue 14: an MDF4 log written by a mainstream tool (asammdf) replays through `harness replay`
+"""An MDF4 log written by a mainstream tool (asammdf) replays through `harness replay`
 exactly as the CSV it was made from: two channel groups at 10 ms and 20 ms with their own master
 channels and units, read by the mf4-rs crate. A channel whose unit is not the map's is refused,
 naming the channel."""

@@ -5,7 +5,7 @@
 //! Run with:
 //! `CARGO_TARGET_DIR=target/kalman cargo bench -p estimation --bench kalman`
 //!
-//! Targets (issue 3, on the 2-core CI machine): LKF <= 0.5 us, EKF <= 1.5 us, UKF 2n <= 2.5 us,
+//! Per-step budgets on the 2-core CI machine: LKF <= 0.5 us, EKF <= 1.5 us, UKF 2n <= 2.5 us,
 //! UKF scaled <= 3 us; ours must beat numeris' UKF (`numeris_ukf_scaled`, same scaled sigma
 //! points alpha = 0.5, beta = 2, kappa = 0, same model functions, its own Cholesky and update).
 //!

@@ -1,5 +1,5 @@
 //! The crate's integration tests, one module per file, in one test binary: the crate and its
-//! dependencies are compiled and linked once instead of once per file (issue 11 point 7).
+//! dependencies are compiled and linked once instead of once per file.
 //! `cargo test -p estimation --test integration <module>::` runs one file's tests.
 
 mod kalman_support;

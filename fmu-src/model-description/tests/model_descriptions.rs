@@ -38,7 +38,7 @@ fn both_model_descriptions_are_valid() {
 }
 
 #[test]
-fn interface_names_of_issue_4_are_present_with_the_same_shape_on_both_sides() {
+fn the_shared_interface_names_are_present_with_the_same_shape_on_both_sides() {
     let reference = parse_file(path("ReferenceVehicle")).unwrap();
     let estimator = parse_file(path("VehicleStateEstimator")).unwrap();
     for input in ["steering_angle", "drive_torque", "brake_torque"] {

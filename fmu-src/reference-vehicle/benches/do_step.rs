@@ -10,7 +10,7 @@
 //! checks, catch_unwind) adds; `model_do_step` − `bare_vehicle_step` is the FMU's own work
 //! around the equations (process noise, sensor chain, outputs). The `*_model_b` entries are the
 //! same for model B (two-track, Magic Formula, 7 states), the `*_model_3` entries for model 3
-//! (the full vehicle of issue 13, 18 states; issue 13 asks for one 1 ms step within 10 µs).
+//! (the full vehicle, 18 states; its budget is one 1 ms step within 10 µs).
 //! `fmi2_get_outputs` and `fmi2_set_inputs` are one batched fmi2GetReal of every real output and
 //! fmi2SetReal of the real inputs (driver and road): a master's per-step traffic with this FMU.
 

@@ -1,5 +1,5 @@
 //! The vehicle behind the FMU: models 1 and 2 (`vehicle_models::ReferenceVehicle`, unchanged
-//! from the seeds) or model 3, the full vehicle of issue 13 (`vehicle_models::full_vehicle`),
+//! from the seeds) or model 3, the full vehicle (`vehicle_models::full_vehicle`),
 //! with what the FMU reports of each beyond the common [`VehicleTruth`].
 
 use fmi_export::{StateError, StateReader, StateWriter};

@@ -326,7 +326,7 @@ fn a_step_beyond_the_stop_time_is_an_error() {
 fn setting_values_follows_causality_variability_and_range() {
     let mut s = slave();
     // Out of range parameter: clamped with a warning, the call's other values applied
-    // (issue 15 point 3); a NaN parameter and a value that is no item are ignored.
+    // (the run goes on); a NaN parameter and a value that is no item are ignored.
     let status = s.set_reals(&[vr::MASS, vr::VX0], &[1500.0, 200.0]);
     assert_error_logged(&s, status, Fmi2Status::Warning, "outside its range");
     let status = s.set_integer(vr::MODEL, 7);
@@ -418,7 +418,7 @@ fn debug_logging_categories_are_checked() {
     assert_eq!(
         status,
         Fmi2Status::Warning,
-        "unknown categories are ignored (issue 15)"
+        "unknown categories are ignored"
     );
     assert_eq!(
         s.do_step(0.0, 0.01),
@@ -787,8 +787,8 @@ fn model_3_refuses_an_invalid_car_and_a_saved_state_brings_its_own_model() {
 
 #[test]
 fn a_sample_period_below_the_clock_resolution_is_refused_at_initialisation() {
-    // Issue 15: 1e-300 s lies inside the declared range [0, 1] and made the first doStep loop
-    // for ever; the sample period is an internal step, checked by fmi-export.
+    // 1e-300 s lies inside the declared range [0, 1] and would make the first doStep loop for
+    // ever; the sample period is an internal step, checked by fmi-export.
     let mut s = slave();
     assert_eq!(s.set_real(vr::SENSOR_SAMPLE_PERIOD, 1e-300), Fmi2Status::Ok);
     let status = s.initialize(0.0);
@@ -797,7 +797,7 @@ fn a_sample_period_below_the_clock_resolution_is_refused_at_initialisation() {
 
 #[test]
 fn a_communication_step_of_a_million_seconds_is_discarded_at_once() {
-    // Issue 15: one doStep with h = 1e6 s ran about 20 minutes (1e9 integration steps).
+    // One doStep with h = 1e6 s would take about 20 minutes (1e9 integration steps).
     let mut s = slave();
     assert_eq!(s.initialize(0.0), Fmi2Status::Ok);
     let status = s.do_step(0.0, 1e6);

@@ -1,4 +1,4 @@
-//! Direct feed-through (issue 17 point 1): an output read after the master set new inputs at a
+//! Direct feed-through: an output read after the master set new inputs at a
 //! communication point is the output of those inputs, exactly for the outputs the
 //! modelDescription's `<ModelStructure><Outputs>` says depend on them; reading or not reading
 //! between setting the inputs and the next doStep does not change a single bit of the run.

@@ -1,4 +1,4 @@
-//! Issue 15 point 2 on the ReferenceVehicle: every parameter that physics or numerics bound has
+//! Parameter bounds on the ReferenceVehicle: every parameter that physics or numerics bound has
 //! `min` and `max` in the modelDescription, values that would make a step loop or allocate
 //! without bound are refused at initialisation with a message naming the parameter, and the
 //! noise levels are `tunable`, taking effect with the next doStep.

@@ -1,4 +1,4 @@
-//! One 1 ms step of the full vehicle (issue 13: within 10 µs), in a hard turn of the seed car and
+//! One 1 ms step of the full vehicle (budget: within 10 µs), in a hard turn of the seed car and
 //! of the VW Vanagon, and standing still under the brake.
 //!
 //! Run with: `cargo bench -p vehicle-models --bench full_vehicle`

@@ -3,7 +3,7 @@
 //! Run with:
 //! `CARGO_TARGET_DIR=target/models cargo bench -p vehicle-models --bench model_step`
 //!
-//! Target (issue 2): model A at most 150 ns per step, release build, on the 2-core CI machine.
+//! Target: model A at most 150 ns per step, release build, on the 2-core CI machine.
 
 use std::hint::black_box;
 

@@ -18,7 +18,7 @@ pub const WHEEL_RADIUS_FRONT: &str = "wheel_radius_front";
 /// The FMU parameter of the rear rolling radius.
 pub const WHEEL_RADIUS_REAR: &str = "wheel_radius_rear";
 
-/// The per-axle tyre parameters (issue 17 point 4), `(front, rear)` FMU names: factors on the
+/// The per-axle tyre parameters, `(front, rear)` FMU names: factors on the
 /// shared tyre law (`tyre_*`) of each axle, Pacejka's user scaling factors (`λμy`, `λFz0`;
 /// [`crate::tyre::AxleTyreScaling`]), for both estimator models, and model B's Magic Formula
 /// shape and curvature per axle. An FMU that does not declare them (the ReferenceVehicle) gets
@@ -188,7 +188,7 @@ impl<F: Fn(&str) -> Option<f64>> ParameterSource<F> {
     }
 }
 
-/// Visits every Real parameter of the full vehicle (issue 13, `model = 3` of the
+/// Visits every Real parameter of the full vehicle (`model = 3` of the
 /// ReferenceVehicle) with its FMU name, the factor from the model's field to the FMU's value,
 /// and the field. The names shared with models A and B mean the same there (`mass`, …,
 /// `wheel_inertia_*`, which the seed declares for both wheels of an axle, hence the factor 2);

@@ -1,4 +1,4 @@
-//! Open-loop responses of the full vehicle against textbook behaviour (issue 13, point 7):
+//! Open-loop responses of the full vehicle against textbook behaviour:
 //! understeer gradient, step-steer response time, roll gradient, mirror symmetry, road friction,
 //! lifted wheels.
 

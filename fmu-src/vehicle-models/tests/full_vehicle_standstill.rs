@@ -1,4 +1,4 @@
-//! The full vehicle at low speed and standstill (issue 13, point 4), its drivetrains and brakes,
+//! The full vehicle at low speed and standstill, its drivetrains and brakes,
 //! and energy: brake to a stop and hold, pull away, reverse slowly, no wheel spinning up under a
 //! brake, no NaN; every drivetrain moves the car; coasting never gains kinetic energy.
 

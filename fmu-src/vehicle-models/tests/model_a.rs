@@ -465,7 +465,7 @@ fn linearisation_about_straight_driving_is_the_seed_linear_model() {
     assert!(errors[1] < errors[0] / 30.0, "{errors:?}");
 }
 
-/// Issue 17 point 4: the per-axle tyre factors of the chassis (`λμ`, `λFz0`) and the
+/// The per-axle tyre factors of the chassis (`λμ`, `λFz0`) and the
 /// cornering-stiffness scale act on their own axle only. At a cornering point where both axles
 /// slide (HSRI sR > 0.5), changing a rear factor changes the rear axle's force and leaves the
 /// front's to the bit; factors of 1 are the seed's model to the bit.

@@ -317,7 +317,7 @@ fn three_state_jacobians_match_central_differences() {
     }
 }
 
-/// Issue 17 point 4: each axle of the 3-state model B has its own tyre. Changing a rear
+/// Each axle of the 3-state model B has its own tyre. Changing a rear
 /// parameter (the Magic Formula's shape or curvature, or a factor on friction, reference load
 /// or cornering stiffness) changes the rear tyres' force and leaves the front tyres' to the bit,
 /// at a point near the limit (slip angles 5-7°, ay 8 m/s²); the same tyre on both axles given

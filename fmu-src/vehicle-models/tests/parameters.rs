@@ -75,7 +75,7 @@ fn model_a_defaults_are_table_5_1() {
     );
 }
 
-/// The FMU parameter mapping of the per-axle tyres (issue 17 point 4): at their start values
+/// The FMU parameter mapping of the per-axle tyres: at their start values
 /// (the estimator's XML: factors 1, shape 1.3, curvature -1) the chassis and model B's two
 /// tyres are the seed car's; an FMU that does not declare them (the ReferenceVehicle) gets the
 /// same; a rear value reaches the rear tyre only; out-of-range values are named.

@@ -1,5 +1,5 @@
-//! The speed models A and B report (issue 12 point 1). Model B takes the speed as an input
-//! (001: eqs 6-11), and it used to take the measured speed as it came: the sensor's noise went
+//! The speed models A and B report. Model B takes the speed as an input
+//! (001: eqs 6-11); taken as it comes, the measured speed's noise would go
 //! straight into its `vx_est` and into its lateral dynamics. Model A estimates its speed as a
 //! state of its force balance, where with the torques unknown its tyre law's error goes (up to
 //! 9 % off on the harness campaigns). With a measured longitudinal acceleration both now report

@@ -1,4 +1,4 @@
-//! The gate under model error (issue 12 point 3 against issue 17): the estimator's front
+//! The gate under model error (the innovation gate against a mistuned tyre): the estimator's front
 //! cornering stiffness is not the car's, so in steady cornering the model's yaw rate is
 //! persistently off the gyro's, by about ten of the gyro's standard deviations. The gate must let
 //! the gyro in once the offset has lasted its window (the persistent innovation is the model's

@@ -98,7 +98,7 @@ impl Truth {
 
 /// An instance with model 2, the given estimator and the seed-001 noise settings of the
 /// estimation crate (`SEED_001_PROCESS_NOISE_STD`, `SEED_001_MEASUREMENT_NOISE_STD`).
-/// The robustness of issue 12 (start from the measurements, gate) is off: these tests check
+/// The robustness options (start from the measurements, gate) are off: these tests check
 /// seed 001's filters.
 fn slave(estimator: i32) -> Slave {
     let mut s = Slave::instantiate(api(), "estimator", GUID).expect("instantiate");

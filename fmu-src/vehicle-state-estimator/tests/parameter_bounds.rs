@@ -1,4 +1,4 @@
-//! Issue 15 point 2 on the estimator: every Real and Integer parameter carries `min` and `max` in
+//! Parameter bounds on the estimator: every Real and Integer parameter carries `min` and `max` in
 //! the modelDescription, so a master can check a value before setting it and the FMU clamps (with
 //! fmi2Warning) whatever lies outside; the bounds also cap every size the filter allocates from a
 //! parameter (particle count, the adaptation window's ring).

@@ -1,4 +1,4 @@
-//! Issue 15 point 2 through the C ABI: the noise levels, gates and tyre scales are `tunable`
+//! Tunable parameters through the C ABI: the noise levels, gates and tyre scales are `tunable`
 //! parameters. A value set during the run takes effect at the next filter sample (not at a doStep
 //! that processes no sample), and a `fixed` parameter set during the run is refused with
 //! fmi2Error naming it.

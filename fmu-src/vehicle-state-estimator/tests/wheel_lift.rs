@@ -1,4 +1,4 @@
-//! Issue 17 point 4 through the C ABI: model B's geometry parameters and the wheel-load clamp.
+//! Per-axle geometry through the C ABI: model B's geometry parameters and the wheel-load clamp.
 //! A light car (700 kg, CoG height 0.7 m, track 1.3 m) measured at 10 m/s² of lateral
 //! acceleration lifts its inner front wheel: the estimator runs on (finite outputs, no state
 //! reset) and says so with status bit 2048; at 3 m/s² it does not.

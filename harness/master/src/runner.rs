@@ -29,7 +29,7 @@ impl Environment {
     }
 
     /// The work folder, removed when the guard drops: on success, on error and on a panic
-    /// that unwinds (issue 15, point 6).
+    /// that unwinds, so no run leaves extracted FMUs behind.
     pub fn work_folder(&self) -> WorkFolder {
         WorkFolder(self.work_dir())
     }
@@ -103,7 +103,7 @@ pub fn scenario_dir() -> PathBuf {
 }
 
 /// `harness inspect`: loads the FMU, instantiates it once (so that a binary that cannot be
-/// loaded or a GUID the binary does not know fails here, issue 15 point 6) and writes its
+/// loaded or a GUID the binary does not know fails here, before any run) and writes its
 /// variables to `out`. A closed `out` (e.g. `| head`) ends the listing with an `io::Error` of
 /// kind BrokenPipe, which [`is_broken_pipe`] recognises.
 pub fn inspect(fmu_path: &Path, work_dir: &Path, out: &mut dyn std::io::Write) -> Result<()> {

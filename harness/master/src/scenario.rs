@@ -54,7 +54,7 @@ pub enum ScenarioError {
     },
 }
 
-/// The most communication steps a scenario may take (issue 15, point 6): ten million, i.e.
+/// The most communication steps a scenario may take: ten million, i.e.
 /// about three hours of simulated time at 1 ms, which keeps the recording's allocation bounded.
 pub const MAX_STEPS: u64 = 10_000_000;
 

@@ -1,4 +1,4 @@
-//! The master's defences (issue 15, point 6), each a regression test of a defect found by
+//! The master's defences against bad input, each a regression test of a defect found by
 //! probing: names that become paths, sizes that allocate, numeric scenario fields, .fmu
 //! extraction limits, FIFOs, results written under a temporary name, the work folder, `inspect`
 //! and the Monte Carlo seed variables.

@@ -1,5 +1,5 @@
 //! The master is general: it must not link any estimator, vehicle model or FMU crate of this
-//! workspace (issue 11, point 1). Its manifest is read as TOML and every dependency table is
+//! workspace, so it runs any FMU. Its manifest is read as TOML and every dependency table is
 //! checked against the workspace's own crates, so adding one makes this test fail.
 
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! The crate's integration tests, one module per file, in one test binary: the crate and its
 //! dependencies are compiled and linked once instead of once per file, which was a tenth of the
-//! test command's build (issue 11 point 7). `cargo test -p fmi-master --test integration
+//! test command's build. `cargo test -p fmi-master --test integration
 //! <module>::` runs one file's tests.
 
 mod common;

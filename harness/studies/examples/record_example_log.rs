@@ -2,7 +2,7 @@
 //! ReferenceVehicle drives as a data logger would record them. Needs the packaged FMUs.
 //! * harness/logs/ford_escort_sis.csv and .mf4: harness/logs/record_ford_escort.toml;
 //! * harness/logs/ford_escort_limit.csv: harness/logs/record_ford_escort_limit.toml, the drive
-//!   past the limit (issue 14 point 2; CSV only, the MF4 reader is tested on the first).
+//!   past the limit (for the peak friction fit; CSV only, the MF4 reader is tested on the first).
 //!
 //! `cargo run --release -p harness --example record_example_log [sis|limit]` writes one of them
 //! (default both).

@@ -2,7 +2,7 @@
 //! a recorded CSV (the same data, columns shuffled) gives the same result, parallel noise seeds
 //! equal single runs, and bad CSV files and identification files are refused with a message
 //! naming the file, the line/column or field and what was expected. Also: every command ends
-//! quietly when its output pipe is closed (issue 11).
+//! quietly when its output pipe is closed.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -424,7 +424,7 @@ fn constant_drive_csv(rows: usize, speed: f64, steering: f64) -> String {
     text
 }
 
-/// Issue 15: a standing vehicle gave m/J = 564 and exit 0. Data that cannot determine the
+/// A standing vehicle could give m/J = 564 and exit 0. Data that cannot determine the
 /// parameters are refused, naming the file and the reason, with a non-zero exit.
 #[test]
 fn data_that_cannot_determine_the_parameters_are_refused() {
@@ -668,7 +668,7 @@ fn into_a_closed_pipe(args: &[&str]) -> Output {
 fn a_closed_pipe_ends_the_command_quietly() {
     // Two commands with their own output code: the library listing and the identification
     // (its header line); every command writes through the one handle main.rs checks for
-    // BrokenPipe. Before issue 11 both panicked in `println!` with exit status 101.
+    // BrokenPipe; a bare `println!` would panic with exit status 101.
     let dir = Scratch::new("identify");
     let file = small_identification_file(&dir.0, "pipe", "[4]");
     let out = dir.0.join("out");
@@ -701,8 +701,8 @@ fn printed_sideslip_rmse(stdout: &str, instance: &str) -> String {
 
 /// `harness montecarlo` drives the same manoeuvre as `harness run`: a sine with dwell whose
 /// amplitude comes from a slowly increasing steer (`[manoeuvre.amplitude_from_sis]`) is resolved
-/// before the runs. It used to be skipped, so the Monte Carlo runs drove the library's default
-/// amplitude and reported errors several times those of the same seed under `harness run`.
+/// before the runs. Skipped, the Monte Carlo runs would drive the library's default amplitude
+/// and report errors several times those of the same seed under `harness run`.
 #[test]
 fn montecarlo_drives_the_sine_with_dwell_that_run_drives() {
     let fmu_dir = fmi_master::runner::packaged_fmu_dir().expect("packaged FMUs");

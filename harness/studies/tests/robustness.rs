@@ -42,7 +42,7 @@ fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
     assert_eq!(defaults.estimator, "EKF");
     assert_eq!(grip.estimator, "EKF_G");
     assert_eq!(old.estimator, "EKF_old");
-    // Today's EKF rejects the 100 m/s² sample (status bit 128) and its estimate moves by no
+    // The default EKF rejects the 100 m/s² sample (status bit 128) and its estimate moves by no
     // more than its own one-sigma (measured 0.95 sigma in sideslip, 0 in vx); on model 3 too
     // (0.10 sigma).
     for row in [defaults, grip] {
@@ -50,7 +50,8 @@ fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
         assert!(result.verdict(row).0, "{row:?}");
         assert!(row.vx_error_percent < 2.0, "{row:?}");
     }
-    // The old behaviour takes the glitch in: its sideslip jumps by thousands of sigmas.
+    // EKF_old (seed 000's filter, no gate) takes the glitch in: its sideslip jumps by
+    // thousands of sigmas.
     assert!(!result.verdict(old).0, "{old:?}");
     assert!(old.effect_sideslip > 100.0, "{old:?}");
 }

@@ -190,7 +190,7 @@ pub(crate) fn masked_gain<const N: usize, const M: usize>(
 /// `aᵀ b` over a masked update's rows (its skipped rows are 0 in `a` or `b`): summed over the
 /// rows up to the last used one, but at least the first four, in the order nalgebra's `dot`
 /// uses for a vector of that length. A model with extra trailing rows that are not used this
-/// time (model A's optional `vx` row, issue 12) then gives the NIS of the model without them bit
+/// time (model A's optional `vx` row) then gives the NIS of the model without them bit
 /// for bit, the seeds' four rows included (nalgebra sums four products as `(a + c) + (b + d)`,
 /// more in order).
 pub(crate) fn masked_dot<const M: usize>(

@@ -496,7 +496,7 @@ pub const ANCHORED_MEASUREMENT_DIM: usize = MEASUREMENT_DIM + 1;
 
 /// Inputs of the speed-anchored model A: `u = [steering_angle, drive_torque, brake_torque,
 /// drive_torque_rear, ax, ax_valid]`: the driver input (`drive_torque` on the front axle) with a
-/// drive torque on the rear axle (rear- and all-wheel drive cars, issue 12), and `ax_valid` 1
+/// drive torque on the rear axle (rear- and all-wheel drive cars), and `ax_valid` 1
 /// when `ax` is a measured longitudinal acceleration, else 0.
 pub const ANCHORED_INPUT_DIM: usize = INPUT_DIM + 3;
 
@@ -514,7 +514,7 @@ pub const AX_INPUT: usize = INPUT_DIM + 1;
 /// Index of the flag that says whether [`AX_INPUT`] holds a measurement.
 pub const AX_VALID_INPUT: usize = INPUT_DIM + 2;
 
-/// Model A with a speed anchor (issue 12, point 1): series cars rarely report the drive and
+/// Model A with a speed anchor: series cars rarely report the drive and
 /// brake torques, and without them model A's `vx` follows the tyre forces of guessed torques
 /// and runs away once the tyres slide. Two measurements fix the speed independently of the
 /// torques:

@@ -1,4 +1,4 @@
-//! Model A with per-axle lateral grip states and tyre relaxation (issue 17 points 3 and 4) as a
+//! Model A with per-axle lateral grip states and tyre relaxation as a
 //! [`StateSpaceModel<11, 5, 6>`].
 //!
 //! - state `x = [vx, vy, yaw_rate, omega_front, omega_rear, grip_front, grip_rear,

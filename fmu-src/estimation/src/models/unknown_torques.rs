@@ -1,4 +1,4 @@
-//! Model A's wheels while the torques are unknown (issue 12 point 1, issue 17 point 5): every
+//! Model A's wheels while the torques are unknown: every
 //! torque input reads exactly 0 (most cars report none). `vx` then follows the speed anchor's
 //! kinematics where `ax` is measured ([`super::single_track::SpeedAnchoredModel`]), else the
 //! body's force balance with the freely rolling wheels' forces below (the car coasting), and
@@ -6,8 +6,7 @@
 //! without it the seed's wheels returned, and on the Ford Escort's drive to the limit without an
 //! `ax` column (harness/logs, `ax_meas` NaN) the grip model's EKF was 4.56° off in sideslip RMSE
 //! (NEES 931); with the wheels of this module 1.33° (NEES 277; the sideslip then rests on the
-//! tyre law alone, README "Which model"), and the campaigns, which measure `ax`, unchanged
-//! (2026-12-04).
+//! tyre law alone, README "Which model"), and the campaigns, which measure `ax`, unchanged.
 //!
 //! **What the seed's wheels do then.** Each wheel's spin balance `J ω̇ = T − r Fx` (000:
 //! 5.45-5.46) sees the tyre's braking or driving force without the torque that balances it, and

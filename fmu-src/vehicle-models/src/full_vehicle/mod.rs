@@ -1,4 +1,4 @@
-//! The full reference vehicle (issue 13): a two-track car with roll, lateral and longitudinal load
+//! The full reference vehicle: a two-track car with roll, lateral and longitudinal load
 //! transfer, four wheels with their own spin, combined-slip MF 5.2 tyres with relaxation, front-,
 //! rear- or all-wheel drive, braking with optional ABS, and a standstill that works. A truth model
 //! in `f64` only (no Jacobians are needed of it, so it is not generic over [`crate::Scalar`]);

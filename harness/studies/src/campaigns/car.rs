@@ -1,5 +1,5 @@
 //! What a user knows of a car, given to every estimator instance of the robustness cases and the
-//! mismatch campaigns: issue 12 point 6 sets "only a car's mass, yaw inertia, axle distances,
+//! mismatch campaigns: the campaigns' rule is "only a car's mass, yaw inertia, axle distances,
 //! wheel radii and wheel loads, and everything else at its default". The values come from the
 //! same SSP parameter-value file (.ssv) the ReferenceVehicle runs with, so the truth and the
 //! estimator describe one car and nothing is written twice.

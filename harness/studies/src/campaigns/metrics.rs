@@ -45,7 +45,7 @@ pub struct Track<'a> {
 /// atan2(vy, vx) is that of two noise-sized numbers, any value between -180 and 180 deg.
 pub const SIDESLIP_MIN_SPEED: f64 = 2.0;
 
-/// Issue 12 point 1: with the torques unknown, vx within 2 % of the true speed.
+/// The speed requirement: with the torques unknown, vx within 2 % of the true speed.
 pub const SPEED_LIMIT: f64 = 0.02;
 
 /// Below this true speed, m/s, a relative speed error is meaningless and not scored.

@@ -152,7 +152,7 @@ pub fn write_mf4(run: &RunResult, dir: &Path, stem: &str) -> Result<PathBuf> {
     let fail = |e: mf4_rs::error::MdfError| anyhow!("writing {}: {e:?}", path.display());
     let mut writer = MdfWriter::new(text_path).map_err(fail)?;
     writer.init_mdf_file().map_err(fail)?;
-    // A fixed start (2000-01-01 00:00 UTC, a simulated drive has no date): the same drive gives
+    // A fixed start (midnight UTC, 1 Jan 2000, a simulated drive has no date): the same drive gives
     // the same file, byte for byte.
     const START_NS: u64 = 946_684_800_000_000_000;
     writer.set_start_time(START_NS, 0, 0, 0, 0).map_err(fail)?;
