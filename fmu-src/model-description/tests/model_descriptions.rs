@@ -206,8 +206,8 @@ fn duplicate_value_references_are_rejected() {
 #[test]
 fn start_outside_min_max_is_rejected() {
     let message = rejected(
-        r#"min="1" max="80" start="18""#,
-        r#"min="1" max="80" start="0.5""#,
+        r#"min="0" max="80" start="18""#,
+        r#"min="0" max="80" start="-0.5""#,
     );
     assert!(message.contains("variable 'vx0'"), "{message}");
     assert!(message.contains("below min"), "{message}");
@@ -216,8 +216,8 @@ fn start_outside_min_max_is_rejected() {
 #[test]
 fn a_nan_start_is_missing_for_a_real_input_and_a_typo_elsewhere() {
     let message = rejected(
-        r#"min="1" max="80" start="18""#,
-        r#"min="1" max="80" start="NaN""#,
+        r#"min="0" max="80" start="18""#,
+        r#"min="0" max="80" start="NaN""#,
     );
     assert!(message.contains("variable 'vx0'"), "{message}");
     assert!(message.contains("start is NaN"), "{message}");
