@@ -94,7 +94,8 @@ def test_the_speed_is_filterpys_kalman_filter_on_the_kinematics(estimator, estim
 
 
 def test_without_ax_model_b_takes_the_measured_speed(estimator, estimator_dir):
-    assert estimator.start("ax_meas") == 0.0
-    fmu, measured = run_estimator(estimator, estimator_dir, 0.0)
+    # An unconnected ax_meas starts at NaN: missing.
+    assert np.isnan(estimator.start("ax_meas"))
+    fmu, measured = run_estimator(estimator, estimator_dir, float("nan"))
     np.testing.assert_array_equal(fmu[:, 0], measured)
     np.testing.assert_array_equal(fmu[:, 1], np.full(SAMPLES, R_STD))

@@ -1518,6 +1518,12 @@ pub(crate) fn step<M: CoSimulationModel>(
             instance.last_successful_time = t + h;
             Outcome::Warning(format!("{function} at t = {t}: {message}"))
         }
+        StepOutcome::Notice(message) => {
+            instance.time = t + h;
+            instance.last_successful_time = t + h;
+            instance.log_notice(&format!("{function} at t = {t}: {message}"));
+            Outcome::Ok
+        }
         StepOutcome::Discard(message) => {
             instance.state = MachineState::StepFailed;
             Outcome::Discard(format!("{function} at t = {t}: {message}"))

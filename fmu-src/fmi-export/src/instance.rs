@@ -184,6 +184,20 @@ impl<M: CoSimulationModel> Instance<M> {
         }
     }
 
+    /// Logs a notice: status OK, warning category, shown unless the master switched logging
+    /// on and left that category off (as warnings are).
+    pub(crate) fn log_notice(&self, message: &str) {
+        if self.enabled_categories == 0 || self.category_enabled(CATEGORY_WARNING) {
+            log_message(
+                &self.logger,
+                &self.name,
+                Fmi2Status::Ok,
+                CATEGORY_WARNING,
+                message,
+            );
+        }
+    }
+
     /// Logs a message that comes with a non-OK status. Errors and fatal errors are always
     /// logged (a misuse must leave a trace); warnings and discards unless the master switched
     /// logging on and then turned their category off — with logging off they are still shown,

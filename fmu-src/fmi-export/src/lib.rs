@@ -137,6 +137,11 @@ pub enum StepOutcome {
     Ok,
     /// The step was completed, but something is not quite right (logged, `fmi2Warning`).
     Warning(String),
+    /// The step was completed and returns `fmi2OK`; the message is logged in the warning
+    /// category with status OK. For what a user should read but a master need not act on:
+    /// importers such as FMI++ stop advancing their clock after a step that answers
+    /// `fmi2Warning`.
+    Notice(String),
     /// The step could not be completed (`fmi2Discard`, state StepFailed); the model kept its
     /// last consistent values.
     Discard(String),

@@ -248,7 +248,7 @@ impl UnconnectedSensors {
         }
     }
 
-    /// The warning of the first doStep, if some sensor input never had a finite value.
+    /// The notice of the first doStep, if some sensor input never had a finite value.
     fn first_report(&mut self) -> Option<String> {
         if std::mem::replace(&mut self.reported, true) {
             return None;
@@ -440,7 +440,7 @@ impl CoSimulationModel for VehicleStateEstimator {
         self.variables.status = bits;
         self.status_awaits_publish = processed;
         match self.sensors_seen.first_report() {
-            Some(warning) => StepOutcome::Warning(warning),
+            Some(notice) => StepOutcome::Notice(notice),
             None => StepOutcome::Ok,
         }
     }

@@ -47,7 +47,9 @@ fn the_first_do_step_warns_once_for_each_sensor_never_set() {
         assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
     }
     s.log.clear();
-    assert_eq!(s.do_step(0.0, 0.01), Fmi2Status::Warning);
+    // A notice, not a warning status: importers such as FMI++ stop their clock after a step
+    // that answers fmi2Warning.
+    assert_eq!(s.do_step(0.0, 0.01), Fmi2Status::Ok);
     let warnings: Vec<String> = s.log.lines().into_iter().map(|line| line.message).collect();
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     for (name, _) in SENSORS {

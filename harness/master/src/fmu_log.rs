@@ -7,6 +7,7 @@
 //! printed; they are still kept for [`take_recent`].
 
 use std::collections::{BTreeMap, VecDeque};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, Once};
 
 const KEPT_PER_INSTANCE: usize = 8;
@@ -108,7 +109,9 @@ impl log::Log for FmuLogger {
                 Printing::Suppress => None,
             };
             if let Some(line) = line {
-                let expected = record.level() == log::Level::Warn && Recorder::keep(&line);
+                let recordable =
+                    record.level() == log::Level::Warn || RECORD_ERRORS.load(Ordering::SeqCst);
+                let expected = recordable && Recorder::keep(&line);
                 if !expected {
                     eprintln!("{line}");
                 }
@@ -159,6 +162,9 @@ pub fn forget(instance: &str) {
 /// The warnings a [`Recorder`] keeps instead of printing; None while none lives.
 static RECORDED: Mutex<Option<Vec<String>>> = Mutex::new(None);
 
+/// Whether the living [`Recorder`] keeps errors too ([`Recorder::start_with_errors`]).
+static RECORD_ERRORS: AtomicBool = AtomicBool::new(false);
+
 /// While a `Recorder` lives, the FMU warnings that would be printed (repeats limited as for
 /// printing) are kept for it instead: a study that feeds
 /// inputs out of range on purpose reports the warnings it expects instead of printing them among
@@ -172,6 +178,14 @@ impl Recorder {
             *recorded = Some(Vec::new());
         }
         Recorder(())
+    }
+
+    /// Like [`Recorder::start`], and errors are kept too: for a study that runs configurations
+    /// an FMU refuses on purpose and reports each refusal in its own table.
+    pub fn start_with_errors() -> Recorder {
+        let recorder = Recorder::start();
+        RECORD_ERRORS.store(true, Ordering::SeqCst);
+        recorder
     }
 
     /// The warnings recorded so far, each as it would have been printed, in order.
@@ -195,6 +209,7 @@ impl Recorder {
 
 impl Drop for Recorder {
     fn drop(&mut self) {
+        RECORD_ERRORS.store(false, Ordering::SeqCst);
         if let Ok(mut recorded) = RECORDED.lock() {
             *recorded = None;
         }

@@ -373,17 +373,26 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         &mut failures,
     );
     bar.set_message("the real track recording (MBDS): every model and estimator");
-    let real_recording = keep(
-        REAL_RECORDING_STUDY,
+    // The study leaves the wheel speeds out and runs configurations the FMU refuses on purpose
+    // (each refusal is a row of its table): their FMU messages go to a file, not the console.
+    let recorder = fmi_master::fmu_log::Recorder::start_with_errors();
+    let real_recording = bar.suspend(|| {
         crate::replay::study::run_study(&crate::replay::study::StudyOptions {
             fmu: crate::replay::estimator_path(None, &env.fmu_dir),
             out: env.out_dir.join("mbds"),
             full: false,
             update_committed: false,
-        }),
-        &bar,
-        &mut failures,
-    );
+        })
+    });
+    let study_messages = recorder.take();
+    drop(recorder);
+    if real_recording.is_ok() {
+        write_whole(
+            &env.out_dir.join("mbds").join(REAL_RECORDING_MESSAGES),
+            &study_messages.join("\n"),
+        )?;
+    }
+    let real_recording = keep(REAL_RECORDING_STUDY, real_recording, &bar, &mut failures);
     bar.finish_with_message("all experiments done");
     // Every study that scores the sideslip adds its accuracy CSV here; the report's opening
     // answer reads them all.
@@ -575,7 +584,8 @@ fn real_recording_section(doc: &mut Document, accuracy: &[AccuracyRow]) {
         "The MBDS recording (982 kg car, 5.5 fast laps, INS sideslip reference) through the \
          estimator FMU with the car's basic data and every other parameter at its default, scored \
          on laps 2-6; wheel speeds synthesised from the INS speed or missing. `mbds/mbds_replay.md` \
-         has the study's own table and the fit on lap 1.",
+         has the study's own table and the fit on lap 1; the FMU messages it expects (the wheel \
+         speeds left out, the configurations the FMU refuses) are in `mbds/fmu_messages.txt`.",
     );
     let f = |x: Option<f64>, digits: usize| {
         x.map_or_else(|| "–".to_string(), |v| format!("{v:.digits$}"))
@@ -835,6 +845,9 @@ fn score_tables(doc: &mut Document, scores: &RunScores) {
 /// How the report and the failure list name the replay of the real track recording.
 pub const REAL_RECORDING_STUDY: &str =
     "real track recording study (harness/logs/mbds, `harness replay-study`)";
+
+/// The file (in the study's folder) of the FMU messages the real-recording study expects.
+pub const REAL_RECORDING_MESSAGES: &str = "fmu_messages.txt";
 
 /// How the report and the failure list name the consistency study.
 pub const CONSISTENCY_STUDY: &str =

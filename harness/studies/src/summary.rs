@@ -132,6 +132,11 @@ pub fn read_rows(paths: &[PathBuf]) -> Result<Vec<AccuracyRow>> {
         for (index, record) in reader.records().enumerate() {
             let line = index + 2;
             let record = record.with_context(|| format!("{}, line {line}", path.display()))?;
+            // A configuration the FMU refused (its reason is in the study's own table) has no
+            // score to summarise.
+            if record.get(5).is_some_and(|rmse| rmse.trim().is_empty()) {
+                continue;
+            }
             rows.push(
                 parse_row(&record).with_context(|| format!("{}, line {line}", path.display()))?,
             );
