@@ -7,6 +7,7 @@ tests/docs/test_command_line.py fails when the committed page differs from the b
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -17,8 +18,11 @@ PAGE = ROOT / "docs" / "reference" / "command-line.md"
 
 
 def help_text(harness: Path, *command: str) -> str:
+    # clap wraps the help at the terminal's width, else at $COLUMNS: a fixed width makes the
+    # page the same from a terminal, a script and the tests.
+    environment = {**os.environ, "COLUMNS": "100"}
     completed = subprocess.run([str(harness), *command, "--help"], capture_output=True, text=True,
-                               check=True, timeout=60)
+                               check=True, timeout=60, env=environment)
     return completed.stdout.rstrip() + "\n"
 
 
