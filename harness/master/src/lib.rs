@@ -1,6 +1,7 @@
 //! A general FMI 2.0 Co-Simulation master: scenario files driving the manoeuvre signals of the
-//! `manoeuvres` crate, the co-simulation loop ([`cosim::Plan`]), FMU loading and logging, recording to CSV, scoring
-//! against a truth, Monte Carlo campaigns, plots and report primitives.
+//! `manoeuvres` crate, the co-simulation loop ([`cosim::Plan`]), FMU loading, instances
+//! ([`instance::FmuInstance`]) and logging, recording to CSV, scoring against a truth, Monte
+//! Carlo campaigns, plots and report primitives.
 //!
 //! FMUs are reached only through the `fmi` crate. This crate depends on no estimator, vehicle
 //! model or FMU crate of the workspace (its Cargo.toml says so and `tests/independence.rs`
@@ -10,6 +11,7 @@
 pub mod cosim;
 pub mod fmu;
 pub mod fmu_log;
+pub mod instance;
 
 pub mod montecarlo;
 pub mod plot;

@@ -4,6 +4,7 @@
 //! <module>::` runs one file's tests.
 
 mod common;
+mod fmu_instance;
 mod fmu_refusal;
 mod hardening;
 mod independence;

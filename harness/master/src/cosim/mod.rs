@@ -17,8 +17,8 @@
 //! source's output of `t_n` computed with its inputs of `t_{n-1}` (documented in
 //! `harness/scenarios/README.md`).
 //!
-//! Every `fmi::fmi2::instance::Instance` is created on the thread that runs it (inside
-//! [`Plan::run`]) and dropped before the [`LoadedFmu`] that owns its `Fmi2Import`.
+//! Every [`FmuInstance`](crate::instance::FmuInstance) is created on the thread that runs it
+//! (inside [`Plan::run`]) and borrows the [`LoadedFmu`] that owns its binary.
 
 //!
 //! The module's parts: [`load`] reads the FMUs and resolves the connections, [`bind`] turns
@@ -27,7 +27,6 @@
 
 mod bind;
 mod columns;
-mod instance;
 mod load;
 mod step;
 
@@ -43,8 +42,8 @@ use crate::fmu::{LoadedFmu, VariableInfo, VariableType};
 use crate::scenario::{Scenario, VarRef};
 use manoeuvres::{Channel, Manoeuvre};
 
+pub use crate::instance::{FmiVersion, ParameterValue};
 pub use columns::Columns;
-pub use instance::FmiVersion;
 pub use load::{convert_scenario_value, convert_value};
 
 use bind::ScenarioRefs;
@@ -90,14 +89,6 @@ enum Slot {
     PoseX,
     PoseY,
     PoseYaw,
-}
-
-#[derive(Debug, Clone, PartialEq)]
-pub enum ParameterValue {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
-    String(String),
 }
 
 /// What one [[fmu]] entry does at each step, with value references resolved.

@@ -4,23 +4,20 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context, Result};
-use fmi::fmi2::binding::fmi2Boolean;
 
 use super::columns::{Columns, StagedRows};
-use super::instance::RunInstance;
 use super::load::settable;
 use super::{
     describe_fmu, InstancePlan, ParameterValue, Plan, RunOptions, RunResult, Slot, Source,
     MAX_RECORDED_VALUES,
 };
 use crate::fmu::{VariableInfo, VariableType};
-use crate::fmu_log;
+use crate::instance::{FmuInstance, InstanceError};
 use manoeuvres::{ManoeuvreRun, VehicleMotion};
 
 impl Plan {
     /// Run the scenario once on the calling thread. `progress` gets the fraction done.
     pub fn run(&self, options: &RunOptions, mut progress: impl FnMut(f64)) -> Result<RunResult> {
-        fmu_log::install();
         let wall_start = Instant::now();
         let scenario = &self.scenario;
         let steps = scenario.step_count()?;
@@ -62,55 +59,37 @@ impl Plan {
             m.update(scenario.start_time, None);
         }
 
-        // Instantiate on this thread; `instances` drops before `self.fmus` (borrowed here).
-        let mut instances: Vec<RunInstance> = Vec::with_capacity(self.instances.len());
-        let mut fmi_names = Vec::with_capacity(self.instances.len());
+        // Instantiate on this thread; the instances borrow `self.fmus`, and dropping them
+        // terminates (when stepping and no call failed) and frees them.
+        let mut instances = Vec::with_capacity(self.instances.len());
         for (index, plan) in self.instances.iter().enumerate() {
             let fmi_name = format!("{}{}", plan.name, options.instance_suffix);
-            let instance = RunInstance::new(&self.fmus[plan.fmu], &fmi_name, self.version)
-                .map_err(|e| self.fmu_error(index, &fmi_name, "instantiate", &e))?;
+            let instance = FmuInstance::new(&self.fmus[plan.fmu], &fmi_name, self.version)
+                .map_err(|e| self.fmu_error(index, e))?;
             instances.push(instance);
-            fmi_names.push(fmi_name);
         }
         let result = self.run_instances(
             &mut instances,
-            &fmi_names,
             &overrides,
             manoeuvre.as_mut(),
             steps,
             stop_time,
             &mut progress,
         );
-        for (instance, name) in instances.iter_mut().zip(&fmi_names) {
-            if result.is_ok() {
-                let _ = instance.terminate();
-            }
-            fmu_log::forget(name);
-        }
         drop(instances);
         let mut result = result?;
         result.total_wall_time = wall_start.elapsed().as_secs_f64();
         Ok(result)
     }
 
-    fn fmu_error(&self, index: usize, fmi_name: &str, call: &str, status: &str) -> anyhow::Error {
-        let said = fmu_log::take_recent(fmi_name);
-        let said = if said.is_empty() {
-            String::new()
-        } else {
-            format!("; the FMU logged: {}", said.join(" | "))
-        };
-        anyhow!(
-            "{}: {call} failed ({status}){said}",
-            describe_fmu(self, index)
-        )
+    /// `error` of instance `index`, naming the instance and its FMU.
+    fn fmu_error(&self, index: usize, error: InstanceError) -> anyhow::Error {
+        anyhow!("{}: {error}", describe_fmu(self, index))
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn run_instances(
         &self,
-        instances: &mut [RunInstance],
-        fmi_names: &[String],
+        instances: &mut [FmuInstance],
         overrides: &[Vec<(VariableInfo, ParameterValue)>],
         mut manoeuvre: Option<&mut ManoeuvreRun>,
         steps: u64,
@@ -119,9 +98,6 @@ impl Plan {
     ) -> Result<RunResult> {
         let scenario = &self.scenario;
         let t0 = scenario.start_time;
-        let err = |index: usize, call: &str, e: &dyn std::fmt::Display| {
-            self.fmu_error(index, &fmi_names[index], call, &e.to_string())
-        };
 
         // Parameters, then manoeuvre-bound parameters, then overrides (last wins).
         for (index, plan) in self.instances.iter().enumerate() {
@@ -139,19 +115,15 @@ impl Plan {
                 values.push((var, value.clone()));
             }
             for (var, value) in values {
-                set_value(instance, var, &value).map_err(|e| {
-                    err(
-                        index,
-                        &format!("setting parameter {:?} = {value:?}", var.name),
-                        &e,
-                    )
-                })?;
+                instance
+                    .set_parameter(&var.name, &value)
+                    .map_err(|e| self.fmu_error(index, e))?;
             }
         }
         for (index, instance) in instances.iter_mut().enumerate() {
             instance
                 .enter_initialization_mode(t0, stop_time)
-                .map_err(|e| err(index, "enter initialisation mode", &e))?;
+                .map_err(|e| self.fmu_error(index, e))?;
         }
         let mut caches: Vec<Vec<f64>> = self
             .instances
@@ -165,12 +137,11 @@ impl Plan {
             &mut buffers,
             manoeuvre.as_deref_mut(),
             t0,
-            &err,
         )?;
         for (index, instance) in instances.iter_mut().enumerate() {
             instance
                 .exit_initialization_mode()
-                .map_err(|e| err(index, "exit initialisation mode", &e))?;
+                .map_err(|e| self.fmu_error(index, e))?;
         }
 
         let rows = steps as usize + 1;
@@ -193,7 +164,6 @@ impl Plan {
                 &mut buffers,
                 manoeuvre.as_deref_mut(),
                 t,
-                &err,
             )?;
             times.push(t);
             let row = staged.next_row();
@@ -221,7 +191,7 @@ impl Plan {
             for &index in &self.order {
                 instances[index]
                     .do_step(t, h)
-                    .map_err(|e| err(index, &format!("doStep(t = {t} s, h = {h} s)"), &e))?;
+                    .map_err(|e| self.fmu_error(index, e))?;
                 let finished = Instant::now();
                 step_time[index] += finished - started;
                 started = finished;
@@ -248,12 +218,11 @@ impl Plan {
 
     fn exchange(
         &self,
-        instances: &mut [RunInstance],
+        instances: &mut [FmuInstance],
         caches: &mut [Vec<f64>],
         buffers: &mut ExchangeBuffers,
         manoeuvre: Option<&mut ManoeuvreRun>,
         t: f64,
-        err: &dyn Fn(usize, &str, &dyn std::fmt::Display) -> anyhow::Error,
     ) -> Result<()> {
         let manoeuvre = match manoeuvre {
             Some(m) => {
@@ -261,9 +230,10 @@ impl Plan {
                     Some(fb) => {
                         let mut v = [0.0; 3];
                         instances[fb.instance]
-                            .get_real(&fb.value_references, &mut v)
+                            .get_reals(&fb.value_references, &mut v)
                             .map_err(|e| {
-                                err(fb.instance, "fmi2GetReal (manoeuvre feedback)", &e)
+                                self.fmu_error(fb.instance, e)
+                                    .context("reading the manoeuvre feedback")
                             })?;
                         Some(VehicleMotion {
                             longitudinal_velocity: v[0],
@@ -294,48 +264,48 @@ impl Plan {
                     b.real_in[o.position] = o.value;
                 }
                 instance
-                    .set_real(&plan.inputs.real.0, &b.real_in)
-                    .map_err(|e| err(index, "fmi2SetReal (inputs)", &e))?;
+                    .set_reals(&plan.inputs.real.0, &b.real_in)
+                    .map_err(|e| self.fmu_error(index, e))?;
             }
             if !plan.inputs.integer.0.is_empty() {
                 for (value, source) in b.int_in.iter_mut().zip(&plan.inputs.integer.1) {
                     *value = value_of(source, caches).round() as i32;
                 }
                 instance
-                    .set_integer(&plan.inputs.integer.0, &b.int_in)
-                    .map_err(|e| err(index, "fmi2SetInteger (inputs)", &e))?;
+                    .set_integers(&plan.inputs.integer.0, &b.int_in)
+                    .map_err(|e| self.fmu_error(index, e))?;
             }
             if !plan.inputs.boolean.0.is_empty() {
                 for (value, source) in b.bool_in.iter_mut().zip(&plan.inputs.boolean.1) {
-                    *value = (value_of(source, caches) != 0.0) as fmi2Boolean;
+                    *value = value_of(source, caches) != 0.0;
                 }
                 instance
-                    .set_boolean(&plan.inputs.boolean.0, &b.bool_in)
-                    .map_err(|e| err(index, "fmi2SetBoolean (inputs)", &e))?;
+                    .set_booleans(&plan.inputs.boolean.0, &b.bool_in)
+                    .map_err(|e| self.fmu_error(index, e))?;
             }
             let cache = &mut caches[index];
             if !plan.read_groups.real.0.is_empty() {
                 instance
-                    .get_real(&plan.read_groups.real.0, &mut b.real_out)
-                    .map_err(|e| err(index, "fmi2GetReal", &e))?;
+                    .get_reals(&plan.read_groups.real.0, &mut b.real_out)
+                    .map_err(|e| self.fmu_error(index, e))?;
                 for (value, &slot) in b.real_out.iter().zip(&plan.read_groups.real.1) {
                     cache[slot] = *value;
                 }
             }
             if !plan.read_groups.integer.0.is_empty() {
                 instance
-                    .get_integer(&plan.read_groups.integer.0, &mut b.int_out)
-                    .map_err(|e| err(index, "fmi2GetInteger", &e))?;
+                    .get_integers(&plan.read_groups.integer.0, &mut b.int_out)
+                    .map_err(|e| self.fmu_error(index, e))?;
                 for (value, &slot) in b.int_out.iter().zip(&plan.read_groups.integer.1) {
                     cache[slot] = f64::from(*value);
                 }
             }
             if !plan.read_groups.boolean.0.is_empty() {
                 instance
-                    .get_boolean(&plan.read_groups.boolean.0, &mut b.bool_out)
-                    .map_err(|e| err(index, "fmi2GetBoolean", &e))?;
+                    .get_booleans(&plan.read_groups.boolean.0, &mut b.bool_out)
+                    .map_err(|e| self.fmu_error(index, e))?;
                 for (value, &slot) in b.bool_out.iter().zip(&plan.read_groups.boolean.1) {
-                    cache[slot] = f64::from(u8::from(*value != 0));
+                    cache[slot] = f64::from(u8::from(*value));
                 }
             }
         }
@@ -346,10 +316,10 @@ impl Plan {
 struct InstanceBuffers {
     real_in: Vec<f64>,
     int_in: Vec<i32>,
-    bool_in: Vec<fmi2Boolean>,
+    bool_in: Vec<bool>,
     real_out: Vec<f64>,
     int_out: Vec<i32>,
-    bool_out: Vec<fmi2Boolean>,
+    bool_out: Vec<bool>,
 }
 
 /// Scratch space allocated once per run, so a step allocates nothing.
@@ -365,27 +335,12 @@ impl ExchangeBuffers {
                 .map(|p| InstanceBuffers {
                     real_in: vec![0.0; p.inputs.real.0.len()],
                     int_in: vec![0; p.inputs.integer.0.len()],
-                    bool_in: vec![0; p.inputs.boolean.0.len()],
+                    bool_in: vec![false; p.inputs.boolean.0.len()],
                     real_out: vec![0.0; p.read_groups.real.0.len()],
                     int_out: vec![0; p.read_groups.integer.0.len()],
-                    bool_out: vec![0; p.read_groups.boolean.0.len()],
+                    bool_out: vec![false; p.read_groups.boolean.0.len()],
                 })
                 .collect(),
         }
     }
-}
-
-fn set_value(instance: &mut RunInstance, var: &VariableInfo, value: &ParameterValue) -> Result<()> {
-    let vr = [var.value_reference];
-    match value {
-        ParameterValue::Real(x) => instance.set_real(&vr, &[*x]),
-        ParameterValue::Integer(x) => instance.set_integer(&vr, &[*x]),
-        ParameterValue::Boolean(b) => instance.set_boolean(&vr, &[*b as fmi2Boolean]),
-        ParameterValue::String(s) => {
-            let c = std::ffi::CString::new(s.as_str()).context("string contains a NUL byte")?;
-            instance.set_string(&vr, &[c])
-        }
-    }
-    .map_err(|e| anyhow!(e))?;
-    Ok(())
 }
