@@ -362,6 +362,21 @@ impl LoadedFmu {
         self.enumeration_items.get(name).map_or(&[], Vec::as_slice)
     }
 
+    /// The start value of Real variable `name`, when the model description declares one.
+    pub fn real_start(&self, name: &str) -> Option<f64> {
+        let variable = self.model_description().model_variable_by_name(name).ok()?;
+        match &variable.elem {
+            ScalarVariableElement::Real(real) => real.start,
+            _ => None,
+        }
+    }
+
+    /// The extracted modelDescription.xml, for what the `fmi` crate's schema does not keep
+    /// (a variable's `unit`, say).
+    pub fn model_description_path(&self) -> PathBuf {
+        self.import.archive_path().join("modelDescription.xml")
+    }
+
     pub fn import(&self) -> &Fmi2Import {
         &self.import
     }

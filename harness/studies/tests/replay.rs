@@ -12,7 +12,7 @@ use std::sync::OnceLock;
 use fmi_master::cosim::RunResult;
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
-use harness::replay::fit::{fit, start_value, FitModel, FitOptions};
+use harness::replay::fit::{fit, FitModel, FitOptions};
 use harness::replay::friction::FrictionFit;
 use harness::replay::report::estimator_rmse;
 use harness::replay::{estimator_path, prepare, record, replay, ReplayOptions};
@@ -609,7 +609,8 @@ fn default_real(name: &str) -> f64 {
     let scratch = Scratch::new(&format!("replay-start-{name}"));
     let fmu = LoadedFmu::load(&estimator_path(None, &default_fmu_dir()), &scratch.0)
         .unwrap_or_else(|e| panic!("{e:#}"));
-    start_value(&fmu, name).unwrap_or_else(|| panic!("{name}: no Real start value"))
+    fmu.real_start(name)
+        .unwrap_or_else(|| panic!("{name}: no Real start value"))
 }
 
 /// The grip model (`model = 3`) ties its speed to the measured `ax` (dvx/dt = ax + r vy), and

@@ -1,22 +1,19 @@
 //! Drives the estimator FMU with aligned log signals, through FMI only (the master's
-//! [`LoadedFmu`] and the `fmi` crate's Co-Simulation instance; no estimator code is linked).
+//! [`LoadedFmu`] and [`FmuInstance`]; no estimator code is linked).
 //!
 //! The master's [`fmi_master::cosim::Plan`] takes its inputs from manoeuvres and connections,
 //! not from recorded tables, so this module adds the one loop a replay needs on top of the
 //! master's public API: at each grid point `t_n` the inputs of row `n` are set, every output is
 //! read and recorded, and the FMU steps `fmi2DoStep(t_n, t_{n+1} − t_n)`. That is the master's
-//! step order for a lone FMU (`harness/master/src/cosim.rs`, steps 2-4).
+//! step order for a lone FMU (`harness/master/src/cosim/mod.rs`, steps 2-4).
 
 use std::path::Path;
 
-use anyhow::{anyhow, bail, Context, Result};
-use fmi::fmi2::binding::fmi2Boolean;
-use fmi::fmi2::instance::{CoSimulation, Common, InstanceCS};
-use fmi::traits::FmiInstance;
+use anyhow::{anyhow, Context, Result};
 
 use fmi_master::cosim::{convert_value, ParameterValue};
 use fmi_master::fmu::{LoadedFmu, VariableInfo, VariableType};
-use fmi_master::fmu_log;
+use fmi_master::instance::{FmiVersion, FmuInstance, InstanceError};
 use fmi_master::ssv::{read_parameter_file, SsvValue};
 
 use super::align::Grid;
@@ -113,120 +110,111 @@ pub fn run(
     grid: &Grid,
     feeds: &[Feed],
 ) -> Result<Recording> {
-    fmu_log::install();
+    let fail = |e: InstanceError| anyhow!("FMU {}: {e}", fmu.path.display());
+    // One name per process: the replay's FMU messages are reported under it.
     let name = format!("replay{}", std::process::id());
-    let mut instance = fmu
-        .import()
-        .instantiate_cs(&name, false, true)
-        .map_err(|e| anyhow!("FMU {}: fmi2Instantiate failed: {e}", fmu.path.display()))?;
-    let result = run_instance(fmu, &mut instance, &name, parameters, grid, feeds);
-    if result.is_ok() {
-        let _ = FmiInstance::terminate(&mut instance);
+    let mut instance = FmuInstance::new(fmu, &name, FmiVersion::Fmi2).map_err(fail)?;
+    for (var, value) in parameters {
+        instance.set_parameter(&var.name, value).map_err(fail)?;
     }
-    fmu_log::forget(&name);
-    result
+    let mut inputs = Inputs::new(&instance, feeds).map_err(fail)?;
+    let mut outputs = Outputs::new(fmu, grid.rows);
+    let stop = grid.time(grid.rows - 1);
+    instance
+        .enter_initialization_mode(grid.start, stop)
+        .map_err(fail)?;
+    inputs.set(&mut instance, 0).map_err(fail)?;
+    instance.exit_initialization_mode().map_err(fail)?;
+    for n in 0..grid.rows {
+        inputs.set(&mut instance, n).map_err(fail)?;
+        outputs.record(&mut instance).map_err(fail)?;
+        if n + 1 < grid.rows {
+            let t = grid.time(n);
+            instance.do_step(t, grid.time(n + 1) - t).map_err(fail)?;
+        }
+    }
+    Ok(outputs.into_recording())
 }
 
-fn run_instance(
-    fmu: &LoadedFmu,
-    instance: &mut InstanceCS,
-    name: &str,
-    parameters: &[(VariableInfo, ParameterValue)],
-    grid: &Grid,
-    feeds: &[Feed],
-) -> Result<Recording> {
-    let fail = |call: &str, e: &dyn std::fmt::Display| {
-        let said = fmu_log::take_recent(name).join(" | ");
-        anyhow!(
-            "FMU {}: {call} failed ({e}); the FMU logged: {said}",
-            fmu.path.display()
-        )
-    };
-    for (var, value) in parameters {
-        set_parameter(instance, var, value)
-            .map_err(|e| fail(&format!("setting {} = {value:?}", var.name), &e))?;
-    }
-    let input_refs: Vec<u32> = feeds
-        .iter()
-        .map(|f| {
-            fmu.variable(&f.input)
-                .filter(|v| v.is_input() && v.var_type == VariableType::Real)
-                .map(|v| v.value_reference)
-                .ok_or_else(|| anyhow!("the estimator FMU has no Real input {:?}", f.input))
-        })
-        .collect::<Result<_>>()?;
-    let outputs = |t: VariableType| -> Vec<&VariableInfo> {
-        fmu.variables
+/// The FMU's Real inputs the feeds drive, and one row of their values.
+struct Inputs<'f> {
+    feeds: &'f [Feed],
+    references: Vec<u32>,
+    row: Vec<f64>,
+}
+
+impl<'f> Inputs<'f> {
+    fn new(instance: &FmuInstance, feeds: &'f [Feed]) -> Result<Self, InstanceError> {
+        let references = feeds
             .iter()
-            .filter(|v| v.is_output() && v.var_type == t)
-            .collect()
-    };
-    let (reals, integers) = (outputs(VariableType::Real), outputs(VariableType::Integer));
-    let real_refs: Vec<u32> = reals.iter().map(|v| v.value_reference).collect();
-    let integer_refs: Vec<u32> = integers.iter().map(|v| v.value_reference).collect();
-    let stop = grid.time(grid.rows - 1);
-    FmiInstance::enter_initialization_mode(instance, None, grid.start, Some(stop))
-        .map_err(|e| fail("fmi2EnterInitializationMode", &e))?;
-    let mut row_in = vec![0.0; feeds.len()];
-    let mut set_inputs = |instance: &mut InstanceCS, n: usize| {
-        for (value, feed) in row_in.iter_mut().zip(feeds) {
+            .map(|feed| instance.real_input(&feed.input))
+            .collect::<Result<_, _>>()?;
+        Ok(Inputs {
+            feeds,
+            references,
+            row: vec![0.0; feeds.len()],
+        })
+    }
+
+    /// Sets the inputs of grid row `n`.
+    fn set(&mut self, instance: &mut FmuInstance, n: usize) -> Result<(), InstanceError> {
+        for (value, feed) in self.row.iter_mut().zip(self.feeds) {
             *value = feed.values[n];
         }
-        instance.set_real(&input_refs, &row_in).map(|_| ())
-    };
-    set_inputs(instance, 0).map_err(|e| fail("fmi2SetReal (inputs)", &e))?;
-    FmiInstance::exit_initialization_mode(instance)
-        .map_err(|e| fail("fmi2ExitInitializationMode", &e))?;
-    let mut columns = vec![Vec::with_capacity(grid.rows); reals.len() + integers.len()];
-    let (mut real_out, mut integer_out) = (vec![0.0; reals.len()], vec![0i32; integers.len()]);
-    for n in 0..grid.rows {
-        let t = grid.time(n);
-        set_inputs(instance, n).map_err(|e| fail("fmi2SetReal (inputs)", &e))?;
-        instance
-            .get_real(&real_refs, &mut real_out)
-            .map_err(|e| fail("fmi2GetReal", &e))?;
-        instance
-            .get_integer(&integer_refs, &mut integer_out)
-            .map_err(|e| fail("fmi2GetInteger", &e))?;
-        let row = real_out
-            .iter()
-            .copied()
-            .chain(integer_out.iter().map(|&i| f64::from(i)));
-        for (column, value) in columns.iter_mut().zip(row) {
-            column.push(value);
-        }
-        if n + 1 < grid.rows {
-            let h = grid.time(n + 1) - t;
-            instance
-                .do_step(t, h, true)
-                .map_err(|e| fail(&format!("fmi2DoStep(t = {t} s, h = {h} s)"), &e))?;
-        }
+        instance.set_reals(&self.references, &self.row)
     }
-    Ok(Recording {
-        names: reals
-            .iter()
-            .chain(&integers)
-            .map(|v| v.name.clone())
-            .collect(),
-        columns,
-    })
 }
 
-fn set_parameter(
-    instance: &mut InstanceCS,
-    var: &VariableInfo,
-    value: &ParameterValue,
-) -> Result<()> {
-    let reference = [var.value_reference];
-    match value {
-        ParameterValue::Real(x) => instance.set_real(&reference, &[*x]).map(|_| ())?,
-        ParameterValue::Integer(i) => instance.set_integer(&reference, &[*i]).map(|_| ())?,
-        ParameterValue::Boolean(b) => instance
-            .set_boolean(&reference, &[fmi2Boolean::from(*b)])
-            .map(|_| ())?,
-        ParameterValue::String(_) => {
-            bail!("{:?}: the estimator has no String parameters", var.name)
+/// Every Real and Integer output of the FMU, and their columns so far.
+struct Outputs<'a> {
+    reals: Vec<&'a VariableInfo>,
+    integers: Vec<&'a VariableInfo>,
+    real_references: Vec<u32>,
+    integer_references: Vec<u32>,
+    real_row: Vec<f64>,
+    integer_row: Vec<i32>,
+    /// The Reals' columns, then the Integers'.
+    columns: Vec<Vec<f64>>,
+}
+
+impl<'a> Outputs<'a> {
+    fn new(fmu: &'a LoadedFmu, rows: usize) -> Self {
+        let of_type = |t: VariableType| -> Vec<&VariableInfo> {
+            (fmu.variables.iter())
+                .filter(|v| v.is_output() && v.var_type == t)
+                .collect()
+        };
+        let (reals, integers) = (of_type(VariableType::Real), of_type(VariableType::Integer));
+        let references = |vars: &[&VariableInfo]| vars.iter().map(|v| v.value_reference).collect();
+        Outputs {
+            real_references: references(&reals),
+            integer_references: references(&integers),
+            real_row: vec![0.0; reals.len()],
+            integer_row: vec![0; integers.len()],
+            columns: vec![Vec::with_capacity(rows); reals.len() + integers.len()],
+            reals,
+            integers,
         }
     }
-    Ok(())
+
+    /// Reads every output and appends it to its column.
+    fn record(&mut self, instance: &mut FmuInstance) -> Result<(), InstanceError> {
+        instance.get_reals(&self.real_references, &mut self.real_row)?;
+        instance.get_integers(&self.integer_references, &mut self.integer_row)?;
+        let row =
+            (self.real_row.iter().copied()).chain(self.integer_row.iter().map(|&i| f64::from(i)));
+        for (column, value) in self.columns.iter_mut().zip(row) {
+            column.push(value);
+        }
+        Ok(())
+    }
+
+    fn into_recording(self) -> Recording {
+        Recording {
+            names: (self.reals.iter().chain(&self.integers))
+                .map(|v| v.name.clone())
+                .collect(),
+            columns: self.columns,
+        }
+    }
 }

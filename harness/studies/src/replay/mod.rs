@@ -29,7 +29,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, bail, Context, Result};
 use quick_xml::events::Event;
 
-use fmi::traits::FmiImport;
 use fmi_master::cosim::ParameterValue;
 use fmi_master::fmu::{LoadedFmu, VariableInfo};
 
@@ -46,7 +45,7 @@ pub struct FmuUnits {
 
 impl FmuUnits {
     pub fn of(fmu: &LoadedFmu) -> Result<FmuUnits> {
-        let path = fmu.import().archive_path().join("modelDescription.xml");
+        let path = fmu.model_description_path();
         let xml = std::fs::read_to_string(&path)
             .with_context(|| format!("reading {}", path.display()))?;
         let mut units = FmuUnits {

@@ -447,19 +447,9 @@ fn real_value(
                 ParameterValue::Real(x) => Some(*x),
                 _ => None,
             });
-    set.or_else(|| start_value(fmu, name)).ok_or_else(|| {
+    set.or_else(|| fmu.real_start(name)).ok_or_else(|| {
         anyhow!("the estimator FMU has no Real parameter {name:?} with a start value")
     })
-}
-
-/// The start value of the FMU's Real variable `name` in its model description, if it has one.
-pub fn start_value(fmu: &LoadedFmu, name: &str) -> Option<f64> {
-    use fmi::fmi2::schema::ScalarVariableElement;
-    let variable = fmu.model_description().model_variable_by_name(name).ok()?;
-    match &variable.elem {
-        ScalarVariableElement::Real(real) => real.start,
-        _ => None,
-    }
 }
 
 /// `values` followed by the Real parameters `reals`.
