@@ -9,6 +9,7 @@ pub mod consistency;
 pub mod demo;
 pub mod expression;
 pub mod findings;
+pub mod fmi_versions;
 pub mod identify;
 pub mod mismatch;
 pub mod population;

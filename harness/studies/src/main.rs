@@ -66,6 +66,10 @@ enum Command {
     /// drawn N times with each axle's tyre side force scaled by a factor from N(1, spread²); the
     /// campaign's manoeuvres and estimators on each; the NEES and RMSE over the cars
     Population(commands::studies::Population),
+    /// Every mismatch-campaign run once through the FMI 2.0 archives and once through the FMI 3.0
+    /// ones (*-fmi3.fmu beside them), every output of every instance recorded and compared bit for
+    /// bit: fmi_versions.csv (one row per run) and a one-line summary; fails when any value differs
+    FmiVersions(commands::studies::FmiVersions),
     /// Check an .fmu and list its variables
     Inspect(commands::scenarios::Inspect),
     /// List the manoeuvre library with the numbers this project chose
@@ -106,6 +110,7 @@ fn execute(cli: Cli, stdout: commands::Stdout) -> Result<()> {
         Command::Fit(command) => command.run(stdout),
         Command::Robustness(command) => command.run(stdout),
         Command::Population(command) => command.run(stdout),
+        Command::FmiVersions(command) => command.run(stdout),
         Command::Inspect(command) => command.run(stdout),
         Command::Manoeuvres => commands::scenarios::manoeuvres(stdout),
         Command::Cases(command) => command.run(stdout),

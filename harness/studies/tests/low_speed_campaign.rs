@@ -6,7 +6,7 @@
 //! Needs the packaged FMUs, as the other tests of this crate.
 
 use fmi_master::runner::{packaged_fmu_dir, scenario_dir, Environment};
-use harness::campaigns::{Campaign, Row, DEFAULT_ESTIMATOR, SHIPPED_CAMPAIGNS, VEHICLE};
+use harness::campaigns::{Campaign, Row, DEFAULT_ESTIMATOR, SHIPPED_CAMPAIGNS};
 
 use crate::scratch::Scratch;
 
@@ -18,16 +18,9 @@ fn default_row(manoeuvre: &str) -> (Row, Vec<f64>) {
         fmu_dir: packaged_fmu_dir().expect("packaged FMUs"),
         out_dir: scratch.0.clone(),
     };
-    let mut campaign = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).expect("campaigns");
-    campaign
-        .base
-        .fmus
-        .retain(|f| f.name == VEHICLE || f.name == DEFAULT_ESTIMATOR);
-    campaign
-        .base
-        .connections
-        .retain(|c| c.to == DEFAULT_ESTIMATOR);
-    campaign.estimators = vec![DEFAULT_ESTIMATOR.to_string()];
+    let campaign = Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS))
+        .and_then(|c| c.with_estimators(&[DEFAULT_ESTIMATOR]))
+        .expect("campaigns");
     let car = campaign.file.dir.join(
         campaign
             .file

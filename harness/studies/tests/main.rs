@@ -2,6 +2,7 @@
 //! dependencies are compiled and linked once instead of once per file.
 //! `cargo test -p harness --test integration <module>::` runs one file's tests.
 
+mod fmi_versions;
 mod identify_cli;
 mod low_speed_campaign;
 mod mismatch;

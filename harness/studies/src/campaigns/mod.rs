@@ -88,7 +88,7 @@ impl ReferenceModel {
     }
 
     /// The car's name in the tables on this model: the file's stem, with the label.
-    fn car_label(&self, car_file: &Path) -> String {
+    pub fn car_label(&self, car_file: &Path) -> String {
         match &self.label {
             Some(label) => format!("{} ({label})", car_name(car_file)),
             None => car_name(car_file),
@@ -366,6 +366,28 @@ impl Campaign {
         Ok(self)
     }
 
+    /// The campaign with the estimator instances `keep` alone (and the vehicle): a quick subset.
+    /// Each must name an estimator instance of the base scenario.
+    pub fn with_estimators(mut self, keep: &[&str]) -> Result<Self> {
+        if let Some(unknown) = keep
+            .iter()
+            .find(|k| !self.estimators.iter().any(|e| e == *k))
+        {
+            bail!(
+                "estimator {unknown:?}: the campaigns' base scenario {} has no such instance; expected one of {}",
+                self.file.base,
+                self.estimators.join(", ")
+            );
+        }
+        let kept = |name: &str| name == VEHICLE || keep.contains(&name);
+        self.base.fmus.retain(|f| kept(&f.name));
+        self.base
+            .connections
+            .retain(|c| kept(&c.from) && kept(&c.to));
+        self.estimators.retain(|e| keep.contains(&e.as_str()));
+        Ok(self)
+    }
+
     /// The estimator FMU of the base scenario, loaded to read its parameters.
     pub fn estimator_fmu(&self, env: &Environment) -> Result<LoadedFmu> {
         car::load_fmu_of(
@@ -462,25 +484,34 @@ impl Campaign {
             })
     }
 
+    /// The campaign's tasks: every car (its file) on every reference model, in the file's order.
+    pub fn cars_on_models(&self) -> Vec<(&ReferenceModel, PathBuf)> {
+        let file = &self.file;
+        file.reference_models
+            .iter()
+            .flat_map(|reference| {
+                file.cars
+                    .iter()
+                    .map(move |car| (reference, file.dir.join(car)))
+            })
+            .collect()
+    }
+
     /// Every manoeuvre of the campaign on the car of `car_file` on `reference`, in the file's
-    /// order ([`run`]'s task).
-    fn run_car(
+    /// order (a sine with dwell after the run its amplitude comes from), each handed to `each`
+    /// with its sine-with-dwell amplitude (rad), its run and its rows: the runs of [`run`]'s
+    /// task, for every study that runs the campaign.
+    pub fn for_each_run(
         &self,
         reference: &ReferenceModel,
         car_file: &Path,
         env: &Environment,
         estimator_fmu: &LoadedFmu,
-        plots: bool,
-    ) -> Result<CarOutcome> {
-        let mut outcome = CarOutcome::default();
+        mut each: impl FnMut(&CampaignManoeuvre, Option<f64>, RunOutput, Vec<Row>) -> Result<()>,
+    ) -> Result<()> {
         let mut angles_at_03g: HashMap<String, f64> = HashMap::new();
         for m in self.file.manoeuvres.iter().filter(|m| m.runs_on(reference)) {
             let (section, amplitude) = manoeuvre_section(m, &angles_at_03g)?;
-            if let Some(amplitude) = amplitude {
-                outcome
-                    .amplitudes
-                    .push((reference.car_label(car_file), amplitude.to_degrees()));
-            }
             let (output, rows) =
                 self.run_one(reference, car_file, m, section, env, estimator_fmu)?;
             let is_source = self
@@ -491,17 +522,42 @@ impl Campaign {
             if is_source {
                 angles_at_03g.insert(m.name.clone(), angle_at_03g(&output.result, "vehicle.ay")?);
             }
-            if plots {
-                outcome.plots.push(draw(
-                    &output,
-                    &rows,
-                    &m.title,
-                    &reference.car_label(car_file),
-                    &env.out_dir,
-                )?);
-            }
-            outcome.rows.extend(rows);
+            each(m, amplitude, output, rows)?;
         }
+        Ok(())
+    }
+
+    /// Every manoeuvre of the campaign on the car of `car_file` on `reference` ([`run`]'s task).
+    fn run_car(
+        &self,
+        reference: &ReferenceModel,
+        car_file: &Path,
+        env: &Environment,
+        estimator_fmu: &LoadedFmu,
+        plots: bool,
+    ) -> Result<CarOutcome> {
+        let mut outcome = CarOutcome::default();
+        let car = reference.car_label(car_file);
+        self.for_each_run(
+            reference,
+            car_file,
+            env,
+            estimator_fmu,
+            |m, amplitude, output, rows| {
+                if let Some(amplitude) = amplitude {
+                    outcome
+                        .amplitudes
+                        .push((car.clone(), amplitude.to_degrees()));
+                }
+                if plots {
+                    outcome
+                        .plots
+                        .push(draw(&output, &rows, &m.title, &car, &env.out_dir)?);
+                }
+                outcome.rows.extend(rows);
+                Ok(())
+            },
+        )?;
         Ok(outcome)
     }
 
@@ -576,16 +632,7 @@ pub fn run(
         seconds: 0.0,
         overrides: overrides.given.clone(),
     };
-    let file = &campaign.file;
-    let runs: Vec<(&ReferenceModel, PathBuf)> = file
-        .reference_models
-        .iter()
-        .flat_map(|reference| {
-            file.cars
-                .iter()
-                .map(move |car| (reference, file.dir.join(car)))
-        })
-        .collect();
+    let runs = campaign.cars_on_models();
     // One car on one reference model per task: its manoeuvres run in order (a sine with dwell
     // takes its amplitude from the slow ramp before it), the tasks on rayon's threads. Every run
     // is seeded by its scenario alone and the results are collected in the order of `runs`, so
@@ -1218,6 +1265,29 @@ mod tests {
         );
         let error = format!("{:#}", given(&["EKF_G.ay_gain_std"]).unwrap_err());
         assert!(error.contains("EKF_G.ay_gain_std"), "{error}");
+    }
+
+    /// A subset of the estimators keeps the vehicle, the named instances and their connections;
+    /// a name the base scenario does not have is refused, naming it and the choices.
+    #[test]
+    fn a_subset_of_estimators_keeps_the_vehicle_and_their_connections() {
+        let shipped = || Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).unwrap();
+        let subset = shipped().with_estimators(&["EKF_G", "PF_A"]).unwrap();
+        assert_eq!(subset.estimators, ["PF_A", "EKF_G"]);
+        let instances: Vec<&str> = subset.base.fmus.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(instances, [VEHICLE, "PF_A", "EKF_G"]);
+        let connections: Vec<(&str, &str)> = subset
+            .base
+            .connections
+            .iter()
+            .map(|c| (c.from.as_str(), c.to.as_str()))
+            .collect();
+        assert_eq!(connections, [(VEHICLE, "PF_A"), (VEHICLE, "EKF_G")]);
+        let error = format!("{:#}", shipped().with_estimators(&["EKF_X"]).unwrap_err());
+        assert!(
+            error.contains("\"EKF_X\"") && error.contains("EKF_G"),
+            "{error}"
+        );
     }
 
     #[test]

@@ -11,6 +11,7 @@ use fmi_master::runner::Environment;
 use harness::campaigns::Overrides;
 use harness::consistency::ConsistencyStudy;
 use harness::demo::{self, DemoOptions, ANSWER_PNG};
+use harness::fmi_versions;
 use harness::population::PopulationStudy;
 use harness::summary;
 
@@ -167,6 +168,34 @@ impl Population {
         write!(stdout, "{summary}")?;
         writeln!(stdout, "report: {}", self.out.join("report.md").display())?;
         Ok(())
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct FmiVersions {
+    /// Output folder (fmi_versions.csv).
+    #[arg(long, default_value = "out/fmi-versions")]
+    out: PathBuf,
+    /// Also write the rows to docs/data/fmi_versions.csv.
+    #[arg(long)]
+    update_committed: bool,
+    /// Folder of the packaged FMUs, FMI 2.0 and FMI 3.0 (default: <target dir>/fmu, where
+    /// packaging writes).
+    #[arg(long)]
+    fmu_dir: Option<PathBuf>,
+}
+
+impl FmiVersions {
+    pub fn run(self, stdout: Stdout) -> Result<()> {
+        let fmu_dir = packaged_fmus(self.fmu_dir)?;
+        let report = fmi_versions::run_shipped(&fmu_dir, &self.out)?;
+        let csv = report.write(&self.out, self.update_committed)?;
+        writeln!(stdout, "{}", report.summary())?;
+        writeln!(stdout, "csv: {}", csv.display())?;
+        if self.update_committed {
+            writeln!(stdout, "committed copy: {}", fmi_versions::COMMITTED_CSV)?;
+        }
+        report.check()
     }
 }
 
