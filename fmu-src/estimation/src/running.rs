@@ -70,6 +70,16 @@ pub trait RunningEstimator<const N: usize, const M: usize, const U: usize>:
         self.update(measurement, input, mask)
     }
 
+    /// Conditions the estimate on one scalar linear pseudo-measurement: `h x` is known to be
+    /// `h x̂ + residual` within `variance` (a soft state constraint, Simon, "Kalman filtering
+    /// with state constraints: a survey of linear and nonlinear algorithms", IET Control Theory
+    /// & Applications 4(8), 2010, sect. 2.3), with the Kalman gain and the Joseph form.
+    /// Returns `false`, changing nothing, where the covariance is not a free parameter of the
+    /// estimator (as [`Self::inflate_covariance`]) or the update is not finite.
+    fn condition_on(&mut self, _h: &SVector<f64, N>, _residual: f64, _variance: f64) -> bool {
+        false
+    }
+
     /// Gain scheduling of the linear estimators (LKF, Luenberger observer), which run on one
     /// linearisation: re-linearises about the current estimate and `input` (and re-places the
     /// observer gain) when that linearisation's error there,

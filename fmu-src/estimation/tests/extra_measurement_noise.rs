@@ -1,14 +1,12 @@
 //! One update's extra measurement noise (`RunningEstimator::update_with_extra_noise`, the FMU's
 //! `ay_model_error`): it is `R + extra` in that update, and only in that one.
 
-use crate::kalman_support::{three_state_model, LinearModel};
+use crate::kalman_support::{three_state_model, three_state_settings, LinearModel};
 
-use estimation::kalman::{InitialEstimate, SigmaPoints};
-use estimation::luenberger::ObserverDesign;
-use estimation::particle::ParticleFilterConfig;
-use estimation::registry::{self, BoxedEstimator, EstimatorChoice, EstimatorSettings};
+use estimation::kalman::InitialEstimate;
+use estimation::registry::{self, BoxedEstimator, EstimatorChoice};
 use estimation::Estimator;
-use nalgebra::{Complex, SMatrix, Vector1, Vector2, Vector3};
+use nalgebra::{SMatrix, Vector1, Vector2, Vector3};
 
 /// The extra noise, of the size of `R`, on both rows (the Luenberger observer below has a gain
 /// on the first row only, and its covariance sees the extra noise through that gain).
@@ -23,24 +21,8 @@ fn initial() -> InitialEstimate<3> {
     }
 }
 
-/// Every estimator of the registry on the three-state model: the LKF about the origin, the
-/// Luenberger observer placed through the first output, 200 particles.
-fn settings() -> EstimatorSettings<3, 1> {
-    let poles = [0.6, 0.7, 0.8].map(|p| Complex::new(p, 0.0)).to_vec();
-    EstimatorSettings {
-        operating_point: Ok((Vector3::zeros(), Vector1::zeros())),
-        scaled_sigma_points: SigmaPoints::scaled(0.5, 2.0, 0.0),
-        observer_design: Ok(ObserverDesign::single_output(0, poles)),
-        particles: Ok(ParticleFilterConfig {
-            particle_count: 200,
-            seed: 7,
-            ..ParticleFilterConfig::default()
-        }),
-    }
-}
-
 fn build(model: &LinearModel<3, 2, 1>, choice: EstimatorChoice) -> BoxedEstimator<3, 2, 1> {
-    registry::build(model.clone(), choice, &settings(), &initial()).unwrap()
+    registry::build(model.clone(), choice, &three_state_settings(), &initial()).unwrap()
 }
 
 #[test]
@@ -103,7 +85,8 @@ fn the_extra_noise_is_that_update_with_a_larger_r_and_leaves_r_as_it_was() {
             state: *tried.state(),
             covariance: *tried.covariance(),
         };
-        let mut fresh = registry::build(model.clone(), choice, &settings(), &here).unwrap();
+        let mut fresh =
+            registry::build(model.clone(), choice, &three_state_settings(), &here).unwrap();
         for filter in [&mut tried, &mut fresh] {
             filter.predict(&u).unwrap();
             filter.update(&y, &u, &[true; 2]).unwrap();

@@ -5,6 +5,7 @@
 mod kalman_support;
 mod seed000_support;
 // EM identification is offline work (feature `offline`), which the FMU does not enable.
+mod condition_on;
 mod extra_measurement_noise;
 mod gain_scheduling;
 #[cfg(feature = "offline")]

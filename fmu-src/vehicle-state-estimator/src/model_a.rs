@@ -380,6 +380,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         state: &StateA,
         input: &InputVector,
         _filter_input: &SVector<f64, ANCHORED_INPUT_DIM>,
+        _measured_wheels: [bool; 2],
         v: &Variables,
     ) -> Option<SMatrix<f64, STATE_DIM, STATE_DIM>> {
         if !v.use_speed_measurements {

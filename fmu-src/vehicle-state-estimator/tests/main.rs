@@ -9,6 +9,7 @@ mod gate_model_error;
 mod lateral_accelerometer;
 mod learned_noise;
 mod load_unload;
+mod low_speed_kinematics;
 mod model_b;
 mod model_grip;
 mod observer_scaling;

@@ -63,7 +63,7 @@ fn grip_noise_with(
     filter_input.fixed_rows_mut::<4>(0).copy_from(input);
     filter_input[AX_VALID_INPUT] = 1.0;
     let noise = model
-        .extra_process_noise(state, input, &filter_input, v)
+        .extra_process_noise(state, input, &filter_input, [true, true], v)
         .unwrap_or_else(SMatrix::zeros);
     GRIP_FACTORS.map(|i| noise[(i, i)])
 }

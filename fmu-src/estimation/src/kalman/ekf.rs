@@ -124,4 +124,6 @@ where
 
     // `R + extra` for one update: the EKF's gain and Joseph form (004) with that `R`.
     super::update_with_r_plus_extra!();
+
+    super::condition_on_own_gaussian!();
 }

@@ -354,6 +354,56 @@ macro_rules! update_with_r_plus_extra {
 }
 pub(crate) use update_with_r_plus_extra;
 
+/// [`crate::running::RunningEstimator::condition_on`] for a filter that owns its Gaussian
+/// (`state`, `covariance`): the scalar update `K = P hᵀ / (h P hᵀ + r)`, `x̂ += K residual`,
+/// `P = (I − K h) P (I − K h)ᵀ + K r Kᵀ` (Joseph form, 004).
+macro_rules! condition_on_own_gaussian {
+    () => {
+        fn condition_on(
+            &mut self,
+            h: &nalgebra::SVector<f64, N>,
+            residual: f64,
+            variance: f64,
+        ) -> bool {
+            crate::kalman::scalar_update(
+                &mut self.state,
+                &mut self.covariance,
+                h,
+                residual,
+                variance,
+            )
+        }
+    };
+}
+pub(crate) use condition_on_own_gaussian;
+
+/// The scalar update of [`condition_on_own_gaussian`]; `false`, changing nothing, when
+/// `variance` is not positive or the result is not finite.
+pub(crate) fn scalar_update<const N: usize>(
+    state: &mut SVector<f64, N>,
+    covariance: &mut SMatrix<f64, N, N>,
+    h: &SVector<f64, N>,
+    residual: f64,
+    variance: f64,
+) -> bool {
+    let ph = *covariance * h;
+    let innovation_variance = h.dot(&ph) + variance;
+    if !(variance > 0.0 && innovation_variance.is_finite() && residual.is_finite()) {
+        return false;
+    }
+    let gain = ph / innovation_variance;
+    let reduction = SMatrix::<f64, N, N>::identity() - gain * h.transpose();
+    let updated =
+        reduction * *covariance * reduction.transpose() + gain * gain.transpose() * variance;
+    let corrected = *state + gain * residual;
+    if !(updated.iter().all(|p| p.is_finite()) && corrected.iter().all(|x| x.is_finite())) {
+        return false;
+    }
+    *state = corrected;
+    *covariance = (updated + updated.transpose()) * 0.5;
+    true
+}
+
 /// A posterior step common to the LKF, the EKF and the marginalised particle filter's
 /// particles: gain, state correction and Joseph-form covariance (004) from the prediction `ŷ` and
 /// the measurement matrix `H` at the prior. Returns the report, whether the covariance needed a

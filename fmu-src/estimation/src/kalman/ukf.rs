@@ -334,4 +334,6 @@ where
 
     // `R + extra` for one update, in the innovation covariance (000: 4.140).
     super::update_with_r_plus_extra!();
+
+    super::condition_on_own_gaussian!();
 }

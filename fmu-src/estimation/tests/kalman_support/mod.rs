@@ -1,7 +1,12 @@
 //! A linear-Gaussian test model shared by the Kalman and Luenberger tests.
 #![allow(dead_code)]
 
+use estimation::kalman::SigmaPoints;
+use estimation::luenberger::ObserverDesign;
+use estimation::particle::ParticleFilterConfig;
+use estimation::registry::EstimatorSettings;
 use estimation::StateSpaceModel;
+use nalgebra::{Complex, Vector1, Vector3};
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -115,4 +120,20 @@ pub fn simulate<const N: usize, const M: usize, const U: usize>(
         x = model.transition(&x, &u) + gaussian(&mut rng, &model.q);
     }
     trajectory
+}
+
+/// Every estimator of the registry on [`three_state_model`]: the LKF about the origin, the
+/// Luenberger observer placed through the first output, 200 particles.
+pub fn three_state_settings() -> EstimatorSettings<3, 1> {
+    let poles = [0.6, 0.7, 0.8].map(|p| Complex::new(p, 0.0)).to_vec();
+    EstimatorSettings {
+        operating_point: Ok((Vector3::zeros(), Vector1::zeros())),
+        scaled_sigma_points: SigmaPoints::scaled(0.5, 2.0, 0.0),
+        observer_design: Ok(ObserverDesign::single_output(0, poles)),
+        particles: Ok(ParticleFilterConfig {
+            particle_count: 200,
+            seed: 7,
+            ..ParticleFilterConfig::default()
+        }),
+    }
 }

@@ -6,6 +6,7 @@
 mod fmu_state;
 mod gate;
 mod guard;
+mod kinematic;
 mod noise;
 mod outputs;
 
@@ -143,13 +144,15 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// (model A: the wheels' slip while the torques are unknown, `unknown_torque_slip_std`, and
     /// the wheels' sliding step at low speed); `state` is the predicted estimate, `input` the
     /// sample's driver input, `filter_input` the filter's input of the sample (with what the
-    /// sensors add, e.g. model A's measured `ax`). Estimators without a covariance (particle
-    /// filter, Luenberger observer) ignore it.
+    /// sensors add, e.g. model A's measured `ax`), `measured_wheels` which of
+    /// `[omega_front_meas, omega_rear_meas]` the sample measures. Estimators without a
+    /// covariance (particle filter, Luenberger observer) ignore it.
     fn extra_process_noise(
         &self,
         _state: &SVector<f64, N>,
         _input: &InputVector,
         _filter_input: &SVector<f64, U>,
+        _measured_wheels: [bool; 2],
         _v: &Variables,
     ) -> Option<SMatrix<f64, N, N>> {
         None
@@ -324,6 +327,8 @@ where
     /// has been outside its reference (FMU state).
     guard_car: Option<guard::GuardCar>,
     guard_samples: u32,
+    /// The low-speed regime's car (`low_speed_kinematics`, `runner::kinematic`).
+    kinematic_car: Option<guard::GuardCar>,
     /// The gyro's offset, taken off `yaw_rate_meas` before the filter sees it
     /// (`yaw_rate_offset_std`; FMU state).
     yaw_rate_offset: Option<YawRateOffset>,
@@ -417,6 +422,7 @@ where
             noise,
             guard_car: v.integrity_guard.then(|| guard::guard_car(v)).transpose()?,
             guard_samples: 0,
+            kinematic_car: kinematic::kinematic_car(v)?,
             observer_scaling: (choice == EstimatorChoice::Luenberger)
                 .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
                 .transpose()
@@ -452,6 +458,7 @@ where
             YawRateOffset::retuned,
         );
         self.guard_car = tuned.guard_car;
+        self.kinematic_car = tuned.kinematic_car;
         self.noise = match (&self.noise, tuned.noise) {
             (Some(current), Some(tuned)) => Some(current.retuned_as(&tuned)),
             (_, tuned) => tuned,
@@ -630,6 +637,7 @@ where
         let correction = prior.map(|(x, p)| {
             Correction::between((&x, &p), (self.filter.state(), self.filter.covariance()))
         });
+        self.hold_to_kinematics(sensors);
         bits |= self.guard(sensors);
         self.reschedule(&sample.input);
         if let Err(issue) = self.filter.predict(&sample.input) {
@@ -639,6 +647,7 @@ where
             self.filter.state(),
             &self.input,
             &sample.input,
+            [sensors.omega_front, sensors.omega_rear].map(f64::is_finite),
             &self.parameters,
         ) {
             self.filter.inflate_covariance(&extra);
