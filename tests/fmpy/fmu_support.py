@@ -6,14 +6,17 @@ Value references, types and start values are always read from the packaged model
 never hard-coded, so the tests follow the XML (the single source of truth of the interface).
 """
 
+import math
 import os
 import pathlib
 import tomllib
+from ctypes import CFUNCTYPE, c_char_p, c_int, c_void_p, cast, string_at
 
 import numpy as np
-from fmpy import read_model_description
+from fmpy import calloc, free, read_model_description
 from filterpy.kalman import KalmanFilter
-from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2True)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -157,16 +160,43 @@ class Interface:
         return [v.name for v in self.description.modelVariables if v.causality == causality]
 
 
-class Slave:
-    """One FMI 2.0 co-simulation instance driven directly through fmpy's FMU2Slave."""
+# The logger as the FMUs call it, logger(environment, instance, status, category, "%s", text)
+# (fmi-export's log_message), declared with the variadic text as a sixth argument, which the
+# x86-64 calling convention passes as it passes a fixed one. fmpy's own way, its native proxy
+# addLoggerProxy, keeps one logger for the whole process and would redirect every other
+# instance's messages too.
+_TEXT_LOGGER = CFUNCTYPE(None, c_void_p, c_char_p, c_int, c_char_p, c_char_p, c_void_p)
 
-    def __init__(self, interface, unzip_directory, instance_name):
+
+class LogRecorder:
+    """FMI 2.0 callbacks for `Slave` whose logger keeps every message as (status, category,
+    text) in `lines`, for tests of what an FMU tells its importer."""
+
+    def __init__(self):
+        self.lines = []
+        self._logger = _TEXT_LOGGER(self._record)
+        self.callbacks = fmi2CallbackFunctions()
+        self.callbacks.logger = cast(self._logger, fmi2CallbackLoggerTYPE)
+        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+
+    def _record(self, _environment, _instance, status, category, message_format, text):
+        # Only with the format "%s" is the sixth argument the text; otherwise the format is it.
+        message = string_at(text) if message_format == b"%s" and text else message_format
+        self.lines.append((status, category.decode(), message.decode()))
+
+
+class Slave:
+    """One FMI 2.0 co-simulation instance driven directly through fmpy's FMU2Slave; `callbacks`
+    replaces fmpy's default ones (which print the log), e.g. a `LogRecorder`'s."""
+
+    def __init__(self, interface, unzip_directory, instance_name, callbacks=None):
         self.interface = interface
         self.fmu = FMU2Slave(guid=interface.description.guid,
                              unzipDirectory=str(unzip_directory),
                              modelIdentifier=interface.description.coSimulation.modelIdentifier,
                              instanceName=instance_name)
-        self.fmu.instantiate()
+        self.fmu.instantiate(callbacks=callbacks)
         self.initialised = False
 
     def set(self, values):
@@ -251,6 +281,14 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
 
 # The coupled run the importer tests (tests/libcosim, tests/fmipp) compare with a plain fmpy loop.
 
+# libcosim's clock: whole nanoseconds, a time point in seconds being the double division of its
+# count (to_double_time_point); the communication step of the runs compared with libcosim.
+STEP_NS = 1_000_000
+
+
+def seconds(nanoseconds):
+    return nanoseconds / 1e9
+
 def equivalence_steering(t):
     """The seed-000 steering ramp started at 0 and held at the high-ay angle: the car turns harder
     for 1.7 s, so the comparison covers a transient, not a steady state."""
@@ -297,3 +335,48 @@ def assert_bit_identical(rows, plain, names, importer):
     yaw_rate = rows[:, column(f"{VEHICLE}.yaw_rate")]
     assert yaw_rate[-1] > 0.3
     assert rmse(rows[-500:, column(f"{ESTIMATOR}.yaw_rate_est")], yaw_rate[-500:]) < 0.01
+
+
+def libcosim_order_loop(vehicle, estimator, vehicle_dir, estimator_dir, steps, sensors=None,
+                        missing=(), estimator_callbacks=None):
+    """Both FMUs at their defaults as plain fmpy calls in the order and with the time values of
+    libcosim's fixed-step algorithm (tests/libcosim/test_libcosim_equivalence.py describes it),
+    steered by `equivalence_steering`, for `steps` steps of STEP_NS.
+
+    `sensors` are the reference's outputs transferred to the estimator's inputs of the same name
+    (default: all of `sensor_connections`); every input named in `missing` is set to NaN at each
+    transfer, as a master does for a sensor it has no signal of. Returns the rows of
+    `compared_output_names` after each step and each step's doStep statuses [reference,
+    estimator]."""
+    car = Slave(vehicle, vehicle_dir, VEHICLE)
+    filt = Slave(estimator, estimator_dir, ESTIMATOR, estimator_callbacks)
+    sensors = sensor_connections(vehicle, estimator) if sensors is None else sensors
+    unset = dict.fromkeys(missing, math.nan)
+
+    def transfer():
+        filt.set(dict(zip(sensors, car.fmu.getReal(car.real_references(sensors)))) | unset)
+
+    rows, statuses = [], []
+    try:
+        for slave in (car, filt):
+            slave.fmu.setupExperiment(startTime=0.0)
+            slave.fmu.enterInitializationMode()
+        for _ in range(2):  # libcosim iterates once per simulator to propagate initial values
+            transfer()
+        for slave in (car, filt):
+            slave.fmu.exitInitializationMode()
+            slave.initialised = True
+        transfer()
+        for n in range(steps):
+            angle = equivalence_steering(seconds(n * STEP_NS))
+            statuses.append([])
+            for slave in (car, filt):
+                slave.set({"steering_angle": angle})
+                statuses[-1].append(slave.fmu.fmi2DoStep(slave.fmu.component, seconds(n * STEP_NS),
+                                                         seconds(STEP_NS), fmi2True))
+            rows.append(read_outputs(car) + read_outputs(filt))
+            transfer()
+    finally:
+        for slave in (car, filt):
+            slave.free()
+    return np.array(rows), np.array(statuses)

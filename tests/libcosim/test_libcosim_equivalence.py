@@ -30,26 +30,22 @@ from libcosimpy.CosimSlave import CosimLocalSlave
 
 import fmu_support as support
 
-STEP_NS = 1_000_000
 STEPS = 2500
 
 
-def seconds(nanoseconds):
-    # libcosim's to_double_time_point: a double division of the integer nanosecond count.
-    return nanoseconds / 1e9
-
-
-def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
-    """Rows of every Real and Integer output of both FMUs after each step, from libcosim."""
+def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu, steps=STEPS, sensors=None):
+    """Rows of every Real and Integer output of both FMUs after each of `steps` steps, from
+    libcosim, with the reference's outputs `sensors` (default: all of `sensor_connections`)
+    connected to the estimator's inputs of the same name."""
     log_output_level(CosimLogLevel.ERROR)
-    execution = CosimExecution.from_step_size(STEP_NS)
+    execution = CosimExecution.from_step_size(support.STEP_NS)
     index = {}
     for interface, path in ((vehicle, vehicle_fmu), (estimator, estimator_fmu)):
         name = interface.description.modelName
         index[name] = execution.add_local_slave(CosimLocalSlave(str(path), name))
         assert index[name] >= 0, f"libcosim could not load {path}"
     v, e = index[support.VEHICLE], index[support.ESTIMATOR]
-    for name in support.sensor_connections(vehicle, estimator):
+    for name in support.sensor_connections(vehicle, estimator) if sensors is None else sensors:
         status = execution.connect_real_variables(v, vehicle.vr(name), e, estimator.vr(name))
         assert status == CosimConstants.success, f"libcosim could not connect {name}"
     observer = CosimObserver.create_last_value()
@@ -57,12 +53,12 @@ def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
     driver = CosimManipulator.create_override()
     assert execution.add_manipulator(driver)
     rows = []
-    for n in range(STEPS):
-        angle = support.equivalence_steering(seconds(n * STEP_NS))
+    for n in range(steps):
+        angle = support.equivalence_steering(support.seconds(n * support.STEP_NS))
         for slave, interface in ((v, vehicle), (e, estimator)):
             assert driver.slave_real_values(slave, [interface.vr("steering_angle")], [angle])
         assert execution.step(), execution.status()
-        assert execution.status().current_time == (n + 1) * STEP_NS
+        assert execution.status().current_time == (n + 1) * support.STEP_NS
         row = []
         for slave, interface in ((v, vehicle), (e, estimator)):
             outputs = support.compared_outputs(interface)
@@ -74,45 +70,13 @@ def libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu):
     return np.array(rows)
 
 
-def fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir):
-    """The same system as plain fmpy calls in libcosim's order (module docstring)."""
-    car = support.Slave(vehicle, vehicle_dir, support.VEHICLE)
-    filt = support.Slave(estimator, estimator_dir, support.ESTIMATOR)
-    sensors = support.sensor_connections(vehicle, estimator)
-
-    def transfer():
-        filt.set(dict(zip(sensors, car.fmu.getReal(car.real_references(sensors)))))
-
-    for slave in (car, filt):
-        slave.fmu.setupExperiment(startTime=0.0)
-        slave.fmu.enterInitializationMode()
-    for _ in range(2):  # libcosim iterates once per simulator to propagate initial values
-        transfer()
-    for slave in (car, filt):
-        slave.fmu.exitInitializationMode()
-        slave.initialised = True
-    transfer()
-    rows = []
-    for n in range(STEPS):
-        angle = support.equivalence_steering(seconds(n * STEP_NS))
-        for slave in (car, filt):
-            slave.set({"steering_angle": angle})
-            slave.fmu.doStep(currentCommunicationPoint=seconds(n * STEP_NS),
-                             communicationStepSize=seconds(STEP_NS))
-        rows.append(support.read_outputs(car) + support.read_outputs(filt))
-        transfer()
-    for slave in (car, filt):
-        slave.free()
-    return np.array(rows)
-
-
 def test_libcosim_leaves_out_the_enumerations_so_the_documented_default_runs(estimator,
                                                                            estimator_fmu):
     """packaging/doc/VehicleStateEstimator.html tells libcosim users that they get the EKF on
     the grip model (model 3): libcosim lists no Enumeration variable, and those are the XML's
     start values."""
     log_output_level(CosimLogLevel.ERROR)
-    execution = CosimExecution.from_step_size(STEP_NS)
+    execution = CosimExecution.from_step_size(support.STEP_NS)
     slave = execution.add_local_slave(CosimLocalSlave(str(estimator_fmu), support.ESTIMATOR))
     listed = {v.name.decode() for v in execution.slave_variables(slave)}
     enumerations = {v.name for v in estimator.description.modelVariables if v.type == "Enumeration"}
@@ -125,7 +89,7 @@ def test_libcosim_leaves_out_the_enumerations_so_the_documented_default_runs(est
 def test_libcosim_and_an_fmpy_loop_give_bit_identical_outputs(
         vehicle, estimator, vehicle_fmu, estimator_fmu, vehicle_dir, estimator_dir):
     cosim = libcosim_run(vehicle, estimator, vehicle_fmu, estimator_fmu)
-    plain = fmpy_loop(vehicle, estimator, vehicle_dir, estimator_dir)
+    plain, _ = support.libcosim_order_loop(vehicle, estimator, vehicle_dir, estimator_dir, STEPS)
     names = support.compared_output_names(vehicle, estimator)
     assert len(cosim) == STEPS
     support.assert_bit_identical(cosim, plain, names, "libcosim")
