@@ -3,7 +3,7 @@ model A reports, are the Kalman filter of dvx/dt = ax - b + r vy with the accele
 as a second state (fmu-src/vehicle-state-estimator/src/speed_filter.rs), checked sample by sample
 against filterpy's KalmanFilter as the oracle on straight braking (r vy = 0, the car straight, so
 the offset is updated and the filter is filterpy's with x = [vx, b], F = [[1, -T], [0, a]],
-B = [T, 0], H = [1, 0]). Without ax_meas (its start value 0, an unconnected input) model B's
+B = [T, 0], H = [1, 0]). Without ax_meas (its start value NaN, an unconnected input) model B's
 vx_est is the measured speed and vx_std measurement_noise_std_vx."""
 
 import pytest

@@ -216,11 +216,12 @@ pub struct VehicleStateEstimator {
 
 /// The sensor inputs an importer never set. Every sensor input starts at NaN (XML), the value
 /// the filter reads as "sample missing", so an input a master leaves unconnected is treated as
-/// missing rather than as a measurement of its start value; the first doStep answers
-/// fmi2Warning naming each measurement-row sensor (gyro, lateral accelerometer, wheel speeds)
-/// that has not had a finite value yet, once, so that a user sees a mapping left out instead
-/// of a silently worse estimate. `vx_meas` and `ax_meas` are optional by design (the filter
-/// falls back to the wheels and to unknown torques), so leaving them out is no warning.
+/// missing rather than as a measurement of its start value; the first doStep logs a notice
+/// (the step answers fmi2OK: importers such as FMI++ stop their clock after an fmi2Warning)
+/// naming each measurement-row sensor (gyro, lateral accelerometer, wheel speeds) that has not
+/// had a finite value yet, once, so that a user sees a mapping left out instead of a silently
+/// worse estimate. `vx_meas` and `ax_meas` are optional by design (the filter falls back to the
+/// wheels and to unknown torques), so leaving them out is no notice.
 #[derive(Clone, Copy, Debug, Default)]
 struct UnconnectedSensors {
     /// `[yaw_rate, ay, omega_front, omega_rear, vx, ax]`, in [`Sensors::values`] order.

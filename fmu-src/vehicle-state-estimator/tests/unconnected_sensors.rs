@@ -1,6 +1,7 @@
 //! Sensor inputs a master never sets: they start at NaN, are read as missing (never as a
-//! measurement of a start value), and the first doStep names each of them once in an
-//! fmi2Warning, so that a mapping left out is seen instead of a silently worse estimate.
+//! measurement of a start value), and the first doStep names each of them once in a logged
+//! notice (status fmi2OK), so that a mapping left out is seen instead of a silently worse
+//! estimate.
 
 use fmi_export::ffi::Fmi2Status;
 use VehicleStateEstimator::model_description::{vr, EstimatorKind, EstimatorModel};
