@@ -4,8 +4,8 @@ docs/data/ (see docs/data/README.md).
     .venv/bin/python docs/tools/accuracy_table.py           # print the table
     .venv/bin/python docs/tools/accuracy_table.py --write   # refresh it in README.md
 
-A study's file (docs/data/<name>.csv) wins over the hand-kept one of the same name under
-docs/data/pending/, whose rows the table marks "to be regenerated". Standard library only."""
+Every row comes from a file a study writes (`--update-committed`); the table shows the EKF's.
+Standard library only."""
 
 from __future__ import annotations
 
@@ -24,20 +24,14 @@ MODEL_NAMES = {"grip": "grip model", "3": "grip model", "single_track_grip": "gr
                "b": "model B", "2": "model B", "two_track_3_state": "model B",
                "grip_fitted_on_lap_1": "grip model fitted by `harness fit` on lap 1",
                "model_a": "model A", "model_b": "model B"}
-PENDING_MARK = " ¹"
 SOURCE_NAMES = {"mbds": "MBDS track recording (real)", "real": "MBDS track recording (real)"}
 CASE_NAMES = {"mbds_laps_2_6": "laps 2-6"}
 
 
-def rows_of(name: str) -> tuple[list[dict], bool]:
-    """The rows of one study's file and whether they are the pending, hand-kept ones."""
-    study = DATA / name
-    if study.is_file():
-        path, pending = study, False
-    else:
-        path, pending = DATA / "pending" / name, True
-    with path.open(newline="", encoding="utf-8") as file:
-        return list(csv.DictReader(file)), pending
+def rows_of(name: str) -> list[dict]:
+    """The rows of one study's file."""
+    with (DATA / name).open(newline="", encoding="utf-8") as file:
+        return list(csv.DictReader(file))
 
 
 def degrees(value: str) -> str:
@@ -57,29 +51,21 @@ def table() -> str:
         "| data | model (EKF) | sensors | sideslip RMSE | NEES | zero sideslip | steady-state formula |",
         "| :-- | :-- | :-- | --: | --: | --: | --: |",
     ]
-    any_pending = False
     for name in STUDIES:
-        rows, pending = rows_of(name)
-        any_pending |= pending
-        for row in filter(default_estimator, rows):
+        for row in filter(default_estimator, rows_of(name)):
             model = MODEL_NAMES.get(row["model"].strip().lower(), row["model"])
-            wheels = {"synthesised": "wheel speeds from the INS speed",
-                      "with": "wheel speeds (from the INS speed on MBDS)",
+            wheels = {"with": "wheel speeds (from the INS speed on MBDS)",
                       "without": "no wheel speeds",
                       "missing": "no wheel speeds", "measured": "all"}.get(
                 row["wheel_speeds"].strip(), row["wheel_speeds"])
             lines.append(
-                f"| {SOURCE_NAMES.get(row['source'].strip(), row['source'])}, {CASE_NAMES.get(row['case'].strip(), row['case'])}{PENDING_MARK if pending else ''} | {model} "
+                f"| {SOURCE_NAMES.get(row['source'].strip(), row['source'])}, {CASE_NAMES.get(row['case'].strip(), row['case'])} | {model} "
                 f"| {wheels} | {degrees(row['rmse_deg'])} | {plain(row['nees'])} "
                 f"| {degrees(row['zero_rmse_deg'])} | {degrees(row['yardstick_rmse_deg'])} |")
     with (DATA / "published_baselines.csv").open(newline="", encoding="utf-8") as file:
         for row in csv.DictReader(file):
             lines.append(f"| {SOURCE_NAMES.get(row['source'].strip(), row['source'])}, published | {row['estimator']} | | "
                          f"{degrees(row['rmse_deg'])} | | | |")
-    if any_pending:
-        lines.append("")
-        lines.append("¹ To be regenerated: measured before the study writes its file under "
-                     "`docs/data/`.")
     return "\n".join(lines)
 
 

@@ -44,7 +44,7 @@ use fmi_master::scenario::VarRef;
 use fmi_master::scoring::chi_square_cdf;
 use fmi_master::ssv::{read_parameter_file, SsvValue};
 
-use crate::campaigns::{Campaign, Consistency, Row, SHIPPED_CAMPAIGNS, VEHICLE};
+use crate::campaigns::{distinct, Campaign, Consistency, Row, SHIPPED_CAMPAIGNS, VEHICLE};
 
 /// The axles of the ReferenceVehicle's tyre parameters (`tyre_<axle>_<parameter>`).
 pub const AXLES: [&str; 2] = ["front", "rear"];
@@ -546,17 +546,6 @@ impl PopulationReport {
             doc.table(summary_header(), summary_rows(&spun_runs));
         }
     }
-}
-
-/// The distinct names in the order they first appear.
-fn distinct<'a>(names: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
-    let mut seen: Vec<&str> = Vec::new();
-    for name in names {
-        if !seen.contains(&name) {
-            seen.push(name);
-        }
-    }
-    seen
 }
 
 fn summary_header() -> Vec<String> {

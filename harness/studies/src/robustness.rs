@@ -653,15 +653,24 @@ impl RealCars {
 }
 
 /// `harness robustness`: the robustness cases and the mismatch campaigns alone (the campaigns
-/// with `overrides` set on every run), written as `report.md` and `report.html` in `out`;
-/// returns the terminal summary.
+/// with `overrides` set on every run), written as `report.md` and `report.html` in `out` with the
+/// campaigns' accuracy CSV ([`crate::campaigns::accuracy`]; with `update_committed` also its
+/// committed copy); returns the terminal summary.
 pub fn run_and_report(
     fmu_dir: &Path,
     out: &Path,
     overrides: &crate::campaigns::Overrides,
+    update_committed: bool,
 ) -> Result<String> {
+    if update_committed && !overrides.given.is_empty() {
+        bail!(
+            "--update-committed writes the shipped campaigns' rows; --set {} changes them: drop one",
+            overrides.given.join(" --set ")
+        );
+    }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let both = RealCars::run_shipped(fmu_dir, out, true, overrides)?;
+    let csv = both.campaigns.write_accuracy(out, update_committed)?;
     let mut doc = Document::default();
     doc.heading(
         1,
@@ -677,13 +686,37 @@ pub fn run_and_report(
     ] {
         write_whole(&out.join(name), &text)?;
     }
-    Ok(both.summary())
+    let mut summary = both.summary();
+    summary += &format!("campaigns' sideslip accuracy: {}\n", csv.display());
+    if update_committed {
+        summary += &format!(
+            "committed copy: {} (the README's accuracy table quotes it: refresh the table with \
+             `.venv/bin/python docs/tools/accuracy_table.py --write`)\n",
+            crate::campaigns::accuracy::COMMITTED_CSV
+        );
+    }
+    Ok(summary)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use fmi_master::runner::packaged_fmu_dir;
+
+    /// The committed copy holds the shipped campaigns' figures: with a parameter set on the
+    /// command line it is refused before anything runs, naming the flag and the parameter.
+    #[test]
+    fn the_committed_copy_is_refused_with_parameters_set() {
+        let overrides =
+            crate::campaigns::Overrides::parse(&["EKF_G.ay_gain_std=0.1".to_string()]).unwrap();
+        let error = run_and_report(Path::new("no-fmus"), Path::new("no-out"), &overrides, true)
+            .unwrap_err();
+        let error = format!("{error:#}");
+        assert!(
+            error.contains("--update-committed") && error.contains("EKF_G.ay_gain_std=0.1"),
+            "{error}"
+        );
+    }
 
     #[test]
     fn a_reversing_truth_is_compared_in_the_forward_convention() {

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 use fmi_master::plot::{self, ErrorBar, ErrorChartLegend};
+use fmi_master::recording::write_whole;
 use fmi_master::report::Document;
 
 use crate::campaigns::{CampaignReport, Row};
@@ -84,10 +85,11 @@ fn optional(value: Option<f64>) -> String {
     value.map_or(String::new(), |v| v.to_string())
 }
 
-/// Writes `rows` as an accuracy CSV ([`HEADER`]); numbers in Rust's shortest round-trip form.
-pub fn write_rows(path: &Path, rows: &[AccuracyRow]) -> Result<()> {
-    let mut writer =
-        csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
+/// `rows` as the text of an accuracy CSV ([`HEADER`]); numbers in Rust's shortest round-trip
+/// form, the wheel speeds `measured` or `missing` (the studies that write through here simulate
+/// them; the replay study writes its own rows, whose wheel speeds are synthesised).
+pub fn csv_text(rows: &[AccuracyRow]) -> Result<String> {
+    let mut writer = csv::Writer::from_writer(Vec::new());
     writer.write_record(HEADER)?;
     for r in rows {
         writer.write_record([
@@ -95,7 +97,12 @@ pub fn write_rows(path: &Path, rows: &[AccuracyRow]) -> Result<()> {
             r.case.clone(),
             r.model.clone(),
             r.estimator.clone(),
-            if r.wheel_speeds { "yes" } else { "no" }.to_string(),
+            if r.wheel_speeds {
+                "measured"
+            } else {
+                "missing"
+            }
+            .to_string(),
             r.rmse_deg.to_string(),
             r.nees.to_string(),
             r.zero_rmse_deg.to_string(),
@@ -103,10 +110,12 @@ pub fn write_rows(path: &Path, rows: &[AccuracyRow]) -> Result<()> {
             optional(r.max_vx_error_mps),
         ])?;
     }
-    writer
-        .flush()
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    String::from_utf8(writer.into_inner()?).context("the accuracy CSV's text")
+}
+
+/// Writes `rows` as an accuracy CSV ([`csv_text`]) to `path`, whole.
+pub fn write_rows(path: &Path, rows: &[AccuracyRow]) -> Result<()> {
+    write_whole(path, &csv_text(rows)?)
 }
 
 /// Reads the rows of every accuracy CSV in `paths`, in order. A file whose header is not
@@ -160,9 +169,11 @@ fn parse_row(record: &csv::StringRecord) -> Result<AccuracyRow> {
         }
     };
     let wheel_speeds = match field(4).to_ascii_lowercase().as_str() {
-        "yes" | "with" | "true" | "1" => true,
-        "no" | "without" | "false" | "0" => false,
-        other => bail!("wheel_speeds: {other:?}; expected with or without (yes or no)"),
+        "measured" | "yes" | "with" | "true" | "1" => true,
+        "missing" | "no" | "without" | "false" | "0" => false,
+        other => bail!(
+            "wheel_speeds: {other:?}; expected measured or with (yes), missing or without (no)"
+        ),
     };
     Ok(AccuracyRow {
         source: field(0).to_string(),

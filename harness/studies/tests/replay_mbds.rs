@@ -11,7 +11,8 @@ use std::collections::BTreeMap;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::estimator_path;
 use harness::replay::fit::{fit, FitModel, FitOptions};
-use harness::replay::study::{cases, Case, Study, COMMITTED_CSV, CSV_HEADER, FITTED_MODEL};
+use harness::replay::study::{cases, Case, Study, COMMITTED_CSV, FITTED_MODEL};
+use harness::summary::HEADER;
 
 use crate::scratch::Scratch;
 
@@ -25,7 +26,12 @@ fn committed() -> BTreeMap<(String, String, String), String> {
         )
     });
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(CSV_HEADER), "{}", path.display());
+    assert_eq!(
+        lines.next(),
+        Some(HEADER.join(",").as_str()),
+        "{}",
+        path.display()
+    );
     lines
         .map(|line| {
             let fields: Vec<&str> = line.split(',').collect();

@@ -10,6 +10,7 @@
 //! NEES and the share of samples inside the chi-square(1) 95 % bound (the consistency
 //! consistency targets), beside the zero-sideslip baseline (the RMSE of reporting 0).
 
+pub mod accuracy;
 pub mod car;
 pub mod metrics;
 pub mod yardstick;
@@ -22,7 +23,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use rayon::prelude::*;
 use serde::Deserialize;
 
-use fmi_master::cosim::{ParameterValue, RunResult};
+use fmi_master::cosim::ParameterValue;
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::plot;
 use fmi_master::report::Document;
@@ -85,6 +86,14 @@ impl ReferenceModel {
             model: Self::FULL_VEHICLE,
             label: None,
         }]
+    }
+
+    /// The truth's name in the accuracy rows: its label, or "full vehicle" for the car files'
+    /// own model.
+    pub fn truth_name(&self) -> String {
+        self.label
+            .clone()
+            .unwrap_or_else(|| "full vehicle".to_string())
     }
 
     /// The car's name in the tables on this model: the file's stem, with the label.
@@ -179,10 +188,16 @@ impl CampaignFile {
 pub struct Row {
     pub manoeuvre: String,
     pub car: String,
+    /// The truth's [`ReferenceModel::truth_name`].
+    pub truth: String,
     /// The instance name, e.g. `UKF_scaled_B`.
     pub estimator: String,
     /// "A", "B" or "A+grip" (the instance's `model` parameter: 1, 2 or 3).
     pub model: &'static str,
+    /// The estimator FMU's item names of the instance's `estimator` and `model` parameters
+    /// (`ukf_scaled`, `two_track_3_state`).
+    pub estimator_item: String,
+    pub model_item: String,
     /// Sideslip RMSE and largest |error|, rad.
     pub rmse: f64,
     pub max_error: f64,
@@ -197,6 +212,9 @@ pub struct Row {
     /// Largest relative error of `vx_est` after the first sample, where the true speed is at
     /// least [`metrics::RELATIVE_SPEED_FLOOR`] (2 % is asked for with the torques unknown).
     pub max_speed_error: f64,
+    /// Largest |vx_est − true vx|, m/s, from the first estimate on; infinite for a non-finite
+    /// estimate there.
+    pub max_vx_error: f64,
     /// Time-averaged NEES of `vx_est` against `vx_std` and the share of samples inside the
     /// chi-square(1) 95 % bound, from the first estimate on (the guide's honest numbers for the
     /// speed as for the sideslip).
@@ -459,12 +477,16 @@ impl Campaign {
         let output = run_scenario(scenario, env, &overrides, false, |_| {})
             .with_context(|| format!("campaign row {} on {name}", m.name))?;
         let yardstick = yardstick::rmse(&output.result, VEHICLE, &car_data)?;
+        let run = RunNames {
+            manoeuvre: &m.name,
+            car: &name,
+            truth: &reference.truth_name(),
+        };
         let rows = self
             .estimators
             .iter()
             .map(|estimator| {
-                row(&output.scenario, &output.result, &m.name, &name, estimator)
-                    .map(|row| Row { yardstick, ..row })
+                row(&output, &run, estimator, estimator_fmu).map(|row| Row { yardstick, ..row })
             })
             .collect::<Result<Vec<_>>>()?;
         Ok((output, rows))
@@ -598,6 +620,17 @@ impl Campaign {
     }
 }
 
+/// The distinct names in the order they first appear.
+pub(crate) fn distinct<'a>(names: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut seen: Vec<&str> = Vec::new();
+    for name in names {
+        if !seen.contains(&name) {
+            seen.push(name);
+        }
+    }
+    seen
+}
+
 /// A car's name in the tables: its parameter file's stem.
 fn car_name(car_file: &Path) -> String {
     car_file.file_stem().map_or_else(
@@ -727,33 +760,62 @@ fn manoeuvre_section(
     Ok((section, Some(amplitude)))
 }
 
-/// Every estimator instance of `base` names its `model` (1, 2 or 3): the rows are labelled by it
-/// (A, B, A+grip), and an instance left at the FMU's default model would need the default
-/// written here a second time.
+/// Every estimator instance of `base` names its `model` (1, 2 or 3) and its `estimator` (an
+/// integer, one of the FMU's items when it runs): the rows are labelled by them (A, B, A+grip;
+/// the accuracy rows by the items), and an instance left at the FMU's default would need the
+/// default written here a second time.
 fn check_estimator_models(base: &Scenario) -> Result<()> {
     for fmu in base.fmus.iter().filter(|f| f.name != VEHICLE) {
         let model = fmu.parameters.get("model").and_then(|v| v.as_integer());
-        if !matches!(model, Some(1..=3)) {
+        let estimator = fmu.parameters.get("estimator").and_then(|v| v.as_integer());
+        if !matches!(model, Some(1..=3)) || estimator.is_none() {
             bail!(
-                "campaign base scenario {}: instance {:?} sets no `model` of 1, 2 or 3 (got {:?}); \
-                 the campaign labels its rows by the estimator model",
+                "campaign base scenario {}: instance {:?} sets model = {:?} and estimator = {:?}; \
+                 expected a `model` of 1, 2 or 3 and an integer `estimator`: the campaign labels \
+                 its rows by them",
                 base.source.display(),
                 fmu.name,
-                fmu.parameters.get("model")
+                fmu.parameters.get("model"),
+                fmu.parameters.get("estimator")
             );
         }
     }
     Ok(())
 }
 
+/// How the rows of one run name it.
+struct RunNames<'a> {
+    manoeuvre: &'a str,
+    car: &'a str,
+    truth: &'a str,
+}
+
+/// The item name of the estimator FMU's enumeration parameter `name` as `instance` of
+/// `scenario` sets it.
+fn item_of(scenario: &Scenario, fmu: &LoadedFmu, instance: &str, name: &str) -> Result<String> {
+    let value = scenario
+        .fmus
+        .iter()
+        .find(|f| f.name == instance)
+        .and_then(|f| f.parameters.get(name))
+        .and_then(|v| v.as_integer());
+    let items = fmu.enumeration_items(name);
+    items
+        .iter()
+        .find(|(_, number)| Some(i64::from(*number)) == value)
+        .map(|(item, _)| item.clone())
+        .ok_or_else(|| {
+            anyhow!(
+                "scenario {}: instance {instance:?} sets {name} = {value:?}; expected one of the estimator FMU's items {:?}",
+                scenario.source.display(),
+                items
+            )
+        })
+}
+
 /// The figures of `estimator` in one run.
-fn row(
-    scenario: &Scenario,
-    result: &RunResult,
-    manoeuvre: &str,
-    car: &str,
-    estimator: &str,
-) -> Result<Row> {
+fn row(output: &RunOutput, run: &RunNames, estimator: &str, fmu: &LoadedFmu) -> Result<Row> {
+    let (scenario, result) = (&output.scenario, &output.result);
     let sideslip = Track::sideslip(result, VEHICLE, estimator)?;
     let vx = Track::of(result, VEHICLE, estimator, "vx")?;
     let (mean_nees, share_inside) = sideslip.consistency();
@@ -766,8 +828,9 @@ fn row(
         .and_then(|f| f.parameters.get("model"))
         .and_then(|v| v.as_integer());
     Ok(Row {
-        manoeuvre: manoeuvre.to_string(),
-        car: car.to_string(),
+        manoeuvre: run.manoeuvre.to_string(),
+        car: run.car.to_string(),
+        truth: run.truth.to_string(),
         estimator: estimator.to_string(),
         // 1, 2 or 3: `check_estimator_models`
         model: match model {
@@ -775,6 +838,8 @@ fn row(
             Some(3) => "A+grip",
             _ => "A",
         },
+        estimator_item: item_of(scenario, fmu, estimator, "estimator")?,
+        model_item: item_of(scenario, fmu, estimator, "model")?,
         rmse: sideslip.rmse(),
         max_error: sideslip.max_error_from(f64::NEG_INFINITY),
         mean_nees,
@@ -787,6 +852,7 @@ fn row(
             .fold(0.0f64, |p, k| p.max(sideslip.truth[k].abs())),
         // from the first estimate on: the instant before it is the start value of vx_initial
         max_speed_error: vx.max_relative_error_from(scenario.step, metrics::RELATIVE_SPEED_FLOOR),
+        max_vx_error: vx.max_error_from(scenario.step),
         speed_nees,
         speed_share_inside,
         diverged: !sideslip.all_finite()
@@ -1219,8 +1285,11 @@ mod tests {
         Row {
             manoeuvre: "step_steer".into(),
             car: car.into(),
+            truth: "full vehicle".into(),
             estimator: estimator.into(),
             model: "A",
+            estimator_item: "ekf".into(),
+            model_item: "single_track_5_state".into(),
             rmse,
             max_error: rmse,
             mean_nees: nees,
@@ -1229,6 +1298,7 @@ mod tests {
             yardstick: 0.5,
             peak_sideslip: 2.0,
             max_speed_error: 0.0,
+            max_vx_error: 0.0,
             speed_nees: 1.0,
             speed_share_inside: 1.0,
             diverged: false,
@@ -1351,10 +1421,10 @@ mod tests {
         }
     }
 
-    /// An estimator instance without `model` is refused, naming the base scenario and the
-    /// instance: the rows' model label would otherwise repeat the FMU's default.
+    /// An estimator instance without `model` or `estimator` is refused, naming the base scenario
+    /// and the instance: the rows' labels would otherwise repeat the FMU's default.
     #[test]
-    fn an_estimator_instance_must_name_its_model() {
+    fn an_estimator_instance_must_name_its_model_and_estimator() {
         let base = |parameters: &str| {
             let text = format!(
                 "name = \"b\"\nstep = 0.01\n[manoeuvre]\nlibrary = \"seed001_step_steer_40deg\"\n\
@@ -1364,13 +1434,16 @@ mod tests {
             Scenario::from_str_at(&text, Path::new("base.toml"), Path::new(".")).unwrap()
         };
         assert!(check_estimator_models(&base("estimator = 2, model = 3")).is_ok());
-        for parameters in ["estimator = 2", "estimator = 2, model = 4"] {
+        for parameters in ["estimator = 2", "estimator = 2, model = 4", "model = 3"] {
             let error = format!(
                 "{:#}",
                 check_estimator_models(&base(parameters)).unwrap_err()
             );
             assert!(
-                error.contains("base.toml") && error.contains("\"EKF\"") && error.contains("model"),
+                error.contains("base.toml")
+                    && error.contains("\"EKF\"")
+                    && error.contains("`model`")
+                    && error.contains("`estimator`"),
                 "{error}"
             );
         }

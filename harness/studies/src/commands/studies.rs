@@ -103,7 +103,7 @@ impl Mismatch {
 
 #[derive(Args, Debug)]
 pub struct Robustness {
-    /// Output folder (report.md, report.html, CSV and plots).
+    /// Output folder (report.md, report.html, campaigns_sideslip.csv and plots).
     #[arg(long, default_value = "out/robustness")]
     out: PathBuf,
     /// Folder of the packaged FMUs (default: <target dir>/fmu, where packaging writes).
@@ -115,13 +115,22 @@ pub struct Robustness {
     /// robustness cases run as shipped; the report says what was set.
     #[arg(long = "set", value_name = "INST.VAR=VALUE")]
     set: Vec<String>,
+    /// Also write the campaigns' sideslip accuracy (campaigns_sideslip.csv, always written to
+    /// the output folder) to docs/data/campaigns_sideslip.csv (not with --set).
+    #[arg(long)]
+    update_committed: bool,
 }
 
 impl Robustness {
     pub fn run(self, stdout: Stdout) -> Result<()> {
         let overrides = Overrides::parse(&self.set)?;
         let fmu_dir = packaged_fmus(self.fmu_dir)?;
-        let summary = harness::robustness::run_and_report(&fmu_dir, &self.out, &overrides)?;
+        let summary = harness::robustness::run_and_report(
+            &fmu_dir,
+            &self.out,
+            &overrides,
+            self.update_committed,
+        )?;
         write!(stdout, "{summary}")?;
         writeln!(stdout, "report: {}", self.out.join("report.md").display())?;
         Ok(())

@@ -24,9 +24,6 @@ use fmi_master::yardstick::SingleTrackData;
 use super::drive::{self, Feed};
 use super::{parameters, prepare, Prepared};
 
-/// The CSV's header (the committed copy is `docs/data/mbds_replay.csv`).
-pub const CSV_HEADER: &str = "source,case,model,estimator,wheel_speeds,rmse_deg,nees,zero_rmse_deg,yardstick_rmse_deg,max_vx_error_mps";
-
 /// The committed copy of the full study's CSV, relative to the workspace.
 pub const COMMITTED_CSV: &str = "docs/data/mbds_replay.csv";
 
@@ -459,9 +456,9 @@ fn synthesised_wheel_speeds(
     out
 }
 
-/// The CSV text of `rows` (header first).
+/// The CSV text of `rows` (the accuracy CSV's [`crate::summary::HEADER`] first).
 pub fn csv_text(rows: &[Row]) -> String {
-    let mut text = format!("{CSV_HEADER}\n");
+    let mut text = format!("{}\n", crate::summary::HEADER.join(","));
     for row in rows {
         text += &row.csv_line();
         text.push('\n');
