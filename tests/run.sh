@@ -49,11 +49,11 @@ phase "$target/release/packaging" --with-workspace-targets
 phase cargo test --workspace --release
 # Two xdist workers (pytest-xdist, tests/requirements.txt), each module in one of them (loadscope:
 # module-scoped fixtures run once, the campaign tests share one Dask cluster). The module of
-# `harness demo` (tests/harness/test_demo.py, about 75 s) goes first, by its `starts_first` marker
-# and the collection order (no reordering by size), so the other worker runs every other module
-# meanwhile. Measured back to back on this 2-core machine: 106 s in one process, 95 s on two
-# workers; the demo's EM (model-mismatch study, 50 of its 67 s) already uses both cores in parts,
-# so the demo is the bound, and a third worker would not shorten it.
+# `harness demo` (tests/harness/test_demo.py: the demo with a subset of its two slowest studies,
+# about 110 s alone and 160 s beside the other worker) goes first, by its `starts_first` marker and
+# the collection order (no reordering by size), so the other worker runs every other module
+# meanwhile. Measured on this 2-core machine: the phase takes 188 s, the demo is its bound, and
+# its EM already uses both cores in parts, so a third worker would not shorten it.
 # (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 does
 # not read, so the group's tests would be spread over both workers and the demo would run twice.)
 phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder

@@ -291,6 +291,11 @@ pub struct DemoOptions {
     pub env: Environment,
     pub package: bool,
     pub plots: bool,
+    /// The cars the mismatch campaigns run on (file stems); empty: every car.
+    pub campaign_cars: Vec<String>,
+    /// The model-mismatch study's EM stops after this many SQUAREM cycles; `None`: the
+    /// study's own limit.
+    pub mismatch_em_cycles: Option<usize>,
 }
 
 /// Runs keyed by scenario name, in experiment order.
@@ -349,7 +354,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
     bar.set_position((experiments.len() as u64 + 1) * 1000);
     let mismatch = keep(
         MISMATCH_STUDY,
-        mismatch::run_shipped(&env.fmu_dir, &env.out_dir.join("mismatch")),
+        mismatch_study(options.mismatch_em_cycles, env),
         &bar,
         &mut failures,
     );
@@ -367,7 +372,7 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
             &env.fmu_dir,
             &env.out_dir.join("real_cars"),
             options.plots,
-            &Overrides::default(),
+            &Overrides::default().with_cars(&options.campaign_cars),
         ),
         &bar,
         &mut failures,
@@ -434,6 +439,21 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         );
     }
     Ok((findings, outputs))
+}
+
+/// The model-mismatch study as shipped, its EM cut to `em_cycles` where given.
+fn mismatch_study(em_cycles: Option<usize>, env: &Environment) -> Result<MismatchReport> {
+    let mut study = mismatch::MismatchStudy::shipped();
+    if let Some(cycles) = em_cycles {
+        study.identification.max_cycles = cycles;
+    }
+    mismatch::run_mismatch(
+        &study,
+        &Environment {
+            fmu_dir: env.fmu_dir.clone(),
+            out_dir: env.out_dir.join("mismatch"),
+        },
+    )
 }
 
 /// A study's result, or `None` with its error printed and added to `failures`: a failing study

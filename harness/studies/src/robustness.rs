@@ -652,6 +652,17 @@ impl RealCars {
     }
 }
 
+/// The options of `overrides` as the command line gave them (`--set A=1 --cars x,y`).
+fn command_line_changes(overrides: &crate::campaigns::Overrides) -> String {
+    overrides
+        .given
+        .iter()
+        .map(|text| format!("--set {text}"))
+        .chain((!overrides.cars.is_empty()).then(|| format!("--cars {}", overrides.cars.join(","))))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// `harness robustness`: the robustness cases and the mismatch campaigns alone (the campaigns
 /// with `overrides` set on every run), written as `report.md` and `report.html` in `out` with the
 /// campaigns' accuracy CSV ([`crate::campaigns::accuracy`]; with `update_committed` also its
@@ -662,10 +673,10 @@ pub fn run_and_report(
     overrides: &crate::campaigns::Overrides,
     update_committed: bool,
 ) -> Result<String> {
-    if update_committed && !overrides.given.is_empty() {
+    if update_committed && overrides.changes_the_campaign() {
         bail!(
-            "--update-committed writes the shipped campaigns' rows; --set {} changes them: drop one",
-            overrides.given.join(" --set ")
+            "--update-committed writes the shipped campaigns' rows; {} changes them: drop one",
+            command_line_changes(overrides)
         );
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;

@@ -179,6 +179,7 @@ mod tests {
             manoeuvres: Vec::new(),
             seconds: 0.0,
             overrides: Vec::new(),
+            cars: Vec::new(),
         };
         let path = report.write_accuracy(dir.path(), false).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();

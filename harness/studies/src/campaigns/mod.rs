@@ -290,6 +290,8 @@ pub struct CampaignReport {
     pub seconds: f64,
     /// The parameters set on the command line (`harness robustness --set`), as given.
     pub overrides: Vec<String>,
+    /// The cars the command line kept (`--cars`); empty: every car of the campaign file.
+    pub cars: Vec<String>,
 }
 
 /// What one car on one reference model contributes to a [`CampaignReport`].
@@ -303,12 +305,14 @@ struct CarOutcome {
 /// A parameter set on every run of a campaign, after the car's (`harness robustness --set`).
 pub type Override = (VarRef, ParameterValue);
 
-/// The parameters set on every run of a campaign (`harness robustness --set
-/// instance.variable=value`), parsed and as given (for the report).
+/// What the command line changes in the shipped campaign: the parameters set on every run
+/// (`--set instance.variable=value`), parsed and as given (for the report), and the cars kept
+/// (`--cars`, file stems; empty keeps every car).
 #[derive(Debug, Clone, Default)]
 pub struct Overrides {
     pub parsed: Vec<Override>,
     pub given: Vec<String>,
+    pub cars: Vec<String>,
 }
 
 impl Overrides {
@@ -320,7 +324,19 @@ impl Overrides {
                 .map(|text| parse_override(text))
                 .collect::<Result<_>>()?,
             given: given.to_vec(),
+            cars: Vec::new(),
         })
+    }
+
+    /// These overrides with only the cars named in `cars` (file stems) kept.
+    pub fn with_cars(mut self, cars: &[String]) -> Self {
+        self.cars = cars.to_vec();
+        self
+    }
+
+    /// Whether the campaign run differs from the shipped one (a parameter set or a car left out).
+    pub fn changes_the_campaign(&self) -> bool {
+        !self.given.is_empty() || !self.cars.is_empty()
     }
 }
 
@@ -381,6 +397,30 @@ impl Campaign {
             }
         }
         self.overrides = overrides.to_vec();
+        Ok(self)
+    }
+
+    /// The campaign on the cars `keep` alone (their files' stems, such as `ford_escort`), in
+    /// the file's order; empty keeps every car. Each must name a car of the campaign file.
+    pub fn with_cars(mut self, keep: &[String]) -> Result<Self> {
+        if keep.is_empty() {
+            return Ok(self);
+        }
+        let stems: Vec<String> = self
+            .file
+            .cars
+            .iter()
+            .map(|car| car_name(Path::new(car)))
+            .collect();
+        if let Some(unknown) = keep.iter().find(|k| !stems.contains(k)) {
+            bail!(
+                "--cars {unknown}: the campaign file lists no such car; expected one of {}",
+                stems.join(", ")
+            );
+        }
+        self.file
+            .cars
+            .retain(|car| keep.contains(&car_name(Path::new(car))));
         Ok(self)
     }
 
@@ -649,7 +689,9 @@ pub fn run(
     overrides: &Overrides,
 ) -> Result<CampaignReport> {
     let started = Instant::now();
-    let campaign = Campaign::load(file)?.with_overrides(&overrides.parsed)?;
+    let campaign = Campaign::load(file)?
+        .with_overrides(&overrides.parsed)?
+        .with_cars(&overrides.cars)?;
     let _work = WorkFolder::new(env.work_dir());
     let estimator_fmu = campaign.estimator_fmu(env)?;
     let mut report = CampaignReport {
@@ -664,6 +706,7 @@ pub fn run(
             .collect(),
         seconds: 0.0,
         overrides: overrides.given.clone(),
+        cars: overrides.cars.clone(),
     };
     let runs = campaign.cars_on_models();
     // One car on one reference model per task: its manoeuvres run in order (a sine with dwell
@@ -1167,6 +1210,12 @@ impl CampaignReport {
                     .join(", ")
             ));
         }
+        if !self.cars.is_empty() {
+            doc.paragraph(format!(
+                "**Not the shipped campaigns**: on {} only (`--cars`).",
+                self.cars.join(", ")
+            ));
+        }
         doc.list(
             self.manoeuvres
                 .iter()
@@ -1337,6 +1386,38 @@ mod tests {
         assert!(error.contains("EKF_G.ay_gain_std"), "{error}");
     }
 
+    /// `--cars`: the named cars stay in the file's order, on every reference model; a name the
+    /// file does not list is refused with the name and the choices; none keeps every car.
+    #[test]
+    fn a_car_selection_keeps_the_named_cars_and_refuses_an_unknown_one() {
+        let shipped = || Campaign::load(&scenario_dir().join(SHIPPED_CAMPAIGNS)).unwrap();
+        let every = shipped().cars_on_models().len();
+        let names = |texts: &[&str]| texts.iter().map(|t| t.to_string()).collect::<Vec<_>>();
+        let kept = shipped()
+            .with_cars(&names(&["vw_vanagon", "ford_escort"]))
+            .unwrap();
+        let stems: Vec<String> = kept
+            .file
+            .cars
+            .iter()
+            .map(|c| car_name(Path::new(c)))
+            .collect();
+        assert_eq!(stems, ["ford_escort", "vw_vanagon"]);
+        assert_eq!(kept.cars_on_models().len() * 3, every * 2);
+        assert_eq!(
+            shipped().with_cars(&[]).unwrap().cars_on_models().len(),
+            every
+        );
+        let error = format!(
+            "{:#}",
+            shipped().with_cars(&names(&["trabant"])).err().unwrap()
+        );
+        assert!(
+            error.contains("trabant") && error.contains("bmw_320i"),
+            "{error}"
+        );
+    }
+
     /// A subset of the estimators keeps the vehicle, the named instances and their connections;
     /// a name the base scenario does not have is refused, naming it and the choices.
     #[test]
@@ -1484,6 +1565,7 @@ mod tests {
             manoeuvres: Vec::new(),
             seconds: 0.0,
             overrides: Vec::new(),
+            cars: Vec::new(),
         };
         let summaries = report.estimator_summaries();
         let names: Vec<&str> = summaries.iter().map(|e| e.estimator.as_str()).collect();

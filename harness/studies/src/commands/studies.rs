@@ -28,6 +28,15 @@ pub struct Demo {
     /// Do not run `cargo run --release -p packaging`, use the FMUs as they are.
     #[arg(long)]
     no_package: bool,
+    /// Run the mismatch campaigns on these cars of harness/scenarios/campaigns/campaigns.toml
+    /// only, by file stem (comma-separated, for example ford_escort): a quicker run of every
+    /// manoeuvre and reference model; the report says which cars ran.
+    #[arg(long, value_delimiter = ',', value_name = "CAR")]
+    cars: Vec<String>,
+    /// Stop the model-mismatch study's EM after N SQUAREM cycles (the study allows 20): a
+    /// quicker run; the report's mismatch section lists the cycles run.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    em_cycles: Option<u64>,
 }
 
 impl Demo {
@@ -41,6 +50,8 @@ impl Demo {
             // A user-given FMU folder is used as it is.
             package: !self.no_package && !custom_dir,
             plots: true,
+            campaign_cars: self.cars,
+            mismatch_em_cycles: self.em_cycles.map(|n| n as usize),
         };
         let (findings, outputs) = demo::run(&options)?;
         write!(stdout, "{}", demo::summary_table(&findings, &outputs))?;
@@ -116,14 +127,19 @@ pub struct Robustness {
     #[arg(long = "set", value_name = "INST.VAR=VALUE")]
     set: Vec<String>,
     /// Also write the campaigns' sideslip accuracy (campaigns_sideslip.csv, always written to
-    /// the output folder) to docs/data/campaigns_sideslip.csv (not with --set).
+    /// the output folder) to docs/data/campaigns_sideslip.csv (not with --set or --cars).
     #[arg(long)]
     update_committed: bool,
+    /// Run the mismatch campaigns on these cars of harness/scenarios/campaigns/campaigns.toml
+    /// only, by file stem (comma-separated, for example ford_escort): a quicker run of every
+    /// manoeuvre and reference model; the report says which cars ran.
+    #[arg(long, value_delimiter = ',', value_name = "CAR")]
+    cars: Vec<String>,
 }
 
 impl Robustness {
     pub fn run(self, stdout: Stdout) -> Result<()> {
-        let overrides = Overrides::parse(&self.set)?;
+        let overrides = Overrides::parse(&self.set)?.with_cars(&self.cars);
         let fmu_dir = packaged_fmus(self.fmu_dir)?;
         let summary = harness::robustness::run_and_report(
             &fmu_dir,
