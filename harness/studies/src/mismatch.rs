@@ -153,6 +153,8 @@ pub struct MismatchReport {
     pub identification: EmResult<2>,
     /// E-steps the identification ran (one per EM step).
     pub e_steps: usize,
+    /// The SQUAREM cycles the EM was allowed (the shipped study's, or fewer for a quick run).
+    pub max_cycles: usize,
     /// Wall time of the offline identification alone and of the whole study, s.
     pub identification_seconds: f64,
     pub total_seconds: f64,
@@ -255,6 +257,7 @@ pub fn run_mismatch(study: &MismatchStudy, env: &Environment) -> Result<Mismatch
         samples: data.inputs.len(),
         identification_peak_lateral_acceleration: data.peak_lateral_acceleration,
         e_steps: identification.updates.len(),
+        max_cycles: study.identification.max_cycles,
         identification,
         identification_seconds,
         total_seconds: started.elapsed().as_secs_f64(),
@@ -377,12 +380,17 @@ impl MismatchReport {
         out
     }
 
-    /// "converged" or "NOT converged".
-    pub fn convergence(&self) -> &'static str {
-        if self.identification.converged {
-            "converged"
-        } else {
-            "NOT converged"
+    /// "converged" or "NOT converged", and by how much the EM was cut where it was allowed
+    /// fewer cycles than the study's.
+    pub fn convergence(&self) -> String {
+        let cut = identification_config().max_cycles;
+        match (self.identification.converged, self.max_cycles < cut) {
+            (true, _) => "converged".into(),
+            (false, false) => "NOT converged".into(),
+            (false, true) => format!(
+                "NOT converged: cut to {} of the study's {cut} cycles",
+                self.max_cycles
+            ),
         }
     }
 

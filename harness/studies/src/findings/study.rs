@@ -378,7 +378,7 @@ impl StudyMetric {
             StudyMetric::Text {
                 text: Word::Convergence,
                 ..
-            } => Measured::Text(report.convergence().to_string()),
+            } => Measured::Text(report.convergence()),
             StudyMetric::SideslipRmse {
                 sideslip_rmse,
                 scenario,
