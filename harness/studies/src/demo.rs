@@ -354,7 +354,11 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
     bar.set_position((experiments.len() as u64 + 1) * 1000);
     let mismatch = keep(
         MISMATCH_STUDY,
-        mismatch_study(options.mismatch_em_cycles, env),
+        mismatch::run_shipped(
+            &env.fmu_dir,
+            &env.out_dir.join("mismatch"),
+            options.mismatch_em_cycles,
+        ),
         &bar,
         &mut failures,
     );
@@ -439,21 +443,6 @@ pub fn run(options: &DemoOptions) -> Result<(Vec<Finding>, NamedOutputs)> {
         );
     }
     Ok((findings, outputs))
-}
-
-/// The model-mismatch study as shipped, its EM cut to `em_cycles` where given.
-fn mismatch_study(em_cycles: Option<usize>, env: &Environment) -> Result<MismatchReport> {
-    let mut study = mismatch::MismatchStudy::shipped();
-    if let Some(cycles) = em_cycles {
-        study.identification.max_cycles = cycles;
-    }
-    mismatch::run_mismatch(
-        &study,
-        &Environment {
-            fmu_dir: env.fmu_dir.clone(),
-            out_dir: env.out_dir.join("mismatch"),
-        },
-    )
 }
 
 /// A study's result, or `None` with its error printed and added to `failures`: a failing study

@@ -414,10 +414,19 @@ impl MismatchReport {
     }
 }
 
-/// The shipped study in `out_dir` with the FMUs of `fmu_dir`.
-pub fn run_shipped(fmu_dir: &Path, out_dir: &Path) -> Result<MismatchReport> {
+/// The shipped study in `out_dir` with the FMUs of `fmu_dir`, its EM cut to `em_cycles`
+/// SQUAREM cycles where given (a quicker run; the report says so).
+pub fn run_shipped(
+    fmu_dir: &Path,
+    out_dir: &Path,
+    em_cycles: Option<usize>,
+) -> Result<MismatchReport> {
+    let mut study = MismatchStudy::shipped();
+    if let Some(cycles) = em_cycles {
+        study.identification.max_cycles = cycles;
+    }
     run_mismatch(
-        &MismatchStudy::shipped(),
+        &study,
         &Environment {
             fmu_dir: fmu_dir.to_path_buf(),
             out_dir: out_dir.to_path_buf(),

@@ -406,12 +406,7 @@ impl Campaign {
         if keep.is_empty() {
             return Ok(self);
         }
-        let stems: Vec<String> = self
-            .file
-            .cars
-            .iter()
-            .map(|car| car_name(Path::new(car)))
-            .collect();
+        let stems = self.car_stems();
         if let Some(unknown) = keep.iter().find(|k| !stems.contains(k)) {
             bail!(
                 "--cars {unknown}: the campaign file lists no such car; expected one of {}",
@@ -422,6 +417,15 @@ impl Campaign {
             .cars
             .retain(|car| keep.contains(&car_name(Path::new(car))));
         Ok(self)
+    }
+
+    /// The names of the campaign's cars, their files' stems, in the file's order.
+    pub fn car_stems(&self) -> Vec<String> {
+        self.file
+            .cars
+            .iter()
+            .map(|car| car_name(Path::new(car)))
+            .collect()
     }
 
     /// The campaign with the estimator instances `keep` alone (and the vehicle): a quick subset.
@@ -1396,13 +1400,7 @@ mod tests {
         let kept = shipped()
             .with_cars(&names(&["vw_vanagon", "ford_escort"]))
             .unwrap();
-        let stems: Vec<String> = kept
-            .file
-            .cars
-            .iter()
-            .map(|c| car_name(Path::new(c)))
-            .collect();
-        assert_eq!(stems, ["ford_escort", "vw_vanagon"]);
+        assert_eq!(kept.car_stems(), ["ford_escort", "vw_vanagon"]);
         assert_eq!(kept.cars_on_models().len() * 3, every * 2);
         assert_eq!(
             shipped().with_cars(&[]).unwrap().cars_on_models().len(),

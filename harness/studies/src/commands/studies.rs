@@ -17,6 +17,17 @@ use harness::summary;
 
 use super::{fmu_dir_or_default, packaged_fmus, Stdout};
 
+/// The cars of the mismatch campaigns a command runs (`--cars`), shared by `demo` and
+/// `robustness`.
+#[derive(Args, Debug)]
+pub struct CampaignCars {
+    /// Run the mismatch campaigns on these cars of harness/scenarios/campaigns/campaigns.toml
+    /// only, by file stem (comma-separated, for example ford_escort): a quicker run of every
+    /// manoeuvre and reference model; the report says which cars ran.
+    #[arg(long, value_delimiter = ',', value_name = "CAR")]
+    cars: Vec<String>,
+}
+
 #[derive(Args, Debug)]
 pub struct Demo {
     /// Output folder (everything is written below it).
@@ -28,11 +39,8 @@ pub struct Demo {
     /// Do not run `cargo run --release -p packaging`, use the FMUs as they are.
     #[arg(long)]
     no_package: bool,
-    /// Run the mismatch campaigns on these cars of harness/scenarios/campaigns/campaigns.toml
-    /// only, by file stem (comma-separated, for example ford_escort): a quicker run of every
-    /// manoeuvre and reference model; the report says which cars ran.
-    #[arg(long, value_delimiter = ',', value_name = "CAR")]
-    cars: Vec<String>,
+    #[command(flatten)]
+    cars: CampaignCars,
     /// Stop the model-mismatch study's EM after N SQUAREM cycles (the study allows 20): a
     /// quicker run; the report's mismatch section lists the cycles run.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
@@ -50,7 +58,7 @@ impl Demo {
             // A user-given FMU folder is used as it is.
             package: !self.no_package && !custom_dir,
             plots: true,
-            campaign_cars: self.cars,
+            campaign_cars: self.cars.cars,
             mismatch_em_cycles: self.em_cycles.map(|n| n as usize),
         };
         let (findings, outputs) = demo::run(&options)?;
@@ -105,7 +113,7 @@ pub struct Mismatch {
 impl Mismatch {
     pub fn run(self, stdout: Stdout) -> Result<()> {
         let fmu_dir = packaged_fmus(self.fmu_dir)?;
-        let report = harness::mismatch::run_shipped(&fmu_dir, &self.out)?;
+        let report = harness::mismatch::run_shipped(&fmu_dir, &self.out, None)?;
         write!(stdout, "{}", report.summary())?;
         writeln!(stdout, "csv: {}", self.out.display())?;
         Ok(())
@@ -130,16 +138,13 @@ pub struct Robustness {
     /// the output folder) to docs/data/campaigns_sideslip.csv (not with --set or --cars).
     #[arg(long)]
     update_committed: bool,
-    /// Run the mismatch campaigns on these cars of harness/scenarios/campaigns/campaigns.toml
-    /// only, by file stem (comma-separated, for example ford_escort): a quicker run of every
-    /// manoeuvre and reference model; the report says which cars ran.
-    #[arg(long, value_delimiter = ',', value_name = "CAR")]
-    cars: Vec<String>,
+    #[command(flatten)]
+    cars: CampaignCars,
 }
 
 impl Robustness {
     pub fn run(self, stdout: Stdout) -> Result<()> {
-        let overrides = Overrides::parse(&self.set)?.with_cars(&self.cars);
+        let overrides = Overrides::parse(&self.set)?.with_cars(&self.cars.cars);
         let fmu_dir = packaged_fmus(self.fmu_dir)?;
         let summary = harness::robustness::run_and_report(
             &fmu_dir,
