@@ -1,25 +1,25 @@
 #!/usr/bin/env bash
 # Installs, where missing, what building and testing need on a fresh machine. Idempotent and quiet
 # when there is nothing to do; `bash tests/run.sh` calls it first.
+# Usage: packaging/setup.sh [--without-test-tools]
 #  - packaging/setup-build.sh: what building needs (libclang), all `bash harness/demo.sh` needs.
-#  - swig and Boost (Debian): building FMI++'s Python package, the third importer of the tests.
-#  - chromium (Debian): tests/harness/test_report_browser.py renders the HTML report in it.
+#  - packaging/setup-test-tools.sh: FMI++ and chromium for the Python tests, left to the caller
+#    with --without-test-tools (tests/run.sh installs them beside the build).
 #  - .venv: the pinned Python packages of tests/requirements.txt (fmpy, filterpy, pytest, ...),
 #    and of packaging/requirements-zig.txt (zig and cargo-zigbuild, for the Linux libraries that
 #    load on glibc 2.17 and newer), installed by uv (packaging/requirements-uv.txt), with pip as
 #    the fallback.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+case "${1:-}" in
+"" | --without-test-tools) ;;
+*)
+    echo "packaging/setup.sh: unknown argument '$1'; expected none or --without-test-tools" >&2
+    exit 2
+    ;;
+esac
 
 bash "$root/packaging/setup-build.sh"
-
-# Installs the Debian packages $@ (with sudo unless root).
-apt_install() {
-    local sudo_cmd=""
-    [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
-    $sudo_cmd apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "$@" >/dev/null
-}
 
 venv="$root/.venv"
 if [ ! -x "$venv/bin/python" ]; then
@@ -60,26 +60,7 @@ install_requirements "$root/tests/requirements.txt" "$venv/.requirements"
 
 install_requirements "$root/packaging/requirements-zig.txt" "$venv/.requirements-zig"
 
-# FMI++ (fmipp), built from its pinned source by packaging/fmipp.sh (SUNDIALS left out).
-fmipp_stamp="$venv/.requirements-fmipp"
-if ! cmp -s "$root/packaging/requirements-fmipp.txt" "$fmipp_stamp" ||
-    ! cmp -s "$root/packaging/fmipp.sh" "$fmipp_stamp.sh"; then
-    missing=()
-    command -v swig >/dev/null || missing+=(swig)
-    [ -e /usr/include/boost/version.hpp ] || missing+=(libboost-dev)
-    compgen -G '/usr/lib/*/libboost_filesystem.so' >/dev/null || missing+=(libboost-filesystem-dev)
-    if [ ${#missing[@]} -gt 0 ]; then
-        echo "setup: installing ${missing[*]} (to build FMI++ for tests/fmipp)" >&2
-        apt_install "${missing[@]}"
-    fi
-    echo "setup: building FMI++ (fmipp) into $venv" >&2
-    bash "$root/packaging/fmipp.sh" "$venv"
-    cp "$root/packaging/requirements-fmipp.txt" "$fmipp_stamp"
-    cp "$root/packaging/fmipp.sh" "$fmipp_stamp.sh"
-fi
-
-# A real browser for the report's layout test (Debian's chromium, headless).
-if ! command -v chromium >/dev/null; then
-    echo "setup: installing chromium (tests/harness/test_report_browser.py)" >&2
-    apt_install chromium
+# The other tools the Python tests use (FMI++, chromium), unless the caller installs them itself.
+if [ "${1:-}" != --without-test-tools ]; then
+    bash "$root/packaging/setup-test-tools.sh"
 fi

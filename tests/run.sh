@@ -21,7 +21,28 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-bash packaging/setup.sh
+bash packaging/setup.sh --without-test-tools
+
+# The Python tests' other tools (FMI++ and chromium: packaging/setup-test-tools.sh, about 4 and
+# 3 min on a fresh machine, mostly downloads, unpacking and one C++ build) install beside the
+# Rust build and tests, which need none of them; the Python tests wait for them.
+test_tools_log=$(mktemp)
+(
+    started=$SECONDS
+    bash packaging/setup-test-tools.sh
+    echo "== $((SECONDS - started)) s: packaging/setup-test-tools.sh (beside the build)"
+) >"$test_tools_log" 2>&1 &
+test_tools_pid=$!
+trap 'kill "$test_tools_pid" 2>/dev/null || true; rm -f "$test_tools_log"' EXIT
+wait_for_test_tools() {
+    local status=0
+    wait "$test_tools_pid" || status=$?
+    cat "$test_tools_log" >&2
+    if [ "$status" != 0 ]; then
+        echo "tests/run.sh: packaging/setup-test-tools.sh failed (exit $status), its output above" >&2
+    fi
+    return "$status"
+}
 
 # A fresh clone gains nothing from incremental compilation, it only writes more.
 if [ "${CI:-}" = true ]; then
@@ -56,4 +77,5 @@ phase cargo test --workspace --release
 # its EM already uses both cores in parts, so a third worker would not shorten it.
 # (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 does
 # not read, so the group's tests would be spread over both workers and the demo would run twice.)
+phase wait_for_test_tools
 phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder
