@@ -10,12 +10,14 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 venv="$root/.venv"
 
-# Installs the Debian packages $@ (with sudo unless root).
+# Installs the Debian packages $@ (with sudo unless root), without the packages they only
+# recommend: chromium alone recommends 88 more (udev, avahi, samba's libraries), which headless
+# rendering does not use.
 apt_install() {
     local sudo_cmd=""
     [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
     $sudo_cmd apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq "$@" >/dev/null
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "$@" >/dev/null
 }
 
 fmipp_stamp="$venv/.requirements-fmipp"

@@ -23,9 +23,9 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 bash packaging/setup.sh --without-test-tools
 
-# The Python tests' other tools (FMI++ and chromium: packaging/setup-test-tools.sh, about 4 and
-# 3 min on a fresh machine, mostly downloads, unpacking and one C++ build) install beside the
-# Rust build and tests, which need none of them; the Python tests wait for them.
+# The Python tests' other tools (FMI++ and chromium: packaging/setup-test-tools.sh, mostly
+# downloads, unpacking and one C++ build, about 2 min on a fresh machine) install beside the Rust
+# build and tests, which need none of them; the Python tests wait for them.
 test_tools_log=$(mktemp)
 (
     started=$SECONDS
