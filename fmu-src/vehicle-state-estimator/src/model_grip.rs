@@ -197,6 +197,44 @@ fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [A
 /// (0.110° and 0.77°); the campaigns the same to the digit at each.
 const TRANSIENT_MIN_SPEED: f64 = 5.0;
 
+/// The correlation time of the yaw-moment error ([`yaw_moment_error_variance`]), s: roll and
+/// load transfer settle within about a second; a road's bank and camber change over seconds.
+const YAW_MOMENT_ERROR_TIME: f64 = 1.0;
+
+/// The yaw rate's extra variance over the next sample for the yaw moment the single-track model
+/// leaves out (`yaw_moment_error_std` ε): an error of ε times the gross moment of the axles'
+/// side forces, `(lF |FyF| + lR |FyR|) / Iz` at the estimate and the sample's input, taken as a
+/// first-order Gauss-Markov process of correlation time τ ([`YAW_MOMENT_ERROR_TIME`]), whose
+/// spectral density at low frequency, `2 σ² τ` (Brown and Hwang, Introduction to Random Signals
+/// and Applied Kalman Filtering, 4th ed., §2.9), as white noise gives `2 σ² τ T` per sample.
+/// It grows with the side forces, so straight driving and walking pace keep the parameter's
+/// process noise, and a fast corner, where a real car's roll and the road's bank move it most,
+/// gets the most. On the real track recording (MBDS laps 2-6) the default EKF's sideslip NEES
+/// was 73 with a yaw-rate noise that does not grow with the forces.
+fn yaw_moment_error_variance(
+    model: &ModelGrip,
+    state: &StateGrip,
+    input: &InputVector,
+    v: &Variables,
+) -> f64 {
+    if v.yaw_moment_error_std <= 0.0 {
+        return 0.0;
+    }
+    let driver = input.fixed_rows::<INPUT_DIM>(0).into_owned();
+    let outputs = model.vehicle().outputs(&body(state), &driver);
+    let chassis = &model.vehicle().vehicle.chassis;
+    let moment = (chassis.cog_to_front_axle * outputs.lateral_force_front.abs()
+        + chassis.cog_to_rear_axle * outputs.lateral_force_rear.abs())
+        / chassis.yaw_inertia;
+    let error = v.yaw_moment_error_std * moment;
+    let variance = 2.0 * YAW_MOMENT_ERROR_TIME * v.sample_time * error * error;
+    if variance.is_finite() {
+        variance
+    } else {
+        0.0
+    }
+}
+
 /// The grip factors' extra variance over the next sample while the axles' side forces change
 /// fast (`grip_transient_time` κ above 0): `grip_std² · 2 κ Δs² / T` per axle, `Δs` the change
 /// of its [`AxleLoading::force_share`] from the estimate (`now`) to the model's own prediction
@@ -286,6 +324,12 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             return Err(format!(
                 "parameter grip_transient_time = {}; expected a finite value >= 0 (0: off)",
                 v.grip_transient_time
+            ));
+        }
+        if !(v.yaw_moment_error_std.is_finite() && v.yaw_moment_error_std >= 0.0) {
+            return Err(format!(
+                "parameter yaw_moment_error_std = {}; expected a finite value >= 0 (0: off)",
+                v.yaw_moment_error_std
             ));
         }
         SingleTrackGripModel::new(ModelA::from_parameters(v)?, prior(v)?)
@@ -425,8 +469,9 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
 
     /// Model A's extra wheel noise, `grip_std²` on the grip factor of an axle whose tyres slide
     /// ([`sliding_axles`]) and the grip factors' share of a fast-changing side force
-    /// ([`transient_grip_variance`]), and while the torques are unknown and `ax` is not measured
-    /// (missing, or exactly 0) the unknown longitudinal acceleration's `(a T)²` on `vx`
+    /// ([`transient_grip_variance`]), the yaw moment the model leaves out on the yaw rate
+    /// ([`yaw_moment_error_variance`]), and while the torques are unknown and `ax` is not
+    /// measured (missing, or exactly 0) the unknown longitudinal acceleration's `(a T)²` on `vx`
     /// ([`UNKNOWN_LONGITUDINAL_ACCELERATION`]).
     fn extra_process_noise(
         &self,
@@ -468,6 +513,8 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         {
             noise[(grip, grip)] += if sliding { variance } else { 0.0 } + transient;
         }
+        noise[(state_index::YAW_RATE, state_index::YAW_RATE)] +=
+            yaw_moment_error_variance(self, state, input, v);
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
 
@@ -529,6 +576,41 @@ mod tests {
     use super::*;
     use crate::model_description::Variables;
     use estimation::models::single_track_grip::extend_state;
+    use vehicle_models::driver_input::index as input_index;
+
+    /// The yaw-moment error grows with the side forces: none driving straight, in proportion
+    /// to `yaw_moment_error_std` in a corner, and nothing when it is 0.
+    #[test]
+    fn the_yaw_moment_error_grows_with_the_side_forces_and_its_parameter() {
+        let cornering = |error_std: f64, steering: f64| {
+            let v = Variables {
+                yaw_moment_error_std: error_std,
+                ..Variables::default()
+            };
+            let model = ModelGrip::from_parameters(&v).unwrap();
+            let mut body = SVector::<f64, STATE_DIM>::zeros();
+            body[state_index::VX] = 20.0;
+            let mut input = InputVector::zeros();
+            input[input_index::STEERING_ANGLE] = steering;
+            yaw_moment_error_variance(&model, &extend_state(&body), &input, &v)
+        };
+        assert_eq!(cornering(0.02, 0.0), 0.0);
+        assert_eq!(cornering(0.0, 0.03), 0.0);
+        let small = cornering(0.02, 0.03);
+        assert!(small > 0.0, "{small}");
+        assert!((cornering(0.04, 0.03) / small - 4.0).abs() < 1e-9);
+        assert!(cornering(0.02, 0.06) > 2.0 * small);
+    }
+
+    #[test]
+    fn a_negative_yaw_moment_error_is_refused_by_name() {
+        let v = Variables {
+            yaw_moment_error_std: -0.1,
+            ..Variables::default()
+        };
+        let error = ModelGrip::from_parameters(&v).err().unwrap();
+        assert!(error.contains("yaw_moment_error_std"), "{error}");
+    }
 
     /// A car 30° sideways at 15 m/s, a sideslip a spinning car passes through: re-seeded on
     /// re-admission, the grip model keeps it (`vy = vx tan β` at the measured speed), model A
