@@ -160,6 +160,8 @@ struct AxleLoading {
     slip: f64,
     /// The axle's side force as a share of its friction potential `f0 FZ` (000: 5.67).
     force_share: f64,
+    /// The magnitude of the axle's side force, N.
+    side_force: f64,
 }
 
 /// Front and rear [`AxleLoading`] at `state`.
@@ -172,6 +174,7 @@ fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [A
         slip,
         force_share: force.abs()
             / (tyre.friction_potential(wheel_load) * wheel_load * WHEELS_PER_AXLE),
+        side_force: force.abs(),
     };
     [
         loading(
@@ -203,7 +206,8 @@ const YAW_MOMENT_ERROR_TIME: f64 = 1.0;
 
 /// The yaw rate's extra variance over the next sample for the yaw moment the single-track model
 /// leaves out (`yaw_moment_error_std` ε): an error of ε times the gross moment of the axles'
-/// side forces, `(lF |FyF| + lR |FyR|) / Iz` at the estimate and the sample's input, taken as a
+/// side forces, `(lF |FyF| + lR |FyR|) / Iz` at the estimate and the sample's input (the
+/// [`axle_loading`] the other terms use, so the model is evaluated once), taken as a
 /// first-order Gauss-Markov process of correlation time τ ([`YAW_MOMENT_ERROR_TIME`]), whose
 /// spectral density at low frequency, `2 σ² τ` (Brown and Hwang, Introduction to Random Signals
 /// and Applied Kalman Filtering, 4th ed., §2.9), as white noise gives `2 σ² τ T` per sample.
@@ -211,20 +215,13 @@ const YAW_MOMENT_ERROR_TIME: f64 = 1.0;
 /// process noise, and a fast corner, where a real car's roll and the road's bank move it most,
 /// gets the most. On the real track recording (MBDS laps 2-6) the default EKF's sideslip NEES
 /// was 73 with a yaw-rate noise that does not grow with the forces.
-fn yaw_moment_error_variance(
-    model: &ModelGrip,
-    state: &StateGrip,
-    input: &InputVector,
-    v: &Variables,
-) -> f64 {
+fn yaw_moment_error_variance(model: &ModelGrip, loading: &[AxleLoading; 2], v: &Variables) -> f64 {
     if v.yaw_moment_error_std <= 0.0 {
         return 0.0;
     }
-    let driver = input.fixed_rows::<INPUT_DIM>(0).into_owned();
-    let outputs = model.vehicle().outputs(&body(state), &driver);
     let chassis = &model.vehicle().vehicle.chassis;
-    let moment = (chassis.cog_to_front_axle * outputs.lateral_force_front.abs()
-        + chassis.cog_to_rear_axle * outputs.lateral_force_rear.abs())
+    let moment = (chassis.cog_to_front_axle * loading[0].side_force
+        + chassis.cog_to_rear_axle * loading[1].side_force)
         / chassis.yaw_inertia;
     let error = v.yaw_moment_error_std * moment;
     let variance = 2.0 * YAW_MOMENT_ERROR_TIME * v.sample_time * error * error;
@@ -514,7 +511,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
             noise[(grip, grip)] += if sliding { variance } else { 0.0 } + transient;
         }
         noise[(state_index::YAW_RATE, state_index::YAW_RATE)] +=
-            yaw_moment_error_variance(self, state, input, v);
+            yaw_moment_error_variance(self, &loading, v);
         noise.iter().any(|&q| q > 0.0).then_some(noise)
     }
 
@@ -592,7 +589,8 @@ mod tests {
             body[state_index::VX] = 20.0;
             let mut input = InputVector::zeros();
             input[input_index::STEERING_ANGLE] = steering;
-            yaw_moment_error_variance(&model, &extend_state(&body), &input, &v)
+            let loading = axle_loading(&model, &extend_state(&body), &input);
+            yaw_moment_error_variance(&model, &loading, &v)
         };
         assert_eq!(cornering(0.02, 0.0), 0.0);
         assert_eq!(cornering(0.0, 0.03), 0.0);
