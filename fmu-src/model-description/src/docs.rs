@@ -30,7 +30,7 @@ pub const STATUS_BITS: &[(u32, &str, &str)] = &[
     (32, "low speed", "The speed is below `min_speed`: the filter holds, sideslip is the steering geometry's kinematic sideslip with a wide std, speeds and yaw rate are the measured ones."),
     (64, "input held", "An input other than a sensor was non-finite; its last finite value was used."),
     (128, "row gated", "A measurement row failed the chi-square gate or was physically implausible; gated inertial rows enter clipped to the gate's edge."),
-    (256, "sensor re-admitted", "A sensor was locked out by the gate for `readmit_time`, and the filter was re-seeded from the measurements."),
+    (256, "sensor re-admitted", "A sensor was locked out by the gate for `readmit_time`, or the gyro stayed 5 standard deviations off the estimate for 0.2 s (the filter had left the car), and the filter was re-seeded from the measurements."),
     (512, "initialising", "`start_from_measurements` waits for the first measured speed, or started from it in this step."),
     (1024, "input clamped", "An input outside its declared range was clamped into it (the setter answered fmi2Warning naming the variable)."),
     (2048, "wheel lifted", "Model B: the load transfer at the estimated ay exceeds an axle's static wheel load; the inner wheel's load is held at 0."),

@@ -296,6 +296,10 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         model_error_rows()
     }
 
+    fn yaw_rate_row(&self) -> Option<usize> {
+        Some(measurement_index::YAW_RATE)
+    }
+
     /// Not on the flat top of the tyre curve ([`tyres_hold_the_sideslip`]).
     fn model_error_resolvable(
         &self,

@@ -197,6 +197,14 @@ impl EstimationModel<STATE_DIM, MEASUREMENT_DIM, INPUT_DIM> for ModelB {
         [true; MEASUREMENT_DIM]
     }
 
+    /// Not watched: model B's covariance does not carry its tyre law's error, so its gyro row
+    /// stays many sigma off in a real corner for long, and re-seeding then cost accuracy (harness
+    /// robustness, full vehicle, model B's mean sideslip RMSE over 21 runs: EKF 0.374° → 0.396°,
+    /// particle filter 0.417° → 0.557° with the gyro watched).
+    fn yaw_rate_row(&self) -> Option<usize> {
+        None
+    }
+
     /// Sideslip 0, yaw rate and ay as measured (0 where missing), with the initial covariance of
     /// the parameters, once a speed is measured.
     fn measured_start(runner: &RunnerB, sensors: &Sensors) -> Option<InitialEstimate<STATE_DIM>> {

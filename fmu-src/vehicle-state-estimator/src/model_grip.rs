@@ -417,6 +417,10 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         model_a::model_error_rows()
     }
 
+    fn yaw_rate_row(&self) -> Option<usize> {
+        Some(vehicle_models::single_track::measurement_index::YAW_RATE)
+    }
+
     fn measured_start(
         runner: &RunnerGrip,
         sensors: &Sensors,

@@ -56,7 +56,7 @@ fn estimator_with_lag(
 }
 
 /// [`estimator_of_kind`] with the real parameters `settings` set.
-fn estimator_with(
+pub(crate) fn estimator_with(
     kind: EstimatorKind,
     model: EstimatorModel,
     uncertainty: Option<f64>,

@@ -24,7 +24,7 @@ where
         writer.f64(self.nis);
         writer.i32(self.rows_used);
         writer.bool(self.started);
-        for count in self.gated_samples {
+        for count in self.gated_samples.into_iter().chain(self.lost_samples) {
             writer.u64(count);
         }
         for window in self.innovations.iter().flatten() {
@@ -70,6 +70,9 @@ where
         runner.started = reader.bool("started")?;
         for count in &mut runner.gated_samples {
             *count = reader.u64("gated samples")?;
+        }
+        for count in &mut runner.lost_samples {
+            *count = reader.u64("samples off the sensors")?;
         }
         for window in runner.innovations.iter_mut().flatten() {
             window.read(reader)?;

@@ -98,6 +98,11 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// and must stay out.
     fn model_error_rows(&self) -> [bool; M];
 
+    /// The gyro's row, which the gate watches for a filter that has drifted off the car
+    /// (`runner::gate::LOST_SIGMAS`): the gyro measures a state directly, so a lasting
+    /// disagreement far beyond its noise is the filter's, not the car's. `None`: not watched.
+    fn yaw_rate_row(&self) -> Option<usize>;
+
     /// Whether the model can take a model-error row's persistent disagreement as its own error
     /// at the predicted estimate `state` (`jacobian` = `∂h/∂x` there): where it cannot, the row
     /// gets the plain test, as every other row. The default: always.
@@ -302,6 +307,9 @@ where
     schedule_threshold: f64,
     /// Samples in a row for which each plausible row was gated (FMU state).
     gated_samples: [u64; M],
+    /// Samples in a row for which each model-error row was far off the estimate
+    /// (`runner::gate::LOST_SIGMAS`; FMU state).
+    lost_samples: [u64; M],
     /// The recent innovations of each model-error row while gating (FMU state).
     innovations: [Option<InnovationWindow>; M],
     /// The filter has started: from the parameters, or with `start_from_measurements` from the
@@ -411,6 +419,7 @@ where
             gate,
             schedule_threshold: schedule_threshold(v, choice)?,
             gated_samples: [0; M],
+            lost_samples: [0; M],
             innovations,
             started: !v.start_from_measurements,
             parameters: Box::new(v.clone()),
