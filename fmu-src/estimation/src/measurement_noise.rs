@@ -35,6 +35,19 @@
 //! a noise that really is larger raises `R̂` by up to the factor `1 + α (c² − 1)` per sample,
 //! so a ten times larger std is learned within about `ln(100) / (α (c² − 1))` samples.
 //!
+//! **Beside it, the sensor's own signal.** The innovations carry what the filter makes of the
+//! noise: a filter tuned to trust a vibrating accelerometer follows part of the vibration, so
+//! its innovations, and `R̂` with them, stay below the sensor's noise (the MBDS recording's
+//! `ay`, about 1.05 m/s² of vibration: the innovations gave about 0.5-0.7). So each row's noise
+//! is also measured on the sensor's own samples, without any model, by their second difference
+//! (Gasser, Sroka and Jennen-Steinmetz, "Residual variance and residual pattern in nonlinear
+//! regression", Biometrika 73, 1986): `E[(x_{k+1} − 2 x_k + x_{k−1})²] = 6 σ²` for white noise
+//! on a signal that is smooth over two samples (a car's motion at 100 Hz), averaged and clipped
+//! as above (`c √(6 R)`), and a value that repeats the last one exactly (a logger or importer
+//! holding a slower signal) is left out, since its differences would be the motion's. A noise
+//! that is not white (a vibration at a few hertz) is seen only in part, so this is a lower
+//! bound beside `R̂`; the filter uses `max(R₀, R̂, R̂_signal)`.
+//!
 //! The learned variances are part of the running state ([`NoiseMatching::save`]) and are kept
 //! when the filter is re-seeded: they belong to the sensor, not to the estimate.
 
@@ -55,6 +68,10 @@ pub struct NoiseMatching<const M: usize> {
     /// The previous sample's innovation and its `(H P⁻ Hᵀ)_ii` per row; NaN where that sample
     /// had none (a difference needs two samples in a row).
     previous: [(f64, f64); M],
+    /// `R̂_signal`, the running estimates from each sensor's own second differences.
+    signal: [f64; M],
+    /// Each row's last two distinct values, newest last; NaN until there are two in a row.
+    recent: [[f64; 2]; M],
     /// `α = T / τ`.
     weight: f64,
 }
@@ -66,6 +83,8 @@ impl<const M: usize> NoiseMatching<M> {
             floor,
             learned: floor,
             previous: [(f64::NAN, f64::NAN); M],
+            signal: [0.0; M],
+            recent: [[f64::NAN; 2]; M],
             weight: weight.clamp(f64::MIN_POSITIVE, 1.0),
         }
     }
@@ -75,18 +94,46 @@ impl<const M: usize> NoiseMatching<M> {
         Self {
             learned: self.learned,
             previous: self.previous,
+            signal: self.signal,
+            recent: self.recent,
             ..tuned.clone()
         }
     }
 
-    /// The variance the filter uses for row `row`: `max(R₀, R̂)`.
+    /// The variance the filter uses for row `row`: `max(R₀, R̂, R̂_signal)`.
     pub fn variance(&self, row: usize) -> f64 {
-        self.floor[row].max(self.learned[row])
+        self.floor[row].max(self.learned[row]).max(self.signal[row])
     }
 
-    /// What the learner adds to row `row`'s tuned variance, `max(R₀, R̂) − R₀ >= 0`.
+    /// What the learner adds to row `row`'s tuned variance, `max(R₀, R̂, R̂_signal) − R₀ >= 0`.
     pub fn excess(&self, row: usize) -> f64 {
-        (self.learned[row] - self.floor[row]).max(0.0)
+        self.variance(row) - self.floor[row]
+    }
+
+    /// Takes the sensor's own value of row `row` in this sample (module text, the sensor's own
+    /// signal); `None` (or a non-finite value) where the row has none, which breaks the
+    /// sequence of second differences. A value equal to the last one is a held sample and is
+    /// left out without breaking the sequence.
+    pub fn observe_signal(&mut self, row: usize, value: Option<f64>) {
+        let [older, last] = self.recent[row];
+        let Some(value) = value.filter(|value| value.is_finite()) else {
+            self.recent[row] = [f64::NAN; 2];
+            return;
+        };
+        if value == last {
+            return;
+        }
+        self.recent[row] = [last, value];
+        if !(older.is_finite() && last.is_finite()) {
+            return;
+        }
+        let reach = INNOVATION_CLIP * (6.0 * self.variance(row)).sqrt();
+        let difference = (value - 2.0 * last + older).clamp(-reach, reach);
+        let sample = difference * difference / 6.0;
+        let updated = self.signal[row] + self.weight * (sample - self.signal[row]);
+        if updated.is_finite() {
+            self.signal[row] = updated;
+        }
     }
 
     /// Takes the innovation `innovation` of row `row` in this sample, whose predicted part
@@ -117,6 +164,10 @@ impl<const M: usize> NoiseMatching<M> {
             sink.f64(value);
             sink.f64(variance);
         }
+        sink.f64s(&self.signal);
+        for recent in &self.recent {
+            sink.f64s(recent);
+        }
     }
 
     pub fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
@@ -126,6 +177,10 @@ impl<const M: usize> NoiseMatching<M> {
                 source.f64("previous innovation")?,
                 source.f64("previous innovation variance")?,
             );
+        }
+        source.f64s_into(&mut self.signal, "measurement noise from the signal")?;
+        for recent in &mut self.recent {
+            source.f64s_into(recent, "last sensor values")?;
         }
         Ok(())
     }
@@ -177,6 +232,41 @@ mod tests {
             "{}",
             learner.variance(0).sqrt()
         );
+    }
+
+    /// White noise of std 1.0 on a corner's smooth signal (a sine of 5 m/s² every 6 s at
+    /// 100 Hz), which the filter partly follows so its innovations show only 0.3 of it: the
+    /// sensor's own second differences find the noise.
+    #[test]
+    fn the_sensors_own_signal_shows_the_noise_the_innovations_hide() {
+        let mut learner = NoiseMatching::<1>::new([0.1 * 0.1], 0.005);
+        let noise = Normal::new(0.0, 1.0).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        for k in 0..4000 {
+            let e = noise.sample(&mut rng);
+            learner.observe(0, Some((0.3 * e, 0.0)));
+            let corner = 5.0 * (k as f64 * 0.01 * std::f64::consts::TAU / 6.0).sin();
+            learner.observe_signal(0, Some(corner + e));
+        }
+        let std = learner.variance(0).sqrt();
+        assert!((0.9..1.1).contains(&std), "learned std {std}, true 1");
+    }
+
+    /// A clean sensor on a fast manoeuvre (a 10 m/s² step over 0.3 s, sampled at 100 Hz and
+    /// held every other sample as a 50 Hz logger gives it) keeps its tuned noise: the motion is
+    /// smooth over two samples and held values are left out.
+    #[test]
+    fn a_smooth_held_signal_is_not_taken_for_noise() {
+        let mut learner = NoiseMatching::<1>::new([0.1 * 0.1], 0.005);
+        for k in 0..2000 {
+            let t = (k / 2 * 2) as f64 * 0.01;
+            let ramp = 10.0 * ((t - 5.0) / 0.3).clamp(0.0, 1.0);
+            learner.observe_signal(0, Some(ramp));
+        }
+        assert_eq!(learner.variance(0), 0.1 * 0.1);
+        learner.observe_signal(0, None);
+        learner.observe_signal(0, Some(f64::NAN));
+        assert!(learner.variance(0).is_finite());
     }
 
     #[test]

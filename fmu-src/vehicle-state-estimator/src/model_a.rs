@@ -22,7 +22,7 @@ use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive, variances};
 use crate::runner::{
     finite_or, stiffness_consider, EstimationModel, InputVector, OutputSample, Runner, Sample,
-    Sensors, WheelRadii, REAR_DRIVE_TORQUE,
+    SensorRows, Sensors, WheelRadii, REAR_DRIVE_TORQUE,
 };
 use crate::speed_filter::{SpeedFilter, SpeedSample};
 use crate::status;
@@ -296,8 +296,11 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
         model_error_rows()
     }
 
-    fn yaw_rate_row(&self) -> Option<usize> {
-        Some(measurement_index::YAW_RATE)
+    fn sensor_rows(&self) -> SensorRows {
+        SensorRows {
+            yaw_rate: measurement_index::YAW_RATE,
+            ay: measurement_index::LATERAL_ACCELERATION,
+        }
     }
 
     /// Not on the flat top of the tyre curve ([`tyres_hold_the_sideslip`]).

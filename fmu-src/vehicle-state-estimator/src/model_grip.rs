@@ -29,7 +29,9 @@ use vehicle_models::{HsriTyre, SingleTrackModel};
 use crate::model_a::{self, ModelA, ReportsFilteredSpeed};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive};
-use crate::runner::{EstimationModel, InputVector, OutputSample, Runner, Sample, Sensors};
+use crate::runner::{
+    EstimationModel, InputVector, OutputSample, Runner, Sample, SensorRows, Sensors,
+};
 use crate::speed_filter::{self, SpeedFilter};
 
 /// The longitudinal acceleration the speed's prediction leaves out while the torques are unknown
@@ -417,8 +419,11 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         model_a::model_error_rows()
     }
 
-    fn yaw_rate_row(&self) -> Option<usize> {
-        Some(vehicle_models::single_track::measurement_index::YAW_RATE)
+    fn sensor_rows(&self) -> SensorRows {
+        SensorRows {
+            yaw_rate: vehicle_models::single_track::measurement_index::YAW_RATE,
+            ay: vehicle_models::single_track::measurement_index::LATERAL_ACCELERATION,
+        }
     }
 
     fn measured_start(

@@ -292,8 +292,10 @@ where
     /// the gate tests about 0 count nothing.
     fn off_the_sensor(&mut self, row: usize, innovation: Innovation, plausible: bool) -> bool {
         let Innovation { value, variance } = innovation;
-        let watched =
-            self.model.yaw_rate_row() == Some(row) && self.innovations[row].is_some() && plausible;
+        let watched = self.model.watches_gyro()
+            && self.model.sensor_rows().yaw_rate == row
+            && self.innovations[row].is_some()
+            && plausible;
         if !(watched && value * value > LOST_SIGMAS * LOST_SIGMAS * variance) {
             self.lost_samples[row] = 0;
             return false;

@@ -98,10 +98,15 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     /// and must stay out.
     fn model_error_rows(&self) -> [bool; M];
 
-    /// The gyro's row, which the gate watches for a filter that has drifted off the car
+    /// The rows of the gyro and the lateral accelerometer in the measurement vector.
+    fn sensor_rows(&self) -> SensorRows;
+
+    /// Whether the gate watches the gyro for a filter that has drifted off the car
     /// (`runner::gate::LOST_SIGMAS`): the gyro measures a state directly, so a lasting
-    /// disagreement far beyond its noise is the filter's, not the car's. `None`: not watched.
-    fn yaw_rate_row(&self) -> Option<usize>;
+    /// disagreement far beyond its noise is the filter's, not the car's.
+    fn watches_gyro(&self) -> bool {
+        true
+    }
 
     /// Whether the model can take a model-error row's persistent disagreement as its own error
     /// at the predicted estimate `state` (`jacobian` = `∂h/∂x` there): where it cannot, the row
@@ -203,6 +208,13 @@ pub trait EstimationModel<const N: usize, const M: usize, const U: usize>:
     fn write_extra(extra: &Self::Extra, writer: &mut StateWriter);
 
     fn read_extra(extra: &mut Self::Extra, reader: &mut StateReader<'_>) -> Result<(), StateError>;
+}
+
+/// Where the gyro and the lateral accelerometer are in a model's measurement vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SensorRows {
+    pub yaw_rate: usize,
+    pub ay: usize,
 }
 
 fn issue_bit(issue: FilterIssue) -> i32 {
@@ -567,6 +579,10 @@ where
             });
             corrected.yaw_rate -= offset.offset;
         }
+        let ay_variance = self
+            .noise
+            .as_ref()
+            .map(|learner| learner.variance(self.model.sensor_rows().ay));
         if let Some(accelerometer) = self.lateral_accelerometer.as_mut() {
             accelerometer.step(&AySample {
                 ay: sensors.ay,
@@ -574,6 +590,7 @@ where
                 all_zero,
                 steering,
                 speed: measured.map(|measured| measured.speed),
+                ay_variance,
             });
             corrected.ay = accelerometer.corrected(sensors.ay);
         }

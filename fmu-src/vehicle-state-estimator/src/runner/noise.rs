@@ -1,6 +1,6 @@
-//! The measurement noise learned from the innovations (`learn_measurement_noise`,
-//! `estimation::measurement_noise`): each row's variance observed before the gate, at the
-//! predicted estimate, and added to the tuned `R` where it exceeds it.
+//! The measurement noise learned from the innovations and from each sensor's own samples
+//! (`learn_measurement_noise`, `estimation::measurement_noise`): each row's variance observed
+//! before the gate, at the predicted estimate, and added to the tuned `R` where it exceeds it.
 
 use estimation::measurement_noise::NoiseMatching;
 use estimation::registry::EstimatorChoice;
@@ -76,6 +76,8 @@ where
                     (value - predicted[row], predicted_variance)
                 });
             learner.observe(row, innovation);
+            let own = value.is_finite() && sample.offered[row] && plausible[row];
+            learner.observe_signal(row, own.then_some(value));
         }
     }
 }
