@@ -5,7 +5,6 @@
 mod fmi_versions;
 mod identify_cli;
 mod low_speed_campaign;
-mod mismatch;
 mod mismatch_identification;
 mod population;
 mod replay;

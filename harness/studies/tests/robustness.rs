@@ -7,7 +7,9 @@
 //! `fmi_master::runner::default_fmu_dir()`; a missing archive fails the test with that command
 //! (`fmi_master::runner::packaged_fmu_dir`).
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 use fmi_master::fmu::LoadedFmu;
 use fmi_master::runner::{packaged_fmu_dir, scenario_dir, Environment};
@@ -57,8 +59,19 @@ fn one_ay_glitch_is_gated_by_the_defaults_and_breaks_the_old_filter() {
 }
 
 /// The rows of one manoeuvre of the shipped campaigns on the Ford Escort, every estimator.
+/// Several tests read the same manoeuvre's rows (the braking in a turn three times), so each
+/// manoeuvre runs once per test binary and the others wait for it: the campaign is
+/// deterministic, and a failed run panics in every test that asks for it.
 fn escort_campaign_rows(manoeuvre: &str) -> Vec<Row> {
-    campaign_rows("ford_escort.ssv", manoeuvre)
+    static RUNS: Mutex<BTreeMap<String, Arc<OnceLock<Vec<Row>>>>> = Mutex::new(BTreeMap::new());
+    let run = Arc::clone(
+        RUNS.lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .entry(manoeuvre.to_owned())
+            .or_default(),
+    );
+    run.get_or_init(|| campaign_rows("ford_escort.ssv", manoeuvre))
+        .clone()
 }
 
 /// The shipped campaigns, a scratch environment, the estimator FMU and the parameter file of the
