@@ -211,17 +211,20 @@ def test_a_worker_killed_mid_campaign_loses_only_its_chunk_which_runs_again(
     total = 16
     path = write_campaign(tmp_path, f'[[axis]]\nseeds = ["vehicle.seed"]\ncount = {total}\n')
     out = tmp_path / "out"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "vse_campaign", str(path), "--out", str(out), "--chunk", "2",
-         "--scheduler", dask_scheduler,
-         "--harness", str(held_back_harness(tmp_path, harness_binary, immediate=1, delay=2.0)),
-         "--fmu-dir", str(fmu_dir), "--no-progress"],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while not chunk_files(out) and process.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.02)
+    # The client connects and learns the workers' processes before the campaign starts: under
+    # the load of the other tests (the Rust tests and the other xdist worker run beside this
+    # one) connecting took long enough that the campaign had ended before the first look.
     with Client(dask_scheduler, timeout=30) as client:
         pids = client.run(os.getpid)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "vse_campaign", str(path), "--out", str(out), "--chunk", "2",
+             "--scheduler", dask_scheduler,
+             "--harness", str(held_back_harness(tmp_path, harness_binary, immediate=1, delay=2.0)),
+             "--fmu-dir", str(fmu_dir), "--no-progress"],
+            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 60
+        while not chunk_files(out) and process.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
         # The victim is a worker with a chunk in hand. The first worker by address may have none
         # at that moment (between two chunks): under the other xdist worker's load that
         # happened, and the test failed without having killed anything in flight. The held-back
