@@ -67,16 +67,7 @@ phase cargo build --release --workspace --all-targets
 target=$("$root/.venv/bin/python" -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])' \
     < <(cargo metadata --format-version 1 --no-deps))
 phase "$target/release/packaging" --with-workspace-targets
-# The Rust tests run beside the Python tests: each phase alone keeps about one of the two cores
-# busy (cargo test runs its test binaries one after another; the Python phase waits on the
-# demo's single process much of the time), so side by side they share the machine instead of
-# queueing (measured here: cargo test 92 CPU s in 87 s, pytest 145 CPU s in 126 s, one after
-# the other). Everything is built by now, so neither compiles; cargo takes no lock while tests
-# run. The Rust tests' output is printed when both are done.
-cargo_test_log=$(mktemp)
-trap 'kill "$test_tools_pid" 2>/dev/null || true; rm -f "$test_tools_log" "$cargo_test_log"' EXIT
-phase cargo test --workspace --release >"$cargo_test_log" 2>&1 &
-cargo_test_pid=$!
+phase cargo test --workspace --release
 # Two xdist workers (pytest-xdist, tests/requirements.txt), each module in one of them (loadscope:
 # module-scoped fixtures run once, the campaign tests share one Dask cluster). The module of
 # `harness demo` (tests/harness/test_demo.py: the demo with a subset of its two slowest studies,
@@ -86,15 +77,5 @@ cargo_test_pid=$!
 # its EM already uses both cores in parts, so a third worker would not shorten it.
 # (Not --dist loadgroup: xdist 3.8.0 tags a group by setting item._nodeid, which pytest 9.2 does
 # not read, so the group's tests would be spread over both workers and the demo would run twice.)
-python_status=0
-{
-    phase wait_for_test_tools &&
-        phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder
-} || python_status=$?
-rust_status=0
-wait "$cargo_test_pid" || rust_status=$?
-cat "$cargo_test_log" >&2
-if [ "$rust_status" != 0 ] || [ "$python_status" != 0 ]; then
-    echo "tests/run.sh: cargo test exited with $rust_status, the Python tests with $python_status" >&2
-    exit 1
-fi
+phase wait_for_test_tools
+phase "$root/.venv/bin/python" -m pytest tests -q -n 2 --dist loadscope --no-loadscope-reorder
