@@ -93,8 +93,7 @@ struct Settings {
     gain: GaussMarkov,
     /// `ay_gain_std` is not 0.
     learns_gain: bool,
-    /// `measurement_noise_std_ay²` and `measurement_noise_std_yaw_rate²`.
-    ay_variance: f64,
+    /// `measurement_noise_std_yaw_rate²`.
     yaw_rate_variance: f64,
     /// The low-pass filters' factor per sample, `1 − exp(−T/τf)`.
     smoothing: f64,
@@ -138,14 +137,14 @@ pub struct AySample {
     pub steering: f64,
     /// The measured speed, m/s, if any.
     pub speed: Option<f64>,
-    /// The accelerometer's noise variance as the filter has learned it from the data
-    /// (`learn_measurement_noise`), (m/s²)²; the learner takes the larger of it and
-    /// `measurement_noise_std_ay²`. A vibrating accelerometer tested against its data-sheet
-    /// noise would move the offset with every vibration (the MBDS recording's laps 2-6 with
+    /// The accelerometer's noise variance as the filter uses it, (m/s²)²: learned from the data
+    /// where `learn_measurement_noise` (never below `measurement_noise_std_ay²`), else the
+    /// parameter's. A vibrating accelerometer tested against its data-sheet noise would move
+    /// the offset with every vibration (the MBDS recording's laps 2-6 with
     /// wheel speeds: the offset swung from −0.25 to 0.36 m/s², and the grip EKF's sideslip was
     /// 0.60° with the data-sheet noise, 0.54° without the offset learned, 0.58° with the noise
     /// learned).
-    pub ay_variance: Option<f64>,
+    pub ay_variance: f64,
 }
 
 /// The learner: its settings, its estimate `[b, e]` with covariance, and the quasi-steady test.
@@ -184,7 +183,6 @@ impl LateralAccelerometer {
             offset: process(stationary[0]),
             gain: process(stationary[1]),
             learns_gain: gain_std > 0.0,
-            ay_variance: v.measurement_noise_std_ay.powi(2),
             yaw_rate_variance: v.measurement_noise_std_yaw_rate.powi(2),
             smoothing: 1.0 - (-v.sample_time / QUASI_STEADY_FILTER_TIME).exp(),
             sample_time: v.sample_time,
@@ -231,10 +229,7 @@ impl LateralAccelerometer {
             return;
         }
         let kinematic = sample.yaw_rate * speed;
-        let ay_variance = sample
-            .ay_variance
-            .map_or(s.ay_variance, |v| v.max(s.ay_variance));
-        let mut noise = ay_variance
+        let mut noise = sample.ay_variance
             + speed * speed * s.yaw_rate_variance
             + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD.powi(2) / s.sample_time;
         let observation = if kinematic.abs() >= GAIN_ACCELERATION && s.learns_gain {

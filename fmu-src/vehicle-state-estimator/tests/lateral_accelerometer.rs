@@ -53,7 +53,7 @@ fn feed(
             all_zero: false,
             steering,
             speed: Some(speed),
-            ay_variance: None,
+            ay_variance: AY_NOISE * AY_NOISE,
         });
     }
 }
@@ -134,7 +134,7 @@ fn a_transient_a_glitch_an_all_zero_row_or_a_crawl_teaches_nothing() {
         all_zero: false,
         steering: 0.1,
         speed: Some(SPEED),
-        ay_variance: None,
+        ay_variance: AY_NOISE * AY_NOISE,
     };
     // settle the quasi-steady test at the ramp's end with glitches: 100 m/s² each sample
     for _ in 0..200 {

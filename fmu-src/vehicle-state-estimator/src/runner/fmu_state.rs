@@ -24,9 +24,10 @@ where
         writer.f64(self.nis);
         writer.i32(self.rows_used);
         writer.bool(self.started);
-        for count in self.gated_samples.into_iter().chain(self.lost_samples) {
+        for count in self.gated_samples {
             writer.u64(count);
         }
+        writer.u64(self.lost_samples);
         for window in self.innovations.iter().flatten() {
             window.write(writer);
         }
@@ -71,9 +72,7 @@ where
         for count in &mut runner.gated_samples {
             *count = reader.u64("gated samples")?;
         }
-        for count in &mut runner.lost_samples {
-            *count = reader.u64("samples off the sensors")?;
-        }
+        runner.lost_samples = reader.u64("samples off the gyro")?;
         for window in runner.innovations.iter_mut().flatten() {
             window.read(reader)?;
         }

@@ -65,7 +65,7 @@ const INNOVATION_WINDOW_TIME: f64 = 0.3;
 
 /// How many standard deviations of its innovation `sqrt(S)` the gyro's row may stay off the
 /// predicted estimate, about 0, for [`LOST_TIME`] before the filter counts as lost
-/// ([`Runner::off_the_sensor`]); the chi-square gate's 99.9 % edge is 3.3.
+/// ([`Runner::off_the_gyro`]); the chi-square gate's 99.9 % edge is 3.3.
 const LOST_SIGMAS: f64 = 5.0;
 
 /// How long the gyro's row must stay [`LOST_SIGMAS`] off before the filter is re-seeded, s.
@@ -229,6 +229,10 @@ where
         let mut bits = 0;
         let mut readmit = false;
         let mut lost = false;
+        let gyro = self
+            .model
+            .watches_gyro()
+            .then(|| self.model.sensor_rows().yaw_rate);
         for row in 0..M {
             let value = sample.measurement[row];
             // A missing sample says nothing about the sensor: its count of rejected samples
@@ -243,7 +247,9 @@ where
                 value: value - predicted[row],
                 variance: innovation_variance,
             };
-            lost |= self.off_the_sensor(row, innovation, plausible[row]);
+            if gyro == Some(row) {
+                lost = self.off_the_gyro(row, innovation, plausible[row]);
+            }
             match self.judge(&gate, row, innovation, plausible[row], resolvable) {
                 Verdict::Passed => {
                     self.gated_samples[row] = 0;
@@ -266,7 +272,7 @@ where
                 self.model.readmitted_start(&state, &mut initial);
                 if self.rebuild_at_measured(&initial) {
                     self.gated_samples = [0; M];
-                    self.lost_samples = [0; M];
+                    self.lost_samples = 0;
                     return (plausible, bits | status::SENSOR_READMITTED);
                 }
             }
@@ -277,8 +283,8 @@ where
         (passed, bits)
     }
 
-    /// Counts the samples in a row in which the gyro's row `row`, a model-error row, is off the predicted
-    /// estimate by more than [`LOST_SIGMAS`] standard deviations of its innovation (`value`,
+    /// Counts the samples in a row in which the gyro's row `row`, a model-error row, is off the
+    /// predicted estimate by more than [`LOST_SIGMAS`] standard deviations of its innovation (`value`,
     /// `variance`, about 0); true once they last [`LOST_TIME`]. The gate tests such a row about
     /// the median of its recent innovations and lets a value outside in at the gate's edge
     /// ([`InnovationWindow`]), which is right for a model's error of a few sigma but also lets a
@@ -290,18 +296,15 @@ where
     /// watched: it measures a state directly, where an accelerometer's row (model B's) carries
     /// a tyre law's error of many sigma for long in a real corner. Implausible values and rows
     /// the gate tests about 0 count nothing.
-    fn off_the_sensor(&mut self, row: usize, innovation: Innovation, plausible: bool) -> bool {
+    fn off_the_gyro(&mut self, row: usize, innovation: Innovation, plausible: bool) -> bool {
         let Innovation { value, variance } = innovation;
-        let watched = self.model.watches_gyro()
-            && self.model.sensor_rows().yaw_rate == row
-            && self.innovations[row].is_some()
-            && plausible;
+        let watched = self.innovations[row].is_some() && plausible;
         if !(watched && value * value > LOST_SIGMAS * LOST_SIGMAS * variance) {
-            self.lost_samples[row] = 0;
+            self.lost_samples = 0;
             return false;
         }
-        self.lost_samples[row] += 1;
-        self.lost_samples[row] as f64 * self.sample_time >= LOST_TIME
+        self.lost_samples += 1;
+        self.lost_samples as f64 * self.sample_time >= LOST_TIME
     }
 
     /// The gate's verdict on one finite row. A row that is not a model-error row passes the

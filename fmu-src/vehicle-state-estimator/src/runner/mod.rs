@@ -319,9 +319,9 @@ where
     schedule_threshold: f64,
     /// Samples in a row for which each plausible row was gated (FMU state).
     gated_samples: [u64; M],
-    /// Samples in a row for which each model-error row was far off the estimate
+    /// Samples in a row for which the gyro was far off the estimate
     /// (`runner::gate::LOST_SIGMAS`; FMU state).
-    lost_samples: [u64; M],
+    lost_samples: u64,
     /// The recent innovations of each model-error row while gating (FMU state).
     innovations: [Option<InnovationWindow>; M],
     /// The filter has started: from the parameters, or with `start_from_measurements` from the
@@ -431,7 +431,7 @@ where
             gate,
             schedule_threshold: schedule_threshold(v, choice)?,
             gated_samples: [0; M],
-            lost_samples: [0; M],
+            lost_samples: 0,
             innovations,
             started: !v.start_from_measurements,
             parameters: Box::new(v.clone()),
@@ -579,10 +579,7 @@ where
             });
             corrected.yaw_rate -= offset.offset;
         }
-        let ay_variance = self
-            .noise
-            .as_ref()
-            .map(|learner| learner.variance(self.model.sensor_rows().ay));
+        let ay_variance = self.measurement_variance(self.model.sensor_rows().ay);
         if let Some(accelerometer) = self.lateral_accelerometer.as_mut() {
             accelerometer.step(&AySample {
                 ay: sensors.ay,

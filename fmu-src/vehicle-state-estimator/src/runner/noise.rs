@@ -43,11 +43,15 @@ where
     /// Each row's noise standard deviation as the filter uses it: the learned one where the
     /// learner runs, else the tuned one.
     pub(crate) fn measurement_std(&self) -> [f64; M] {
-        let tuned = self.model.measurement_noise();
-        std::array::from_fn(|row| match &self.noise {
-            Some(learner) => learner.variance(row).sqrt(),
-            None => tuned[(row, row)].sqrt(),
-        })
+        std::array::from_fn(|row| self.measurement_variance(row).sqrt())
+    }
+
+    /// Row `row`'s noise variance as the filter uses it (see [`Self::measurement_std`]).
+    pub(crate) fn measurement_variance(&self, row: usize) -> f64 {
+        match &self.noise {
+            Some(learner) => learner.variance(row),
+            None => self.model.measurement_noise()[(row, row)],
+        }
     }
 
     /// Gives the learner this sample's innovations of the finite, offered, plausible rows at
