@@ -263,10 +263,11 @@ def seed000_estimator_parameters(estimator: Interface, vehicle: Interface, kind:
         "use_speed_measurements": False,
         "start_from_measurements": False,
         "gate_measurements": False,
-        # The seed's gyro and accelerometer have no offset, and the seed's filter takes them as
-        # they come.
+        # The seed's gyro and accelerometer have no offset and its wheels roll on their nominal
+        # radii, and the seed's filter takes them as they come.
         "yaw_rate_offset_std": 0.0,
         "ay_offset_std": 0.0,
+        "wheel_radius_std": 0.0,
         # Seed 000's LKF is linearised once (no gain scheduling), and the observer's gain
         # placed once, as seed 002's.
         "schedule_threshold": 0.0,

@@ -29,3 +29,44 @@ impl GaussMarkov {
         self.decay * self.decay * variance + self.process_variance
     }
 }
+
+/// A scalar Gauss-Markov state's estimate: its mean and variance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScalarEstimate {
+    pub mean: f64,
+    pub variance: f64,
+}
+
+impl ScalarEstimate {
+    /// One sample of `process`: the prediction, then, where `measurement` gives a value `z` of
+    /// the state with its noise variance, the scalar Kalman update in Joseph form (000:
+    /// 4.64-4.75 in one dimension), unless the innovation lies outside `gate_sigmas` standard
+    /// deviations (a glitch teaches nothing). Returns whether the update was taken.
+    pub fn step(
+        &mut self,
+        process: &GaussMarkov,
+        measurement: Option<(f64, f64)>,
+        gate_sigmas: f64,
+    ) -> bool {
+        let prior = process.predicted_variance(self.variance);
+        self.mean *= process.decay;
+        self.variance = prior;
+        let Some((z, noise)) = measurement else {
+            return false;
+        };
+        let innovation = z - self.mean;
+        let innovation_variance = prior + noise;
+        let bound = gate_sigmas * gate_sigmas * innovation_variance;
+        // a NaN compares as outside
+        let inside = (innovation * innovation)
+            .partial_cmp(&bound)
+            .is_some_and(std::cmp::Ordering::is_le);
+        if !inside {
+            return false;
+        }
+        let gain = prior / innovation_variance;
+        self.mean += gain * innovation;
+        self.variance = (1.0 - gain) * (1.0 - gain) * prior + gain * gain * noise;
+        true
+    }
+}

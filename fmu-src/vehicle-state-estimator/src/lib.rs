@@ -46,6 +46,9 @@
 //!   lateral accelerometer's offset driving straight and, where `ay_gain_std` is not 0, its gain
 //!   in steady corners, and takes them off `ay_meas` ([`lateral_accelerometer`]; outputs
 //!   `ay_offset_est`, `ay_gain_est`).
+//! - `wheel_radius_std` (a Real, 0 switches it off): the runner learns each axle's effective
+//!   rolling radius from `vx_meas` where the car rolls straight without traction and corrects
+//!   the wheel speeds with it ([`rolling_radius`]).
 //!
 //! **Model B** (`model = 2`): the 3-state seed-001 form `x = [sideslip, yaw_rate, ay]` with
 //! `u = [steering_angle, vx, ax_meas]` (`ax_meas` with `use_speed_measurements`, for the
@@ -70,12 +73,13 @@ pub mod model_description {
 }
 
 pub mod estimation_model;
-mod gauss_markov;
+pub mod gauss_markov;
 pub mod lateral_accelerometer;
 pub mod model_a;
 pub mod model_b;
 pub mod model_grip;
 pub mod parameters;
+pub mod rolling_radius;
 pub mod runner;
 pub mod sensors;
 pub mod speed_filter;

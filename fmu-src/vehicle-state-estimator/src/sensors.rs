@@ -136,19 +136,25 @@ pub struct MeasuredSpeed {
 }
 
 impl MeasuredSpeed {
-    /// `vx_meas` if finite (negative when reversing) and the model reads it (model B always,
-    /// model A with `use_speed_measurements`; XML: vx_meas), else the wheels' rolling speed
-    /// `r ω` with the larger wheel noise `r σ_ω`; no threshold, since the held sample is below
-    /// `min_speed`.
-    pub fn of(sensors: &Sensors, v: &Variables) -> Option<Self> {
+    /// `vx_meas` if finite and the model reads it (model B always, model A with
+    /// `use_speed_measurements`; XML: vx_meas): a speed measured without the wheels.
+    pub fn vx_meas(sensors: &Sensors, v: &Variables) -> Option<f64> {
         let reads_vx_meas = v.use_speed_measurements
             || matches!(
                 parameters::estimator_model(v),
                 Ok(EstimatorModel::TwoTrack3State)
             );
-        if reads_vx_meas && sensors.vx.is_finite() {
+        (reads_vx_meas && sensors.vx.is_finite()).then_some(sensors.vx)
+    }
+
+    /// `vx_meas` if finite (negative when reversing) and the model reads it (model B always,
+    /// model A with `use_speed_measurements`; XML: vx_meas), else the wheels' rolling speed
+    /// `r ω` with the larger wheel noise `r σ_ω`; no threshold, since the held sample is below
+    /// `min_speed`.
+    pub fn of(sensors: &Sensors, v: &Variables) -> Option<Self> {
+        if let Some(speed) = Self::vx_meas(sensors, v) {
             return Some(Self {
-                speed: sensors.vx,
+                speed,
                 std: v.measurement_noise_std_vx,
             });
         }

@@ -32,7 +32,7 @@
 
 use fmi_export::{StateError, StateReader, StateWriter};
 
-use crate::gauss_markov::GaussMarkov;
+use crate::gauss_markov::{GaussMarkov, ScalarEstimate};
 use crate::model_description::Variables;
 
 /// Correlation time of the gyro's offset, s: it drifts with the sensor's temperature, over
@@ -138,25 +138,22 @@ impl YawRateOffset {
     /// One sample: the prediction, then the update where [`reference`] gives a yaw rate.
     pub fn step(&mut self, sample: &OffsetSample) {
         let s = &self.settings;
-        let prior = s.process.predicted_variance(self.variance);
-        self.offset *= s.process.decay;
-        self.variance = prior;
-        if !sample.yaw_rate.is_finite() || sample.all_zero {
-            return;
-        }
-        let Some((reference, reference_variance)) = reference(sample, s) else {
-            return;
+        let measurement = (sample.yaw_rate.is_finite() && !sample.all_zero)
+            .then(|| reference(sample, s))
+            .flatten()
+            .map(|(reference, reference_variance)| {
+                (
+                    sample.yaw_rate - reference,
+                    s.gyro_variance + reference_variance,
+                )
+            });
+        let mut estimate = ScalarEstimate {
+            mean: self.offset,
+            variance: self.variance,
         };
-        let noise = s.gyro_variance + reference_variance;
-        let innovation = sample.yaw_rate - reference - self.offset;
-        let innovation_variance = prior + noise;
-        if innovation * innovation > GATE_SIGMAS * GATE_SIGMAS * innovation_variance {
-            return;
-        }
-        // The scalar Kalman update in Joseph form (000: 4.64-4.75 in one dimension).
-        let gain = prior / innovation_variance;
-        self.offset += gain * innovation;
-        self.variance = (1.0 - gain) * (1.0 - gain) * prior + gain * gain * noise;
+        estimate.step(&s.process, measurement, GATE_SIGMAS);
+        self.offset = estimate.mean;
+        self.variance = estimate.variance;
     }
 
     /// The estimate as part of the FMU state.

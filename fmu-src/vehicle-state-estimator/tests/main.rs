@@ -17,6 +17,7 @@ mod parameter_bounds;
 mod rear_drive;
 mod registry;
 mod robustness;
+mod rolling_radius;
 mod sliding_wheels;
 mod speed_filter;
 mod stiffness_consider;

@@ -50,9 +50,9 @@ fn committed() -> BTreeMap<(String, String, String), String> {
         .collect()
 }
 
-/// The default configuration (grip model, EKF) with and without wheel speeds, model B with
-/// them, and the grip model fitted on lap 1 without them, rerun, must give the committed rows
-/// to the digit: the committed file is the study's
+/// The default configuration (grip model, EKF) with and without wheel speeds, models A and B
+/// with them, and the grip model fitted on lap 1 without them, rerun, must give the committed
+/// rows to the digit, each better than answering zero sideslip: the committed file is the study's
 /// output, not a hand-kept copy (regenerate it with `cargo run --release -p harness --
 /// replay-study --full --update-committed` after a change to the estimator).
 #[test]
@@ -82,6 +82,7 @@ fn the_replay_studys_subset_reproduces_its_committed_rows() {
         Case::new(FITTED_MODEL, "ekf", false),
         Case::new("grip", "ekf", true),
         Case::new("grip", "ekf", false),
+        Case::new("model_a", "ekf", true),
         Case::new("model_b", "ekf", true),
     ];
     let rerun = study.run_all(&subset).unwrap_or_else(|e| panic!("{e:#}"));
@@ -98,6 +99,14 @@ fn the_replay_studys_subset_reproduces_its_committed_rows() {
         );
         // The yardsticks need no filter: zero answers 1.82 deg, as published.
         assert!((row.zero_rmse_deg - study.baselines.published.zero_deg).abs() < 0.005);
+        // Model A with the wheel speeds synthesised at the mean radius (3.6 % off each axle's)
+        // read them as slip and was worse than zero until the rolling radii were learned.
+        assert!(
+            row.rmse_deg < row.zero_rmse_deg,
+            "{key:?}: {} deg against zero's {}",
+            row.rmse_deg,
+            row.zero_rmse_deg
+        );
     }
 }
 

@@ -47,6 +47,9 @@ where
         if let Some(accelerometer) = &self.lateral_accelerometer {
             accelerometer.write(writer);
         }
+        if let Some(radius) = &self.rolling_radius {
+            radius.write(writer);
+        }
     }
 
     pub fn read_state(v: &Variables, reader: &mut StateReader<'_>) -> Result<Self, StateError> {
@@ -98,6 +101,9 @@ where
         }
         if let Some(accelerometer) = runner.lateral_accelerometer.as_mut() {
             accelerometer.read(reader)?;
+        }
+        if let Some(radius) = runner.rolling_radius.as_mut() {
+            radius.read(reader)?;
         }
         Ok(runner)
     }

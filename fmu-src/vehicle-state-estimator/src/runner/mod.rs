@@ -26,6 +26,7 @@ use nalgebra::{SMatrix, SVector};
 use crate::lateral_accelerometer::{AySample, LateralAccelerometer};
 use crate::model_description::{RealOutputs, Variables};
 use crate::parameters::{self, positive};
+use crate::rolling_radius::{RadiusSample, RollingRadius};
 use crate::status;
 use crate::yaw_rate_offset::{OffsetSample, YawRateOffset};
 
@@ -355,6 +356,9 @@ where
     /// The lateral accelerometer's offset and gain, taken off `ay_meas` before the filter sees
     /// it (`ay_offset_std`, `ay_gain_std`; FMU state).
     lateral_accelerometer: Option<LateralAccelerometer>,
+    /// The wheels' effective rolling radii, the wheel speeds corrected with them before the
+    /// filter sees them (`wheel_radius_std`; FMU state).
+    rolling_radius: Option<RollingRadius>,
 }
 
 impl<Model, const N: usize, const M: usize, const U: usize> Runner<Model, N, M, U>
@@ -453,6 +457,7 @@ where
                 v,
                 !Model::ESTIMATES_AY_GAIN,
             )?,
+            rolling_radius: RollingRadius::from_parameters(v)?,
         })
     }
 
@@ -477,6 +482,11 @@ where
             self.yaw_rate_offset,
             tuned.yaw_rate_offset,
             YawRateOffset::retuned,
+        );
+        self.rolling_radius = carried_over(
+            self.rolling_radius,
+            tuned.rolling_radius,
+            RollingRadius::retuned,
         );
         self.guard_car = tuned.guard_car;
         self.kinematic_car = tuned.kinematic_car;
@@ -558,11 +568,25 @@ where
         rebuilt
     }
 
-    /// The sensors as the filters take them: the gyro's offset and the lateral accelerometer's
-    /// offset and gain learned from this sample ([`crate::yaw_rate_offset`],
-    /// [`crate::lateral_accelerometer`]) and taken off their signals.
+    /// The sensors as the filters take them: the wheels' rolling radii, the gyro's offset and
+    /// the lateral accelerometer's offset and gain learned from this sample
+    /// ([`crate::rolling_radius`], [`crate::yaw_rate_offset`], [`crate::lateral_accelerometer`])
+    /// and taken off their signals.
     fn calibrated(&mut self, sensors: &Sensors) -> Sensors {
         let mut corrected = *sensors;
+        if let Some(radius) = self.rolling_radius.as_mut() {
+            let speed = MeasuredSpeed::vx_meas(sensors, &self.parameters).unwrap_or(f64::NAN);
+            radius.step(&RadiusSample {
+                omega: [sensors.omega_front, sensors.omega_rear],
+                speed,
+                ax: sensors.ax,
+                ay: sensors.ay,
+                yaw_rate: sensors.yaw_rate,
+                steering: self.input[0],
+            });
+            [corrected.omega_front, corrected.omega_rear] =
+                radius.corrected([sensors.omega_front, sensors.omega_rear]);
+        }
         if self.yaw_rate_offset.is_none() && self.lateral_accelerometer.is_none() {
             return corrected;
         }
