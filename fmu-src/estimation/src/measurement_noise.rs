@@ -130,10 +130,7 @@ impl<const M: usize> NoiseMatching<M> {
         let reach = INNOVATION_CLIP * (6.0 * self.variance(row)).sqrt();
         let difference = (value - 2.0 * last + older).clamp(-reach, reach);
         let sample = difference * difference / 6.0;
-        let updated = self.signal[row] + self.weight * (sample - self.signal[row]);
-        if updated.is_finite() {
-            self.signal[row] = updated;
-        }
+        average(&mut self.signal[row], sample, self.weight);
     }
 
     /// Takes the innovation `innovation` of row `row` in this sample, whose predicted part
@@ -152,10 +149,7 @@ impl<const M: usize> NoiseMatching<M> {
         let reach = INNOVATION_CLIP * (2.0 * (predicted + self.variance(row))).sqrt();
         let difference = (value - previous).clamp(-reach, reach);
         let sample = 0.5 * difference * difference - predicted;
-        let updated = self.learned[row] + self.weight * (sample - self.learned[row]);
-        if updated.is_finite() {
-            self.learned[row] = updated;
-        }
+        average(&mut self.learned[row], sample, self.weight);
     }
 
     pub fn save(&self, sink: &mut dyn SnapshotSink) {
@@ -183,6 +177,15 @@ impl<const M: usize> NoiseMatching<M> {
             source.f64s_into(recent, "last sensor values")?;
         }
         Ok(())
+    }
+}
+
+/// One step of the exponentially weighted moving average `x ← x + α (sample − x)`; a
+/// non-finite result leaves `x` as it was.
+fn average(x: &mut f64, sample: f64, weight: f64) {
+    let updated = *x + weight * (sample - *x);
+    if updated.is_finite() {
+        *x = updated;
     }
 }
 

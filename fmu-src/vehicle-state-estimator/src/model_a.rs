@@ -297,10 +297,7 @@ impl EstimationModel<STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DIM> fo
     }
 
     fn sensor_rows(&self) -> SensorRows {
-        SensorRows {
-            yaw_rate: measurement_index::YAW_RATE,
-            ay: measurement_index::LATERAL_ACCELERATION,
-        }
+        sensor_rows()
     }
 
     /// Not on the flat top of the tyre curve ([`tyres_hold_the_sideslip`]).
@@ -659,6 +656,15 @@ pub(crate) fn estimate_outputs<Extra>(
         yaw_rate_offset_est: 0.0,
         ay_offset_est: 0.0,
         ay_gain_est: 0.0,
+    }
+}
+
+/// Model A's gyro and accelerometer rows (see [`EstimationModel::sensor_rows`]), for every model
+/// built on it.
+pub(crate) fn sensor_rows() -> SensorRows {
+    SensorRows {
+        yaw_rate: measurement_index::YAW_RATE,
+        ay: measurement_index::LATERAL_ACCELERATION,
     }
 }
 

@@ -420,10 +420,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
     }
 
     fn sensor_rows(&self) -> SensorRows {
-        SensorRows {
-            yaw_rate: vehicle_models::single_track::measurement_index::YAW_RATE,
-            ay: vehicle_models::single_track::measurement_index::LATERAL_ACCELERATION,
-        }
+        model_a::sensor_rows()
     }
 
     fn measured_start(

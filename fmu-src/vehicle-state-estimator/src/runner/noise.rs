@@ -72,16 +72,15 @@ where
         };
         for row in 0..M {
             let value = sample.measurement[row];
-            let innovation =
-                (value.is_finite() && sample.offered[row] && plausible[row]).then(|| {
-                    let h = jacobian.row(row);
-                    let extra = model_extra.map_or(0.0, |extra| extra[(row, row)]);
-                    let predicted_variance = (h * covariance * h.transpose())[(0, 0)] + extra;
-                    (value - predicted[row], predicted_variance)
-                });
+            let measured = value.is_finite() && sample.offered[row] && plausible[row];
+            let innovation = measured.then(|| {
+                let h = jacobian.row(row);
+                let extra = model_extra.map_or(0.0, |extra| extra[(row, row)]);
+                let predicted_variance = (h * covariance * h.transpose())[(0, 0)] + extra;
+                (value - predicted[row], predicted_variance)
+            });
             learner.observe(row, innovation);
-            let own = value.is_finite() && sample.offered[row] && plausible[row];
-            learner.observe_signal(row, own.then_some(value));
+            learner.observe_signal(row, measured.then_some(value));
         }
     }
 }
