@@ -11,14 +11,16 @@ import numpy as np
 import fmu_support as support
 
 STEP = 0.01
-SAMPLES = 300
+SAMPLES = 30_000  # five minutes: a road's crossfall hides an offset for seconds
 SPEED = 20.0
 OFFSET = 0.25  # m/s2
-# lateral_accelerometer.rs, not FMU variables: the correlation time of the offset, and what is
-# left of dvy/dt in a quasi-steady state (std, correlation time)
+# lateral_accelerometer.rs, not FMU variables: the correlation time of the offset, what is left
+# of dvy/dt in a quasi-steady state and a straight road's crossfall (std, correlation time)
 TIME_CONSTANT = 600.0
 QUASI_STEADY_STD = 0.1
 QUASI_STEADY_TIME = 0.5
+ROAD_CROSSFALL_ACCELERATION = 0.25
+ROAD_CROSSFALL_TIME = 5.0
 
 
 def sensors():
@@ -34,7 +36,11 @@ def run(estimator, estimator_dir):
     filt = support.Slave(estimator, estimator_dir, "ay_offset")
     rows = []
     try:
-        filt.initialise({"sample_time": STEP, "yaw_rate_offset_std": 0.0})
+        # the noise learner off: over five minutes its running variance of ay rises above the
+        # parameter's now and then, and the learner then tests against it (the oracle's R is
+        # the parameter's)
+        filt.initialise({"sample_time": STEP, "yaw_rate_offset_std": 0.0,
+                         "learn_measurement_noise": False})
         outputs = filt.real_references(["ay_offset_est", "ay_gain_est"])
         wheel = SPEED / estimator.start("wheel_radius_front")
         for k, (yaw_rate, ay) in enumerate(zip(*sensors())):
@@ -50,14 +56,15 @@ def run(estimator, estimator_dir):
 
 def oracle(estimator):
     """filterpy's filter of b: F = a = exp(-T / tau), Q = sigma_b^2 (1 - a^2), H = 1, the
-    measurement ay_meas - r vx with R = sigma_ay^2 + (vx sigma_r)^2 + 2 tau_q sigma_q^2 / T, from
-    b = 0 with variance sigma_b^2. The first sample only predicts: the quasi-steady test needs
+    measurement ay_meas - r vx with R = sigma_ay^2 + (vx sigma_r)^2 + 2 tau_q sigma_q^2 / T
+    + 2 tau_c sigma_c^2 / T (the crossfall), from b = 0 with variance sigma_b^2. The first sample only predicts: the quasi-steady test needs
     one sample to compare with."""
     kf = support.gauss_markov_offset_filter(
         estimator.start("ay_offset_std"), TIME_CONSTANT, STEP,
         estimator.start("measurement_noise_std_ay")**2
         + (SPEED * estimator.start("measurement_noise_std_yaw_rate"))**2
-        + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD**2 / STEP)
+        + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD**2 / STEP
+        + 2.0 * ROAD_CROSSFALL_TIME * ROAD_CROSSFALL_ACCELERATION**2 / STEP)
     rows = []
     for k, (yaw_rate, ay) in enumerate(zip(*sensors())):
         kf.predict()

@@ -34,8 +34,10 @@
 //! nothing.
 //!
 //! What it cannot tell apart: a road's cross slope reads as an offset while the car drives
-//! straight on it (the tyres then do carry `m g sin γ`), and a roll that lags the lateral
-//! acceleration leaves its transient in the corrected `ay`.
+//! straight on it (the tyres then do carry `m g sin γ`), so the straight's reference carries
+//! the crossfall of roads as its error ([`ROAD_CROSSFALL_ACCELERATION`]) and the offset is
+//! learned over minutes; a roll that lags the lateral acceleration leaves its transient in the
+//! corrected `ay`.
 
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{Matrix2, Vector2};
@@ -66,6 +68,16 @@ pub const QUASI_STEADY_YAW_RATE: f64 = 0.02;
 /// it is correlated, s.
 pub const QUASI_STEADY_STD: f64 = 0.1;
 pub const QUASI_STEADY_TIME: f64 = 0.5;
+
+/// What a road's cross slope adds to `ay_meas` driving straight (the tyres carry it, `r vx`
+/// does not see it), one standard deviation, m/s², and how long it is correlated, s: roads
+/// drain by a crossfall of about 2.5 % (`g` · 0.025) that changes from one stretch to the next,
+/// so a sensor's offset takes minutes of straight driving to tell from it. Without it the
+/// learner took each straight's crossfall for the offset (the MBDS recording: it swung between
+/// 0 and 0.2 m/s² within a lap). A corner's bank is not modelled here: the corner update learns
+/// the gain (opt-in, `ay_gain_std`), its regressor `r vx` at least [`GAIN_ACCELERATION`].
+pub const ROAD_CROSSFALL_ACCELERATION: f64 = 0.25;
+pub const ROAD_CROSSFALL_TIME: f64 = 5.0;
 
 /// The gate on the innovation, in standard deviations.
 pub const GATE_SIGMAS: f64 = 5.0;
@@ -235,7 +247,8 @@ impl LateralAccelerometer {
         let observation = if kinematic.abs() >= GAIN_ACCELERATION && s.learns_gain {
             Vector2::new(1.0, kinematic)
         } else if kinematic.abs() < STRAIGHT_ACCELERATION {
-            noise += self.covariance[(1, 1)] * kinematic * kinematic;
+            noise += self.covariance[(1, 1)] * kinematic * kinematic
+                + 2.0 * ROAD_CROSSFALL_TIME * ROAD_CROSSFALL_ACCELERATION.powi(2) / s.sample_time;
             Vector2::new(1.0, 0.0)
         } else {
             return;
