@@ -23,7 +23,9 @@ use estimation::StateSpaceModel;
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
-use vehicle_models::single_track::{state_index, STATE_DIM, WHEELS_PER_AXLE};
+use vehicle_models::single_track::{
+    guarded_speed, longitudinal_slip, state_index, STATE_DIM, WHEELS_PER_AXLE,
+};
 use vehicle_models::{HsriTyre, SingleTrackModel};
 
 use crate::model_a::{self, ModelA, ReportsFilteredSpeed};
@@ -179,19 +181,35 @@ fn torques_unknown(model: &ModelGrip, input: &InputVector) -> bool {
 /// without wheel speeds, grip EKF 0.61° → 0.53°, NEES 27 → 9, as with wheel speeds).
 fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [AxleLoading; 2] {
     let driver = input.fixed_rows::<INPUT_DIM>(0).into_owned();
-    let outputs = model.vehicle().outputs(&body(state), &driver);
-    let forces = if torques_unknown(model, input) {
-        let rolling = unknown_torques::free_rolling(
-            model.vehicle(),
-            &body(state).data.0[0],
-            &driver.data.0[0],
-        );
-        model.vehicle().outputs(&StateA::from(rolling), &driver)
+    let vehicle = model.vehicle();
+    let chassis = &vehicle.vehicle.chassis;
+    let at = body(state);
+    let (forces, [slip_front, slip_rear]) = if torques_unknown(model, input) {
+        let (x, u) = (&at.data.0[0], &driver.data.0[0]);
+        // the state's slip as `outputs` forms it (000: 5.65), without a second tyre evaluation
+        let guard = vehicle.vehicle.low_speed_guard;
+        let [front, rear] = vehicle.kinematic_slip(x, u).map(|axle| {
+            let velocity = axle.wheel_velocity;
+            (velocity, 1.0 / guarded_speed(velocity, guard))
+        });
+        let slips = [
+            (
+                at[state_index::OMEGA_FRONT],
+                chassis.front_wheel_radius,
+                front,
+            ),
+            (at[state_index::OMEGA_REAR], chassis.rear_wheel_radius, rear),
+        ]
+        .map(|(omega, radius, (velocity, inverse))| {
+            longitudinal_slip(omega, radius, velocity, inverse)
+        });
+        let rolling = unknown_torques::free_rolling(vehicle, x, u);
+        (vehicle.outputs(&StateA::from(rolling), &driver), slips)
     } else {
-        outputs
+        let outputs = vehicle.outputs(&at, &driver);
+        (outputs, [outputs.slip_front, outputs.slip_rear])
     };
-    let chassis = &model.vehicle().vehicle.chassis;
-    let tyre = &model.vehicle().tyre.params;
+    let tyre = &vehicle.tyre.params;
     let loading = |slip: f64, force: f64, wheel_load: f64| AxleLoading {
         slip,
         force_share: force.abs()
@@ -200,12 +218,12 @@ fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [A
     };
     [
         loading(
-            outputs.slip_front,
+            slip_front,
             forces.lateral_force_front,
             chassis.front_wheel_load,
         ),
         loading(
-            outputs.slip_rear,
+            slip_rear,
             forces.lateral_force_rear,
             chassis.rear_wheel_load,
         ),
