@@ -30,6 +30,15 @@ impl GaussMarkov {
     }
 }
 
+/// The variance per sample of white noise with the low-frequency spectral density of
+/// correlated errors, `2 Σ τᵢ σᵢ² / T` from `time_variance` = `Σ τᵢ σᵢ²` (each error a
+/// first-order Gauss-Markov process of std `σᵢ` and correlation time `τᵢ`; Brown and Hwang,
+/// §2.9): how each learner takes the slowly varying error of its reference as measurement
+/// noise.
+pub fn white_equivalent(time_variance: f64, sample_time: f64) -> f64 {
+    2.0 * time_variance / sample_time
+}
+
 /// A scalar Gauss-Markov state's estimate: its mean and variance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScalarEstimate {

@@ -42,7 +42,7 @@
 use fmi_export::{StateError, StateReader, StateWriter};
 use nalgebra::{Matrix2, Vector2};
 
-use crate::gauss_markov::GaussMarkov;
+use crate::gauss_markov::{white_equivalent, GaussMarkov};
 use crate::model_description::Variables;
 
 /// Correlation time of the offset and the gain, s: a sensor's offset drifts with temperature
@@ -243,12 +243,15 @@ impl LateralAccelerometer {
         let kinematic = sample.yaw_rate * speed;
         let mut noise = sample.ay_variance
             + speed * speed * s.yaw_rate_variance
-            + 2.0 * QUASI_STEADY_TIME * QUASI_STEADY_STD.powi(2) / s.sample_time;
+            + white_equivalent(QUASI_STEADY_TIME * QUASI_STEADY_STD.powi(2), s.sample_time);
         let observation = if kinematic.abs() >= GAIN_ACCELERATION && s.learns_gain {
             Vector2::new(1.0, kinematic)
         } else if kinematic.abs() < STRAIGHT_ACCELERATION {
             noise += self.covariance[(1, 1)] * kinematic * kinematic
-                + 2.0 * ROAD_CROSSFALL_TIME * ROAD_CROSSFALL_ACCELERATION.powi(2) / s.sample_time;
+                + white_equivalent(
+                    ROAD_CROSSFALL_TIME * ROAD_CROSSFALL_ACCELERATION.powi(2),
+                    s.sample_time,
+                );
             Vector2::new(1.0, 0.0)
         } else {
             return;

@@ -25,7 +25,7 @@
 
 use fmi_export::{StateError, StateReader, StateWriter};
 
-use crate::gauss_markov::{GaussMarkov, ScalarEstimate};
+use crate::gauss_markov::{white_equivalent, GaussMarkov, ScalarEstimate};
 use crate::model_description::Variables;
 
 /// Correlation time of a radius error, s: a tyre's pressure and temperature settle over
@@ -154,9 +154,8 @@ impl RollingRadius {
                     let relative_noise = (s.speed_std / reference).powi(2)
                         + (s.wheel_std[axle] / omega).powi(2)
                         + FREE_ROLLING_SLIP_STD.powi(2);
-                    // correlated errors as white noise of the same low-frequency density,
-                    // 2 τ σ² / T
-                    let noise = 2.0 * REFERENCE_ERROR_TIME * relative_noise / s.sample_time;
+                    let noise =
+                        white_equivalent(REFERENCE_ERROR_TIME * relative_noise, s.sample_time);
                     (reference / (omega * s.radius[axle]) - 1.0, noise)
                 });
             estimate.step(&s.process, measurement, GATE_SIGMAS);

@@ -34,7 +34,7 @@
 
 use fmi_export::{StateError, StateReader, StateWriter};
 
-use crate::gauss_markov::{GaussMarkov, ScalarEstimate};
+use crate::gauss_markov::{white_equivalent, GaussMarkov, ScalarEstimate};
 use crate::model_description::Variables;
 
 /// Correlation time of the gyro's offset, s: it drifts with the sensor's temperature, over
@@ -212,6 +212,6 @@ fn reference(sample: &OffsetSample, s: &Settings) -> Option<(f64, f64)> {
         let geometry = speed * per_speed;
         let wander = STRAIGHT_WANDER_STD.powi(2) + geometry * geometry;
         let density = STRAIGHT_WANDER_TIME * wander + ROAD_BEND_TIME * ROAD_BEND_YAW_RATE.powi(2);
-        (0.0, 2.0 * density / s.sample_time)
+        (0.0, white_equivalent(density, s.sample_time))
     })
 }
