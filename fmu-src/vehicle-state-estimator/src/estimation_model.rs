@@ -8,7 +8,7 @@ use nalgebra::{SMatrix, SVector};
 use vehicle_models::driver_input::INPUT_DIM;
 
 use crate::model_description::Variables;
-use crate::sensors::HeldMeasurements;
+use crate::sensors::Measurements;
 
 /// Number of driver inputs: the models' `[steering_angle, drive_torque, brake_torque]`
 /// ([`vehicle_models::driver_input`]) and `drive_torque_rear`.
@@ -43,8 +43,8 @@ pub struct OutputSample<const N: usize, Extra> {
     pub rows_used: i32,
     /// The filter held its estimate in this sample (low speed, or waiting for a measured speed).
     pub holding: bool,
-    /// What the sensors measured in a held sample.
-    pub held: HeldMeasurements,
+    /// What the sensors measured in this sample.
+    pub measured: Measurements,
     /// The factor on everything the estimator reports of its uncertainty, `covariance` and the
     /// consider terms: the Luenberger observer's innovation scaling, 1 for the other estimators.
     pub covariance_scale: f64,

@@ -240,6 +240,28 @@ fn axle_loading(model: &ModelGrip, state: &StateGrip, input: &InputVector) -> [A
 /// (0.110° and 0.77°); the campaigns the same to the digit at each.
 const TRANSIENT_MIN_SPEED: f64 = 5.0;
 
+/// While the torques are unknown the model applies its tyre forces at free rolling
+/// ([`axle_loading`]), and a wheel no sensor measures has a state nothing corrects: it wanders
+/// (on the MBDS recording without wheel speeds, to 58 % slip). Its outputs (`omega_*_est`, and
+/// `slip_*_est` from it) are those of the free-rolling wheel the model applies, with the state's
+/// std, which says how little is known of it.
+fn rolling_unmeasured_wheels(
+    model: &ModelGrip,
+    body: &mut SVector<f64, STATE_DIM>,
+    sample: &OutputSample<GRIP_STATE_DIM, SpeedFilter>,
+) {
+    let driver: [f64; INPUT_DIM] = std::array::from_fn(|i| sample.input[i]);
+    let rolling = unknown_torques::free_rolling(model.vehicle(), &body.data.0[0], &driver);
+    for (axle, omega) in [state_index::OMEGA_FRONT, state_index::OMEGA_REAR]
+        .into_iter()
+        .enumerate()
+    {
+        if sample.measured.wheel_speeds[axle].is_none() {
+            body[omega] = rolling[omega];
+        }
+    }
+}
+
 /// The correlation time of the yaw-moment error ([`yaw_moment_error_variance`]), s: roll and
 /// load transfer settle within about a second; a road's bank and camber change over seconds.
 const YAW_MOMENT_ERROR_TIME: f64 = 1.0;
@@ -570,10 +592,13 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
         sample: &OutputSample<GRIP_STATE_DIM, SpeedFilter>,
         _: &Variables,
     ) -> RealOutputs {
-        let body_sample = body_estimate(&InitialEstimate {
+        let mut body_sample = body_estimate(&InitialEstimate {
             state: sample.state,
             covariance: sample.covariance,
         });
+        if torques_unknown(self, &sample.input) {
+            rolling_unmeasured_wheels(self, &mut body_sample.state, sample);
+        }
         let mut values = model_a::estimate_outputs(
             self.anchored(),
             &OutputSample {
@@ -584,7 +609,7 @@ impl EstimationModel<GRIP_STATE_DIM, ANCHORED_MEASUREMENT_DIM, ANCHORED_INPUT_DI
                 nis: sample.nis,
                 rows_used: sample.rows_used,
                 holding: sample.holding,
-                held: sample.held,
+                measured: sample.measured,
                 covariance_scale: sample.covariance_scale,
                 yaw_rate_offset: sample.yaw_rate_offset,
                 ay_calibration: sample.ay_calibration,

@@ -99,10 +99,11 @@ impl WheelRadii {
     }
 }
 
-/// What the sensors measured in a held sample, without the filter: what its outputs report in
-/// place of the stale estimate, each `None` where not measured.
+/// What the sensors measured in a sample, without the filter, each `None` where not measured:
+/// what a held sample's outputs report in place of the stale estimate, and which wheels the
+/// outputs may take as measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct HeldMeasurements {
+pub struct Measurements {
     pub speed: Option<MeasuredSpeed>,
     /// `yaw_rate_meas` less the gyro's offset learned so far, and the gyro's noise std, rad/s.
     pub yaw_rate: Option<(f64, f64)>,
@@ -110,7 +111,7 @@ pub struct HeldMeasurements {
     pub wheel_speeds: [Option<(f64, f64)>; 2],
 }
 
-impl HeldMeasurements {
+impl Measurements {
     pub fn of(sensors: &Sensors, v: &Variables, yaw_rate_offset: f64) -> Self {
         let finite = |value: f64, std: f64| value.is_finite().then_some((value, std));
         Self {

@@ -27,8 +27,8 @@ fn slave() -> Slave {
     s
 }
 
-/// Seed 000's filter: model A, its Q and R (SPEC §7, the truth's noise below), none of issue
-/// 12's robustness, the linear filters linearised once (no gain scheduling) and the sensors taken
+/// Seed 000's filter: model A, its Q and R (SPEC §7, the truth's noise below), none of the
+/// robustness settings, the linear filters linearised once (no gain scheduling) and the sensors taken
 /// as they come (no learned offsets: the seed's have none).
 fn seed_settings(s: &mut Slave) {
     assert_eq!(

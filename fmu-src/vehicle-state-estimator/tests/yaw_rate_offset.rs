@@ -2,7 +2,8 @@
 //! still within a second and driving straight within minutes (a straight road's bends hide it
 //! for seconds), held in a corner, untouched by a
 //! glitch, an all-zero row or a steering geometry too far from a single track's; through the
-//! FMU, the grip model's sideslip on a step steer whose gyro reads 0.005 rad/s high.
+//! FMU, the yaw rate a standing car reports and the grip model's sideslip on a step steer whose
+//! gyro reads 0.005 rad/s high.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -85,6 +86,40 @@ fn standing_still_the_offset_is_learned_within_a_second() {
     assert!((learner.offset - OFFSET).abs() < 3.0 * std, "{learner:?}");
     // the measured speed's noise (0.05 m/s) times tan δ / l is most of the reference's error
     assert!(std < 0.001, "{learner:?}");
+}
+
+/// Through the FMU, standing still with a gyro that reads `OFFSET`: the held sample reports the
+/// yaw rate with the learned offset taken off once (a standing car's 0), not twice.
+#[test]
+fn standing_still_the_reported_yaw_rate_is_the_gyro_less_its_offset() {
+    let mut s = Slave::instantiate(fmi2_api_of!(VehicleStateEstimator), "standing", GUID)
+        .expect("instantiate");
+    assert_eq!(s.set_real(vr::SAMPLE_TIME, T), Fmi2Status::Ok);
+    assert_eq!(s.initialize(0.0), Fmi2Status::Ok, "{:?}", s.log.last());
+    for (reference, value) in [
+        (vr::STEERING_ANGLE, 0.0),
+        (vr::YAW_RATE_MEAS, OFFSET),
+        (vr::AY_MEAS, 0.0),
+        (vr::OMEGA_FRONT_MEAS, 0.0),
+        (vr::OMEGA_REAR_MEAS, 0.0),
+        (vr::VX_MEAS, 0.0),
+        (vr::AX_MEAS, 0.0),
+    ] {
+        assert_eq!(s.set_real(reference, value), Fmi2Status::Ok);
+    }
+    for k in 0..200 {
+        assert_eq!(s.do_step(f64::from(k) * T, T), Fmi2Status::Ok);
+    }
+    let [yaw_rate, offset] = s.reals(&[vr::YAW_RATE_EST, vr::YAW_RATE_OFFSET_EST])[..] else {
+        unreachable!("two values asked for")
+    };
+    println!("standing 2 s: yaw_rate_est {yaw_rate}, yaw_rate_offset_est {offset} rad/s");
+    assert!((offset - OFFSET).abs() < 0.2 * OFFSET, "offset {offset}");
+    assert!(
+        (yaw_rate - (OFFSET - offset)).abs() < 1e-12,
+        "{yaw_rate} against {}",
+        OFFSET - offset
+    );
 }
 
 #[test]

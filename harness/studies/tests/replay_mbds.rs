@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::fit::{fit, FitModel, FitOptions};
 use harness::replay::report::{score_table, ESTIMATOR};
-use harness::replay::study::{cases, Case, Study, COMMITTED_CSV, FITTED_MODEL};
+use harness::replay::study::{cases, Baselines, Case, Study, COMMITTED_CSV, FITTED_MODEL};
 use harness::replay::{estimator_path, replay, ReplayOptions};
 use harness::summary::HEADER;
 
@@ -188,7 +188,9 @@ fn fit_of_the_grip_model_on_lap_1_learns_the_sensor_noise_and_never_writes_a_wor
 /// grip model's tyres saturate in the estimate, the gate lets the gyro in only at its edge and
 /// the estimate drifts off the car; the gate must notice the gyro staying far off and re-seed,
 /// so that no sideslip error grows beyond a few degrees and the speed stays with the car (a
-/// filter that did not: 88° and 26 m/s off, its std 0.2°).
+/// filter that did not: 88° and 26 m/s off, its std 0.2°). The wheels nobody measures report
+/// the free rolling the model applies, with a std that says they are not known (their states
+/// wandered to 58 % slip).
 #[test]
 fn with_the_sensors_own_noise_and_no_wheel_speeds_the_filter_never_leaves_the_car() {
     let scratch = Scratch::new("replay-mbds-sensor-noise");
@@ -221,6 +223,48 @@ fn with_the_sensors_own_noise_and_no_wheel_speeds_the_filter_never_leaves_the_ca
     );
     assert!(sideslip.rmse < 0.8, "sideslip RMSE {} deg", sideslip.rmse);
     assert!(vx.max_abs < 1.0, "largest vx error {} m/s", vx.max_abs);
+    let estimates = std::fs::read_to_string(scratch.0.join("replay/estimates.csv")).unwrap();
+    let columns = |names: [&str; 5]| -> Vec<[f64; 5]> {
+        let mut lines = estimates.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let index = names.map(|name| header.iter().position(|h| *h == name).unwrap());
+        lines
+            .map(|line| {
+                let fields: Vec<&str> = line.split(',').collect();
+                index.map(|i| fields[i].parse().unwrap_or(f64::NAN))
+            })
+            .collect()
+    };
+    let rows = columns([
+        "time",
+        "slip_front_est",
+        "slip_rear_est",
+        "omega_front_std",
+        "omega_rear_std",
+    ]);
+    let largest = |i: usize| rows.iter().map(|row| row[i].abs()).fold(0.0, f64::max);
+    // the wheel states start at the measured speed's free rolling, then nothing corrects them
+    let laps_2_6_from = Baselines::read(&logs.join("baselines.toml"))
+        .unwrap()
+        .laps_2_6_from_s;
+    let least_after_a_lap = |i: usize| {
+        rows.iter()
+            .filter(|row| row[0] >= laps_2_6_from)
+            .map(|row| row[i])
+            .fold(f64::INFINITY, f64::min)
+    };
+    assert!(
+        largest(1) < 1e-9 && largest(2) < 1e-9,
+        "wheel slip {} / {}",
+        largest(1),
+        largest(2)
+    );
+    assert!(
+        least_after_a_lap(3) > 10.0 && least_after_a_lap(4) > 10.0,
+        "wheel speed std {} / {} rad/s",
+        least_after_a_lap(3),
+        least_after_a_lap(4)
+    );
 }
 
 /// The sensors' own noise on the MBDS recording, as `harness fit` learns it from lap 1.

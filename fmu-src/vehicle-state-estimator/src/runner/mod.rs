@@ -34,7 +34,7 @@ pub(crate) use crate::estimation_model::ay_model_error_noise;
 pub use crate::estimation_model::{
     InputVector, OutputSample, Sample, DRIVER_DIM, REAR_DRIVE_TORQUE,
 };
-pub use crate::sensors::{HeldMeasurements, MeasuredSpeed, Sensors, WheelRadii};
+pub use crate::sensors::{MeasuredSpeed, Measurements, Sensors, WheelRadii};
 pub use gate::ChiSquareGate;
 use gate::{innovation_window, Gate, InnovationWindow};
 pub(crate) use outputs::stiffness_consider;
@@ -311,8 +311,9 @@ where
     /// The last sample held the estimate (for its outputs; not part of the FMU state, whose
     /// outputs are published before it is taken).
     holding: bool,
-    /// What the sensors measured in the last held sample (for its outputs, like `holding`).
-    held: HeldMeasurements,
+    /// What the sensors measured in the last sample (for its outputs, like `holding`: a held
+    /// sample reports it, and the grip model tells a measured wheel from one it only models).
+    measured: Measurements,
     gate: Option<Gate>,
     /// `schedule_threshold` (the LKF) or `observer_schedule_threshold` (the Luenberger
     /// observer): the linear estimators re-linearise when their linearisation errs at the
@@ -431,7 +432,7 @@ where
             nis: 0.0,
             rows_used: 0,
             holding: false,
-            held: HeldMeasurements::default(),
+            measured: Measurements::default(),
             gate,
             schedule_threshold: schedule_threshold(v, choice)?,
             gated_samples: [0; M],
@@ -623,6 +624,8 @@ where
     pub fn process_sample(&mut self, sensors: &Sensors) -> i32 {
         let corrected = self.calibrated(sensors);
         let sensors = &corrected;
+        // the gyro's learned offset is already off the corrected yaw rate
+        self.measured = Measurements::of(sensors, &self.parameters, 0.0);
         let mut bits = 0;
         self.holding = false;
         if !self.started {
@@ -631,12 +634,12 @@ where
                     self.started = true;
                     bits |= status::INITIALISING;
                 }
-                _ => return self.hold(sensors, status::INITIALISING),
+                _ => return self.hold(status::INITIALISING),
             }
         }
         let mut sample = match Model::sample(self, sensors) {
             Ok(sample) => sample,
-            Err(hold_bits) => return self.hold(sensors, bits | hold_bits),
+            Err(hold_bits) => return self.hold(bits | hold_bits),
         };
         bits |= sample.bits;
         let offered_rows = sample.offered.iter().zip(sample.measurement.iter());
@@ -773,17 +776,17 @@ where
         if self.started {
             0
         } else {
-            self.hold(sensors, status::INITIALISING)
+            let offset = self.yaw_rate_offset.map_or(0.0, |offset| offset.offset);
+            self.measured = Measurements::of(sensors, &self.parameters, offset);
+            self.hold(status::INITIALISING)
         }
     }
 
-    /// A sample on which the filter holds its estimate.
-    fn hold(&mut self, sensors: &Sensors, bits: i32) -> i32 {
+    /// A sample on which the filter holds its estimate (`measured` already this sample's).
+    fn hold(&mut self, bits: i32) -> i32 {
         self.nis = 0.0;
         self.rows_used = 0;
         self.holding = true;
-        let offset = self.yaw_rate_offset.map_or(0.0, |offset| offset.offset);
-        self.held = HeldMeasurements::of(sensors, &self.parameters, offset);
         bits
     }
 

@@ -40,7 +40,7 @@ where
             nis: self.nis,
             rows_used: self.rows_used,
             holding: self.holding,
-            held: self.held,
+            measured: self.measured,
             covariance_scale: self.covariance_scale(),
             yaw_rate_offset: self.yaw_rate_offset.map_or(0.0, |offset| offset.offset),
             ay_calibration: self
@@ -114,7 +114,7 @@ where
     /// from those; slip angles of 0 (the geometry's sideslip is that of tyres without slip
     /// angle) and the steady turn's `ay = vx r`. Where nothing is measured the value stays.
     fn honest_held_outputs(&self, held: &OutputSample<N, Model::Extra>, values: &mut RealOutputs) {
-        let measured = held.held;
+        let measured = held.measured;
         values.sideslip_est = kinematic_sideslip(held.input[0], &self.parameters);
         values.sideslip_std = LOW_SPEED_SIDESLIP_STD;
         values.slip_angle_front_est = 0.0;
