@@ -15,7 +15,7 @@ use fmi_master::runner::{default_fmu_dir, workspace_root};
 use harness::replay::fit::{fit, FitModel, FitOptions};
 use harness::replay::friction::FrictionFit;
 use harness::replay::report::estimator_rmse;
-use harness::replay::{estimator_path, prepare, record, replay, ReplayOptions};
+use harness::replay::{estimator_path, prepare, real_attribute, record, replay, ReplayOptions};
 
 use crate::scratch::Scratch;
 
@@ -602,6 +602,28 @@ fn the_drive_past_the_limit_reaches_it_in_training_and_held_out_segments() {
         estimate < 0.8 * baseline,
         "sideslip RMSE {estimate} deg over the drive past the limit, β = 0 {baseline} deg"
     );
+}
+
+/// What the `fmi` crate's schema leaves out of a Real variable is read from the FMU's own
+/// modelDescription.xml: the units the map converts into and the maxima the fit keeps its
+/// scaled parameters within (the FMU would clamp a larger value and warn).
+#[test]
+fn the_fmus_declared_units_and_maxima_are_read_from_its_description() {
+    let scratch = Scratch::new("replay-real-attributes");
+    let fmu = LoadedFmu::load(&estimator_path(None, &default_fmu_dir()), &scratch.0)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let units = real_attribute(&fmu, "unit").unwrap();
+    assert_eq!(units.get("ay_meas").map(String::as_str), Some("m/s2"));
+    let maxima = real_attribute(&fmu, "max").unwrap();
+    assert_eq!(
+        maxima.get("yaw_moment_error_std").map(String::as_str),
+        Some("1")
+    );
+    assert_eq!(
+        maxima.get("process_noise_std_vy").map(String::as_str),
+        Some("10")
+    );
+    assert!(!maxima.contains_key("ay_meas"), "{maxima:?}");
 }
 
 /// The start value of the estimator FMU's Real parameter `name`.

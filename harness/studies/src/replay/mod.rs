@@ -45,48 +45,13 @@ pub struct FmuUnits {
 
 impl FmuUnits {
     pub fn of(fmu: &LoadedFmu) -> Result<FmuUnits> {
-        let path = fmu.model_description_path();
-        let xml = std::fs::read_to_string(&path)
-            .with_context(|| format!("reading {}", path.display()))?;
-        let mut units = FmuUnits {
-            inputs: HashMap::new(),
-            outputs: HashMap::new(),
-        };
-        let mut reader = quick_xml::Reader::from_str(&xml);
-        let mut current: Option<String> = None;
-        loop {
-            match reader
-                .read_event()
-                .map_err(|e| anyhow!("{}: {e}", path.display()))?
-            {
-                Event::Start(e) | Event::Empty(e) => {
-                    let attribute = |key: &str| {
-                        e.attributes()
-                            .flatten()
-                            .find(|a| a.key.local_name().into_inner() == key)
-                            .and_then(|a| {
-                                a.normalized_value(quick_xml::XmlVersion::Implicit1_0)
-                                    .ok()
-                                    .map(|v| v.into_owned())
-                            })
-                    };
-                    match e.local_name().into_inner() {
-                        "ScalarVariable" => current = attribute("name"),
-                        "Real" => {
-                            if let (Some(name), Some(unit)) = (current.take(), attribute("unit")) {
-                                units.outputs.insert(name.clone(), unit.clone());
-                                units.inputs.insert(name, unit);
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                Event::Eof => break,
-                _ => {}
-            }
-        }
+        let all = real_attribute(fmu, "unit")?;
         let is =
             |name: &str, check: fn(&VariableInfo) -> bool| fmu.variable(name).is_some_and(check);
+        let mut units = FmuUnits {
+            inputs: all.clone(),
+            outputs: all,
+        };
         units
             .inputs
             .retain(|name, _| is(name, VariableInfo::is_input));
@@ -95,6 +60,48 @@ impl FmuUnits {
             .retain(|name, _| is(name, VariableInfo::is_output));
         Ok(units)
     }
+}
+
+/// The attribute `key` of each Real variable that declares it (`unit`, `max`, ...), by variable
+/// name, read from the FMU's modelDescription.xml: the `fmi` crate's schema keeps neither.
+pub fn real_attribute(fmu: &LoadedFmu, key: &str) -> Result<HashMap<String, String>> {
+    let path = fmu.model_description_path();
+    let xml =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut found = HashMap::new();
+    let mut reader = quick_xml::Reader::from_str(&xml);
+    let mut current: Option<String> = None;
+    loop {
+        match reader
+            .read_event()
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?
+        {
+            Event::Start(e) | Event::Empty(e) => {
+                let attribute = |wanted: &str| {
+                    e.attributes()
+                        .flatten()
+                        .find(|a| a.key.local_name().into_inner() == wanted)
+                        .and_then(|a| {
+                            a.normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                                .ok()
+                                .map(|v| v.into_owned())
+                        })
+                };
+                match e.local_name().into_inner() {
+                    "ScalarVariable" => current = attribute("name"),
+                    "Real" => {
+                        if let (Some(name), Some(value)) = (current.take(), attribute(key)) {
+                            found.insert(name, value);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    Ok(found)
 }
 
 impl VariableUnits for FmuUnits {

@@ -36,7 +36,7 @@ use fmi_master::fmu::VariableInfo;
 
 use super::super::map::Source;
 use super::super::reference_fit::{TyreFit, FITTED_LEVEL_UNCERTAINTY};
-use super::super::{drive, report, Prepared};
+use super::super::{drive, real_attribute, report, Prepared};
 use super::{
     fit_tyre_level, nis_per_dof, real_value, scale_values, segment, with_reals, FitContext, Found,
     ModelFit,
@@ -252,7 +252,7 @@ fn process_factor(
     // More process noise, a larger reported covariance: the measure falls as the factor rises.
     // Search from 1 towards the band's near end: up when overconfident, down when timid.
     let (target, mut near, mut far) = if start > high_end {
-        (high_end, 0.0, PROCESS_FACTOR_RANGE.1.ln())
+        (high_end, 0.0, largest_factor(cx, values)?.ln())
     } else if start < low_end {
         (low_end, 0.0, PROCESS_FACTOR_RANGE.0.ln())
     } else {
@@ -285,6 +285,23 @@ fn process_factor(
             fitted: measure(factor)?,
         },
     ))
+}
+
+/// The upper end of the factor's search: [`PROCESS_FACTOR_RANGE`]'s, or less where a scaled
+/// parameter would pass the maximum its variable declares (the FMU would clamp it and warn, and
+/// the search would measure another factor than it meant: `yaw_moment_error_std` 0.02 may grow
+/// 50 times, not 64).
+fn largest_factor(cx: &FitContext, values: &[(VariableInfo, ParameterValue)]) -> Result<f64> {
+    let maxima = real_attribute(cx.fmu, "max")?;
+    let mut largest = PROCESS_FACTOR_RANGE.1;
+    for name in PROCESS_NOISE_PARAMETERS {
+        let value = real_value(cx.fmu, values, name)?;
+        let max = maxima.get(name).and_then(|max| max.parse::<f64>().ok());
+        if let Some(max) = max.filter(|_| value > 0.0) {
+            largest = largest.min(max / value);
+        }
+    }
+    Ok(largest)
 }
 
 fn measure_name(has_reference: bool) -> &'static str {
