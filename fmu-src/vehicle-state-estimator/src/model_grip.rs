@@ -250,8 +250,9 @@ fn rolling_unmeasured_wheels(
     body: &mut SVector<f64, STATE_DIM>,
     sample: &OutputSample<GRIP_STATE_DIM, SpeedFilter>,
 ) {
-    let driver: [f64; INPUT_DIM] = std::array::from_fn(|i| sample.input[i]);
-    let rolling = unknown_torques::free_rolling(model.vehicle(), &body.data.0[0], &driver);
+    let driver = sample.input.fixed_rows::<INPUT_DIM>(0).into_owned();
+    let rolling =
+        unknown_torques::free_rolling(model.vehicle(), &body.data.0[0], &driver.data.0[0]);
     for (axle, omega) in [state_index::OMEGA_FRONT, state_index::OMEGA_REAR]
         .into_iter()
         .enumerate()

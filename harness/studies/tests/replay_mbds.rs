@@ -223,47 +223,34 @@ fn with_the_sensors_own_noise_and_no_wheel_speeds_the_filter_never_leaves_the_ca
     );
     assert!(sideslip.rmse < 0.8, "sideslip RMSE {} deg", sideslip.rmse);
     assert!(vx.max_abs < 1.0, "largest vx error {} m/s", vx.max_abs);
-    let estimates = std::fs::read_to_string(scratch.0.join("replay/estimates.csv")).unwrap();
-    let columns = |names: [&str; 5]| -> Vec<[f64; 5]> {
-        let mut lines = estimates.lines();
-        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let index = names.map(|name| header.iter().position(|h| *h == name).unwrap());
-        lines
-            .map(|line| {
-                let fields: Vec<&str> = line.split(',').collect();
-                index.map(|i| fields[i].parse().unwrap_or(f64::NAN))
-            })
-            .collect()
+    let column = |name: &str| {
+        outcome
+            .recording
+            .column(name)
+            .unwrap_or_else(|| panic!("no {name} in the recording"))
     };
-    let rows = columns([
-        "time",
-        "slip_front_est",
-        "slip_rear_est",
-        "omega_front_std",
-        "omega_rear_std",
-    ]);
-    let largest = |i: usize| rows.iter().map(|row| row[i].abs()).fold(0.0, f64::max);
+    let largest = |name: &str| column(name).iter().map(|x| x.abs()).fold(0.0, f64::max);
     // the wheel states start at the measured speed's free rolling, then nothing corrects them
     let laps_2_6_from = Baselines::read(&logs.join("baselines.toml"))
         .unwrap()
         .laps_2_6_from_s;
-    let least_after_a_lap = |i: usize| {
-        rows.iter()
-            .filter(|row| row[0] >= laps_2_6_from)
-            .map(|row| row[i])
+    let grid = &outcome.prepared.grid;
+    let laps_2_6 = grid.rows_within(laps_2_6_from, grid.time(grid.rows - 1));
+    let least_after_a_lap = |name: &str| {
+        column(name)[laps_2_6.clone()]
+            .iter()
+            .copied()
             .fold(f64::INFINITY, f64::min)
     };
+    let slips = [largest("slip_front_est"), largest("slip_rear_est")];
     assert!(
-        largest(1) < 1e-9 && largest(2) < 1e-9,
-        "wheel slip {} / {}",
-        largest(1),
-        largest(2)
+        slips.iter().all(|&slip| slip < 1e-9),
+        "wheel slip {slips:?}"
     );
+    let stds = ["omega_front_std", "omega_rear_std"].map(least_after_a_lap);
     assert!(
-        least_after_a_lap(3) > 10.0 && least_after_a_lap(4) > 10.0,
-        "wheel speed std {} / {} rad/s",
-        least_after_a_lap(3),
-        least_after_a_lap(4)
+        stds.iter().all(|&std| std > 10.0),
+        "wheel speed std {stds:?} rad/s"
     );
 }
 
