@@ -59,27 +59,16 @@ def step_steer(vehicle, vehicle_dir, estimator, estimator_dir, kind, ay_gain_std
     return {name: table[:, i] for i, name in enumerate(["time", *names])}
 
 
-# The EKF with the yaw-moment error at its default learns the gain (within 0.03) and halves the
-# unlearned error, but ends above reporting zero on this small-sideslip step steer (0.119 against
-# 0.109 deg): how the two terms share the `ay` row's error is open. Kept as a strict expected
-# failure so that the suite shows it and notices when it is mended.
-YAW_MOMENT_OPEN = ("EKF with yaw_moment_error_std at its default: learned 0.119 deg against zero's "
-                   "0.109 deg on this step steer")
-
-
 @pytest.mark.parametrize("yaw_moment", ["off", "default"])
 @pytest.mark.parametrize("kind", ["ekf", "ukf"])
 def test_the_grip_filter_learns_the_gain_the_reference_reads(vehicle, vehicle_dir, estimator,
-                                                              estimator_dir, kind, yaw_moment,
-                                                              request):
+                                                              estimator_dir, kind, yaw_moment):
     """Learned: ay_gain_est at the end within 0.03 of the reference's ratio, and the sideslip
     RMSE at most half the unlearned one's and below reporting zero. Not learned (ay_gain_std 0,
     the default): ay_gain_est is 0 throughout. Measured here: the reference reads ay 12.5 % high,
-    ay_gain_est ends at 0.129-0.130; sideslip RMSE (EKF / UKF) with the yaw-moment error off
-    (yaw_moment_error_std 0) learned 0.045 / 0.064 deg, ignored 0.293 / 0.293 deg, and at its
-    default learned 0.119 / 0.019 deg, ignored 0.301 / 0.299 deg (reporting zero: 0.109 deg)."""
-    if kind == "ekf" and yaw_moment == "default":
-        request.applymarker(pytest.mark.xfail(strict=True, reason=YAW_MOMENT_OPEN))
+    ay_gain_est ends at 0.127; sideslip RMSE (EKF / UKF) with the yaw-moment error off
+    (yaw_moment_error_std 0) learned 0.048 / 0.066 deg, ignored 0.289 / 0.290 deg, and at its
+    default learned 0.093 / 0.019 deg, ignored 0.296 / 0.295 deg (reporting zero: 0.109 deg)."""
     fmus = (vehicle, vehicle_dir, estimator, estimator_dir, kind)
     yaw_moment_error_std = 0.0 if yaw_moment == "off" else None
     learned = step_steer(*fmus, 0.1, yaw_moment_error_std)
