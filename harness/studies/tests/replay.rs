@@ -765,12 +765,12 @@ fn fit_of_the_grip_model_learns_the_simulated_sensor_noise_and_keeps_the_start_w
     let (before, after) = fitted.rmse("sideslip").expect("a sideslip reference");
     let text = std::fs::read_to_string(&out).unwrap();
     if after > before {
-        assert!(fitted.kept_start.is_some());
+        assert!(fitted.kept_start().is_some());
         // The map does not set the lateral process noise; only a written fit does.
         assert!(!text.contains("process_noise_std_vy"), "{text}");
         assert!(fitted.summary().contains("NOT WRITTEN"));
     } else {
-        assert!(fitted.kept_start.is_none());
+        assert!(fitted.kept_start().is_none());
         assert!(text.contains("process_noise_std_vy"), "{text}");
     }
 }

@@ -9,8 +9,8 @@
 use std::collections::BTreeMap;
 
 use fmi_master::runner::{default_fmu_dir, workspace_root};
-use harness::replay::fit::{fit, FitModel, FitOptions};
-use harness::replay::report::{score_table, ESTIMATOR};
+use harness::replay::fit::{fit, FitModel, FitOptions, Written};
+use harness::replay::report::{self, score_table, ESTIMATOR};
 use harness::replay::study::{cases, Baselines, Case, Study, COMMITTED_CSV, FITTED_MODEL};
 use harness::replay::{estimator_path, replay, ReplayOptions};
 use harness::summary::HEADER;
@@ -175,15 +175,31 @@ fn fit_of_the_grip_model_on_lap_1_learns_the_sensor_noise_and_never_writes_a_wor
     );
     let text = std::fs::read_to_string(&out).unwrap();
     let (before, after) = outcome.rmse("sideslip").expect("a sideslip reference");
-    match &outcome.kept_start {
-        Some(reason) => {
-            assert!(after > before, "{reason}");
+    let held_out_rmse = |scores| report::estimator_rmse(scores, "sideslip").unwrap();
+    match &outcome.written {
+        Written::Fitted => {
+            assert!(after <= before, "{before} -> {after} deg written");
+            assert!(text.contains("process_noise_std_vy"), "{text}");
+        }
+        Written::SensorNoise {
+            refused, scores, ..
+        } => {
+            assert!(after > before, "{refused}");
+            let noise_alone = held_out_rmse(scores);
+            assert!(
+                noise_alone <= before,
+                "{before} -> {noise_alone} deg written"
+            );
+            assert!(text.contains("measurement_noise_std_ay"), "{text}");
+            assert!(!text.contains("process_noise_std_vy"), "{text}");
+            assert!(outcome
+                .summary()
+                .contains("the sensor noise alone (written)"));
+        }
+        Written::Start { refused } => {
+            assert!(after > before, "{refused}");
             assert!(!text.contains("measurement_noise_std_ay"), "{text}");
             assert!(outcome.summary().contains("NOT WRITTEN"));
-        }
-        None => {
-            assert!(after <= before, "{before} -> {after} deg written");
-            assert!(text.contains("measurement_noise_std_ay"), "{text}");
         }
     }
     assert!(

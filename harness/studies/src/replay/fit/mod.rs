@@ -52,6 +52,11 @@
 //!    freedom (1 for a consistent filter) when the log has no reference. When the fitted
 //!    parameters make the held-out segment worse ([`refusal`]), the file gets the starting ones
 //!    and the summary says why: a fit must never leave a user worse off than not fitting.
+//!    Before it falls back to them, a model that measured its sensors' noise on the log (the
+//!    grip model) tries that noise alone: it is a property of the sensors, not of how the
+//!    training segment drove, and is written if the held-out segment is not worse with it (on
+//!    the MBDS recording's lap 1 the full fit's consistency factor made the held-out third
+//!    worse, the sensor noise alone better).
 //! 5. The `.ssv` holds every parameter the map and `--parameters` set (the car's basic data) and
 //!    the fitted values; `harness run` (`parameter_files`), `replay --parameters` and fmpy
 //!    (`start_values`) read it.
@@ -197,9 +202,8 @@ pub struct FitOutcome {
     pub sensor_noise: Vec<grip::SensorNoise>,
     /// Lines the summary adds for this model.
     pub notes: Vec<String>,
-    /// Why the written file holds the starting parameters instead of the fitted ones (the
-    /// fitted ones made the held-out segment worse); `None` when the fitted ones were written.
-    pub kept_start: Option<String>,
+    /// Which parameters the written file holds.
+    pub written: Written,
     pub train_rows: Range<usize>,
     pub validate_rows: Range<usize>,
     pub step: f64,
@@ -211,6 +215,23 @@ pub struct FitOutcome {
     pub nis_after: f64,
     /// The fitted parameters written to the .ssv.
     pub fitted: Vec<(String, f64)>,
+}
+
+/// Which parameters `harness fit` wrote (module text, 4).
+pub enum Written {
+    /// The fitted ones.
+    Fitted,
+    /// Only the sensor noise measured on the log: the full fit made the held-out segment worse
+    /// (`refused`, why), the noise alone did not; its held-out scores and NIS per degree of
+    /// freedom.
+    SensorNoise {
+        refused: String,
+        scores: Vec<StateScore>,
+        nis: f64,
+    },
+    /// The starting ones: the full fit made the held-out segment worse (`refused`, why), and so
+    /// did the sensor noise alone where the model measured it.
+    Start { refused: String },
 }
 
 /// `harness fit` (see the module text).
@@ -254,13 +275,31 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         nis_per_dof(&before, validate_rows.clone()),
         nis_per_dof(&after, validate_rows.clone()),
     );
-    let kept_start = refusal(&before_scores, &after_scores, (nis_before, nis_after));
-    let written = if kept_start.is_some() {
-        &start
-    } else {
-        &final_parameters
-    };
-    write_ssv(&fmu, written, &options.out, &options.log)?;
+    let (written, parameters) =
+        match refusal(&before_scores, &after_scores, (nis_before, nis_after)) {
+            None => (Written::Fitted, final_parameters),
+            Some(refused) => {
+                let held_out = HeldOut {
+                    fmu: &fmu,
+                    prepared: &prepared,
+                    grid: &run_grid,
+                    feeds: &run_feeds,
+                    rows: validate_rows.clone(),
+                };
+                match sensor_noise_alone(&held_out, &start, &found, (&before_scores, nis_before))? {
+                    Some(alone) => {
+                        let written = Written::SensorNoise {
+                            refused,
+                            scores: alone.scores,
+                            nis: alone.nis,
+                        };
+                        (written, alone.parameters)
+                    }
+                    None => (Written::Start { refused }, start.clone()),
+                }
+            }
+        };
+    write_ssv(&fmu, &parameters, &options.out, &options.log)?;
     drop(fmu);
     drop(work);
     Ok(FitOutcome {
@@ -273,7 +312,7 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         friction: found.friction,
         sensor_noise: found.sensor_noise,
         notes: found.notes,
-        kept_start,
+        written,
         step: prepared.grid.step,
         before: before_scores,
         after: after_scores,
@@ -283,6 +322,53 @@ pub fn fit(options: &FitOptions) -> Result<FitOutcome> {
         validate_rows,
         fitted: found.fitted,
     })
+}
+
+/// The run that scores the held-out rows: from the log's first row up to their end.
+struct HeldOut<'a> {
+    fmu: &'a LoadedFmu,
+    prepared: &'a Prepared,
+    grid: &'a Grid,
+    feeds: &'a [Feed],
+    rows: Range<usize>,
+}
+
+/// The starting parameters with only the sensor noise the fit measured, and their held-out
+/// scores and NIS per degree of freedom.
+struct NoiseAlone {
+    parameters: Vec<(VariableInfo, ParameterValue)>,
+    scores: Vec<StateScore>,
+    nis: f64,
+}
+
+/// The starting parameters with only the sensor noise the fit measured on the log, if there is
+/// such noise and it does not make the held-out segment worse than the starting parameters
+/// (`before`, their scores and NIS).
+fn sensor_noise_alone(
+    held_out: &HeldOut,
+    start: &[(VariableInfo, ParameterValue)],
+    found: &Found,
+    (before, nis_before): (&[StateScore], f64),
+) -> Result<Option<NoiseAlone>> {
+    if found.sensor_noise.is_empty() {
+        return Ok(None);
+    }
+    let noise: Vec<(String, f64)> = found
+        .sensor_noise
+        .iter()
+        .map(|s| (s.parameter.to_string(), s.std))
+        .collect();
+    let with_noise = with_reals(held_out.fmu, start, &noise)?;
+    let run = drive::run(held_out.fmu, &with_noise, held_out.grid, held_out.feeds)?;
+    let scores = report::scores(held_out.prepared, &run, held_out.rows.clone());
+    let nis = nis_per_dof(&run, held_out.rows.clone());
+    Ok(refusal(before, &scores, (nis_before, nis))
+        .is_none()
+        .then_some(NoiseAlone {
+            parameters: with_noise,
+            scores,
+            nis,
+        }))
 }
 
 /// Why the fitted parameters must not be written, if they make the held-out segment worse than
@@ -582,13 +668,23 @@ impl FitOutcome {
             text += &friction.summary();
         }
         text += &format!("  held-out NIS per degree of freedom: {:.2} with the starting parameters, {:.2} fitted\n", self.nis_before, self.nis_after);
-        if let Some(reason) = &self.kept_start {
-            text += &format!("  NOT WRITTEN: {reason}; the file holds the starting parameters (the map's and --parameters') instead of the fitted ones.\n");
+        match &self.written {
+            Written::Fitted => {}
+            Written::SensorNoise { refused, nis, .. } => {
+                text += &format!("  NOT WRITTEN: {refused}; the file holds the starting parameters with only the sensor noise measured on the log, which does not make the held-out segment worse (held-out NIS per degree of freedom {nis:.2}).\n");
+            }
+            Written::Start { refused } => {
+                text += &format!("  NOT WRITTEN: {refused}; the file holds the starting parameters (the map's and --parameters') instead of the fitted ones.\n");
+            }
         }
         text += "  held-out scores, starting parameters:\n";
         text += &report::score_table(&self.before);
         text += "  held-out scores, fitted parameters:\n";
         text += &report::score_table(&self.after);
+        if let Written::SensorNoise { scores, .. } = &self.written {
+            text += "  held-out scores, the sensor noise alone (written):\n";
+            text += &report::score_table(scores);
+        }
         let worse: Vec<String> = worse_held_out(&self.before, &self.after)
             .iter()
             .map(|w| {
@@ -605,6 +701,15 @@ impl FitOutcome {
             );
         }
         text
+    }
+
+    /// Why the written file holds the starting parameters instead of the fitted ones, if it does
+    /// (the sensor noise alone, or nothing fitted at all).
+    pub fn kept_start(&self) -> Option<&str> {
+        match &self.written {
+            Written::Fitted => None,
+            Written::SensorNoise { refused, .. } | Written::Start { refused } => Some(refused),
+        }
     }
 
     /// Held-out RMSE of the estimator's `label` before and after the fit.
