@@ -113,7 +113,7 @@ const Z_975: f64 = 1.959_963_984_540_054;
 const Z_9995: f64 = 3.290_526_731_491_926;
 
 /// Wilson-Hilferty: `q(p, d) ≈ d (1 − 2/(9d) + z_p √(2/(9d)))³`.
-fn chi_square_quantile(z: f64, dof: f64) -> f64 {
+pub(crate) fn chi_square_quantile(z: f64, dof: f64) -> f64 {
     let a = 2.0 / (9.0 * dof);
     dof * (1.0 - a + z * a.sqrt()).powi(3)
 }

@@ -25,9 +25,9 @@ use crate::UpdateReport;
 
 /// One update in the window: its NIS and the rows it used.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Innovations {
-    nis: f64,
-    rows: f64,
+pub(crate) struct Innovations {
+    pub(crate) nis: f64,
+    pub(crate) rows: f64,
 }
 
 impl Summable for Innovations {
@@ -42,11 +42,69 @@ impl Summable for Innovations {
     }
 }
 
+/// The NIS values of the last updates and their sums: the window of the observer's scaling and
+/// of the innovation monitor ([`crate::innovation_monitor`]), named `what` in its errors.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct NisWindow {
+    window: MovingSum<Innovations>,
+    what: &'static str,
+}
+
+impl NisWindow {
+    /// A window of `window` updates, [`MIN_WINDOW`] to [`MAX_WINDOW`].
+    pub(crate) fn new(window: usize, what: &'static str) -> Result<Self, SettingsError> {
+        if !(MIN_WINDOW..=MAX_WINDOW).contains(&window) {
+            return Err(SettingsError(format!(
+                "{what} window of {window} updates; expected {MIN_WINDOW} to {MAX_WINDOW}"
+            )));
+        }
+        Ok(Self {
+            window: MovingSum::new(window),
+            what,
+        })
+    }
+
+    /// Takes one update's NIS; an update that used no row (or a non-finite NIS) says nothing
+    /// and is not taken (returns false).
+    pub(crate) fn push<const M: usize>(&mut self, report: &UpdateReport<M>) -> bool {
+        if report.rows_used == 0 || !report.nis.is_finite() {
+            return false;
+        }
+        self.window.push(Innovations {
+            nis: report.nis,
+            rows: report.rows_used as f64,
+        });
+        true
+    }
+
+    /// The window's sums of NIS and rows, once every entry has been pushed.
+    pub(crate) fn full_sum(&self) -> Option<&Innovations> {
+        self.window.is_full().then(|| self.window.sum())
+    }
+
+    pub(crate) fn save(&self, sink: &mut dyn SnapshotSink) {
+        self.window.save(sink, |entry, sink| {
+            sink.f64(entry.nis);
+            sink.f64(entry.rows);
+        });
+    }
+
+    pub(crate) fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
+        let what = self.what;
+        self.window.restore(source, what, |source| {
+            Ok(Innovations {
+                nis: source.f64(&format!("{what} NIS"))?,
+                rows: source.f64(&format!("{what} rows"))?,
+            })
+        })
+    }
+}
+
 /// The window of NIS values and the scale it gives.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InnovationScaling {
     /// The last updates and their sums.
-    window: MovingSum<Innovations>,
+    window: NisWindow,
     scale: f64,
     status: AdaptationStatus,
 }
@@ -54,14 +112,8 @@ pub struct InnovationScaling {
 impl InnovationScaling {
     /// A window of `window` updates, [`MIN_WINDOW`] to [`MAX_WINDOW`].
     pub fn new(window: usize) -> Result<Self, SettingsError> {
-        if !(MIN_WINDOW..=MAX_WINDOW).contains(&window) {
-            return Err(SettingsError(format!(
-                "innovation-scaling window of {window} updates; expected {MIN_WINDOW} to \
-                 {MAX_WINDOW}"
-            )));
-        }
         Ok(Self {
-            window: MovingSum::new(window),
+            window: NisWindow::new(window, "innovation-scaling")?,
             scale: 1.0,
             status: AdaptationStatus::default(),
         })
@@ -75,17 +127,12 @@ impl InnovationScaling {
     /// Takes one update's NIS into the window; an update that used no row says nothing.
     /// `adapting`: the scale is above 1; `inconsistent`: `ρ` is outside its band.
     pub fn observe<const M: usize>(&mut self, report: &UpdateReport<M>) -> AdaptationStatus {
-        if report.rows_used == 0 || !report.nis.is_finite() {
+        if !self.window.push(report) {
             return self.status;
         }
-        self.window.push(Innovations {
-            nis: report.nis,
-            rows: report.rows_used as f64,
-        });
-        if !self.window.is_full() {
+        let Some(sum) = self.window.full_sum() else {
             return self.status;
-        }
-        let sum = self.window.sum();
+        };
         let ratio = sum.nis / sum.rows;
         let (low, high) = nis_ratio_band(sum.rows);
         self.scale = if ratio > high { ratio } else { 1.0 };
@@ -98,10 +145,7 @@ impl InnovationScaling {
 
     /// Writes the running state (window, position, fill, sums, scale, status).
     pub fn save(&self, sink: &mut dyn SnapshotSink) {
-        self.window.save(sink, |entry, sink| {
-            sink.f64(entry.nis);
-            sink.f64(entry.rows);
-        });
+        self.window.save(sink);
         sink.f64(self.scale);
         sink.bool(self.status.adapting);
         sink.bool(self.status.inconsistent);
@@ -109,13 +153,7 @@ impl InnovationScaling {
 
     /// Reads what [`Self::save`] wrote into a scaling built with the same window.
     pub fn restore(&mut self, source: &mut dyn SnapshotSource) -> Result<(), SnapshotError> {
-        self.window
-            .restore(source, "innovation-scaling", |source| {
-                Ok(Innovations {
-                    nis: source.f64("innovation-scaling NIS")?,
-                    rows: source.f64("innovation-scaling rows")?,
-                })
-            })?;
+        self.window.restore(source)?;
         let scale = source.f64("innovation-scaling scale")?;
         if !(scale.is_finite() && scale >= 1.0) {
             return Err(SnapshotError(format!(

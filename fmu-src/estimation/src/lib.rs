@@ -48,6 +48,9 @@ pub mod adaptive;
 /// A fixed-gain observer's reported covariance scaled to its windowed NIS.
 pub mod innovation_scaling;
 
+/// Whether a filter's innovations exceed the covariance it reports.
+pub mod innovation_monitor;
+
 /// Each measurement row's noise variance learned from its innovations (covariance matching).
 pub mod measurement_noise;
 

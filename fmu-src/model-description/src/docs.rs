@@ -35,7 +35,7 @@ pub const STATUS_BITS: &[(u32, &str, &str)] = &[
     (1024, "input clamped", "An input outside its declared range was clamped into it (the setter answered fmi2Warning naming the variable)."),
     (2048, "wheel lifted", "Model B: the load transfer at the estimated ay exceeds an axle's static wheel load; the inner wheel's load is held at 0."),
     (4096, "adapting", "`adaptive_process_noise` has scaled Q up beyond what its window resolves, or the Luenberger observer's covariance is scaled to its innovations."),
-    (8192, "inconsistent", "The NIS summed over the adaptation window is outside its 95 % chi-square band: the innovations do not match the reported covariance."),
+    (8192, "inconsistent", "The innovations are larger than the reported covariance allows (the filter does not follow the car): the NIS summed over the last second is above its 99.9 % chi-square quantile; with `adaptive_process_noise` or the Luenberger observer, outside its 95 % band over their window."),
     (16384, "guarded", "`integrity_guard`: the sideslip estimate stayed outside what the kinematics and the car's own single-track data allow and was re-seeded there with a wide std."),
 ];
 

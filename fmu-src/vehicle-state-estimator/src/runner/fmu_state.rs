@@ -37,6 +37,9 @@ where
         if let Some(scaling) = &self.observer_scaling {
             scaling.save(&mut Sink(writer));
         }
+        if let Some(monitor) = &self.innovation_monitor {
+            monitor.save(&mut Sink(writer));
+        }
         if let Some(noise) = &self.noise {
             noise.save(&mut Sink(writer));
         }
@@ -86,6 +89,11 @@ where
         }
         if let Some(scaling) = runner.observer_scaling.as_mut() {
             scaling
+                .restore(&mut Source(reader))
+                .map_err(|e| StateError::new(e.0))?;
+        }
+        if let Some(monitor) = runner.innovation_monitor.as_mut() {
+            monitor
                 .restore(&mut Source(reader))
                 .map_err(|e| StateError::new(e.0))?;
         }

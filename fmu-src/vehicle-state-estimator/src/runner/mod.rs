@@ -13,6 +13,7 @@ mod outputs;
 use std::fmt::Debug;
 
 use estimation::adaptive::{AdaptationStatus, Correction, NoiseAdaptation, MAX_WINDOW, MIN_WINDOW};
+use estimation::innovation_monitor::InnovationMonitor;
 use estimation::innovation_scaling::InnovationScaling;
 use estimation::kalman::InitialEstimate;
 use estimation::measurement_noise::NoiseMatching;
@@ -250,7 +251,17 @@ const OBSERVER_SCALING_WINDOW: f64 = 1.0;
 
 /// [`OBSERVER_SCALING_WINDOW`] in samples, at least the least window the scaling takes.
 fn observer_scaling_window(sample_time: f64) -> usize {
-    let samples = (OBSERVER_SCALING_WINDOW / sample_time).round();
+    window_samples(OBSERVER_SCALING_WINDOW, sample_time)
+}
+
+/// The window of the innovation monitor (`estimation::innovation_monitor`), s: as long as the
+/// observer's scaling window, about a manoeuvre's transient, so that a filter that leaves the
+/// car is flagged within a second while one update's outlier is not.
+const INNOVATION_MONITOR_WINDOW: f64 = 1.0;
+
+/// `seconds` in samples, within the windows a moving NIS sum takes.
+fn window_samples(seconds: f64, sample_time: f64) -> usize {
+    let samples = (seconds / sample_time).round();
     samples.clamp(MIN_WINDOW as f64, MAX_WINDOW as f64) as usize
 }
 
@@ -342,6 +353,9 @@ where
     adaptation: Option<NoiseAdaptation<N>>,
     /// The Luenberger observer's reported covariance scaled to its innovations (FMU state).
     observer_scaling: Option<InnovationScaling>,
+    /// Status bit 8192 for the filters whose covariance neither the adaptation nor the
+    /// observer's scaling already tests (`estimation::innovation_monitor`).
+    innovation_monitor: Option<InnovationMonitor>,
     /// Each row's noise variance learned from the innovations (`learn_measurement_noise`;
     /// FMU state).
     noise: Option<NoiseMatching<M>>,
@@ -451,6 +465,13 @@ where
             kinematic_car: kinematic::kinematic_car(v)?,
             observer_scaling: (choice == EstimatorChoice::Luenberger)
                 .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
+                .transpose()
+                .map_err(|e| e.0)?,
+            innovation_monitor: (choice != EstimatorChoice::Luenberger
+                && !v.adaptive_process_noise)
+                .then(|| {
+                    InnovationMonitor::new(window_samples(INNOVATION_MONITOR_WINDOW, sample_time))
+                })
                 .transpose()
                 .map_err(|e| e.0)?,
             yaw_rate_offset: YawRateOffset::from_parameters(v)?,
@@ -702,7 +723,18 @@ where
         ) {
             self.filter.inflate_covariance(&extra);
         }
-        bits | self.adapt(&report, correction.as_ref()) | self.scale_observer(&report)
+        bits | self.adapt(&report, correction.as_ref())
+            | self.scale_observer(&report)
+            | self.monitor_innovations(&report)
+    }
+
+    /// The innovation monitor: the update's NIS into its window; returns status bit 8192 while
+    /// the window's NIS is above its 99.9 % quantile.
+    fn monitor_innovations(&mut self, report: &UpdateReport<M>) -> i32 {
+        let Some(monitor) = self.innovation_monitor.as_mut() else {
+            return 0;
+        };
+        i32::from(monitor.observe(report)) * status::INCONSISTENT
     }
 
     /// The model's extra measurement noise at the filter's current (predicted) estimate, with

@@ -5,6 +5,7 @@ use anyhow::{anyhow, Result};
 
 use fmi_master::cosim::RunResult;
 use fmi_master::scoring::chi_square_quantile;
+use model_description::docs::STATUS_BITS;
 
 /// The recorded column `instance.variable`.
 pub fn column<'a>(result: &'a RunResult, instance: &str, variable: &str) -> Result<&'a [f64]> {
@@ -187,21 +188,6 @@ pub fn status_seen(result: &RunResult, estimator: &str) -> Result<u32> {
         .fold(0u32, |bits, &v| bits | v as u32))
 }
 
-/// The status bits of the VehicleStateEstimator (its XML's `status` description), short names.
-pub const STATUS_BITS: [(u32, &str); 11] = [
-    (1, "row skipped"),
-    (2, "covariance repaired"),
-    (4, "update skipped"),
-    (8, "reset/re-seeded"),
-    (16, "particle weights reset"),
-    (32, "low speed"),
-    (64, "input non-finite"),
-    (128, "row gated"),
-    (256, "re-admitted"),
-    (512, "initialising"),
-    (1024, "input clamped"),
-];
-
 /// `bits` as "value (name, name)", or "0" when none is set.
 pub fn describe_status(bits: u32) -> String {
     if bits == 0 {
@@ -209,8 +195,8 @@ pub fn describe_status(bits: u32) -> String {
     }
     let names: Vec<&str> = STATUS_BITS
         .iter()
-        .filter(|(bit, _)| bits & bit != 0)
-        .map(|(_, name)| *name)
+        .filter(|(bit, _, _)| bits & bit != 0)
+        .map(|(_, name, _)| *name)
         .collect();
     format!("{bits} ({})", names.join(", "))
 }
