@@ -37,6 +37,7 @@ pub const STATUS_BITS: &[(u32, &str, &str)] = &[
     (4096, "adapting", "`adaptive_process_noise` has scaled Q up beyond what its window resolves, or the Luenberger observer's covariance is scaled to its innovations."),
     (8192, "inconsistent", "The innovations are larger than the reported covariance allows (the filter does not follow the car): the NIS summed over the last second is above its 99.9 % chi-square quantile; with `adaptive_process_noise` or the Luenberger observer, outside its 95 % band over their window."),
     (16384, "guarded", "`integrity_guard`: the sideslip estimate stayed outside what the kinematics and the car's own single-track data allow and was re-seeded there with a wide std."),
+    (32768, "off the kinematics", "Over the last 0.5 s the estimated lateral velocity changed by more than 5° of sideslip (at the measured speed) away from what `ay − r vx` integrates to: the estimate has left the car's motion (a spin, or a car the model does not follow), and neither it nor its std is to be trusted."),
 ];
 
 /// The variable reference of one FMU as a Markdown document.

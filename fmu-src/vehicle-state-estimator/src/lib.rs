@@ -115,11 +115,16 @@ pub mod status {
     pub const WHEEL_LIFTED: i32 = 2048;
     /// `adaptive_process_noise` has scaled `Q` up.
     pub const ADAPTING: i32 = 4096;
-    /// `adaptive_process_noise`: the windowed NIS is outside its 95 % band.
+    /// The innovations are larger than the reported covariance allows
+    /// (`estimation::innovation_monitor`; with `adaptive_process_noise` or the Luenberger
+    /// observer, their windowed NIS outside its 95 % band).
     pub const INCONSISTENT: i32 = 8192;
     /// The integrity guard re-seeded the sideslip where the car's own data put it
     /// (`runner::guard`).
     pub const GUARDED: i32 = 16384;
+    /// The sideslip estimate's change is off what the kinematics integrate to
+    /// (`runner::kinematic_check`).
+    pub const OFF_THE_KINEMATICS: i32 = 32768;
 }
 
 /// The runner of the selected estimation model.

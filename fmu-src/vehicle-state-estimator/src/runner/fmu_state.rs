@@ -44,6 +44,7 @@ where
             noise.save(&mut Sink(writer));
         }
         writer.u64(u64::from(self.guard_samples));
+        self.kinematic_check.write(writer);
         if let Some(offset) = &self.yaw_rate_offset {
             offset.write(writer);
         }
@@ -104,6 +105,7 @@ where
         }
         runner.guard_samples = u32::try_from(reader.u64("guard samples")?)
             .map_err(|_| StateError::new(String::from("guard samples out of range")))?;
+        runner.kinematic_check.read(reader)?;
         if let Some(offset) = runner.yaw_rate_offset.as_mut() {
             offset.read(reader)?;
         }

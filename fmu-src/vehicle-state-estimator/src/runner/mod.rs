@@ -7,6 +7,7 @@ mod fmu_state;
 mod gate;
 mod guard;
 mod kinematic;
+mod kinematic_check;
 mod noise;
 mod outputs;
 
@@ -363,6 +364,8 @@ where
     /// has been outside its reference (FMU state).
     guard_car: Option<guard::GuardCar>,
     guard_samples: u32,
+    /// Status bit 32768: the sideslip estimate against the kinematics (`kinematic_check`).
+    kinematic_check: kinematic_check::KinematicCheck,
     /// The low-speed regime's car (`low_speed_kinematics`, `runner::kinematic`).
     kinematic_car: Option<guard::GuardCar>,
     /// The gyro's offset, taken off `yaw_rate_meas` before the filter sees it
@@ -462,6 +465,7 @@ where
             noise,
             guard_car: v.integrity_guard.then(|| guard::guard_car(v)).transpose()?,
             guard_samples: 0,
+            kinematic_check: kinematic_check::KinematicCheck::new(sample_time),
             kinematic_car: kinematic::kinematic_car(v)?,
             observer_scaling: (choice == EstimatorChoice::Luenberger)
                 .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
@@ -710,6 +714,7 @@ where
         });
         self.hold_to_kinematics(sensors);
         bits |= self.guard(sensors);
+        bits |= self.check_kinematics(sensors);
         self.reschedule(&sample.input);
         if let Err(issue) = self.filter.predict(&sample.input) {
             bits |= issue_bit(issue);
@@ -726,6 +731,19 @@ where
         bits | self.adapt(&report, correction.as_ref())
             | self.scale_observer(&report)
             | self.monitor_innovations(&report)
+    }
+
+    /// The kinematic check of the updated sideslip (`kinematic_check`); returns status bit
+    /// 32768 while the estimate's change of `vy` is off the kinematic one.
+    fn check_kinematics(&mut self, sensors: &Sensors) -> i32 {
+        let speed = MeasuredSpeed::of(sensors, &self.parameters).map_or(f64::NAN, |s| s.speed);
+        let (sideslip, _) = self
+            .model
+            .sideslip_of(self.filter.state(), self.filter.covariance());
+        let off = self
+            .kinematic_check
+            .observe(sensors.ay, sensors.yaw_rate, speed, sideslip);
+        i32::from(off) * status::OFF_THE_KINEMATICS
     }
 
     /// The innovation monitor: the update's NIS into its window; returns status bit 8192 while
