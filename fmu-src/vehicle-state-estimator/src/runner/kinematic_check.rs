@@ -40,17 +40,15 @@ pub(super) const CHECK_SIDESLIP: f64 = 0.087;
 /// accelerometer's noise, and the low-speed regime holds the sideslip to the kinematic one.
 const CHECK_MIN_SPEED: f64 = 5.0;
 
-/// One sample: the kinematic change of `vy` over it and the filter's `vy` after it, m/s.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Entry {
-    kinematic_change: f64,
-    estimated_vy: f64,
-}
-
-/// The last samples of the window (allocated once, at the window's length).
+/// The check's window: per sample the disagreement `vy_est − ∫(ay − r vx) dt`, the integral
+/// taken since the window was last emptied, so that the difference of two entries is the
+/// difference of the two changes between them and no sum is taken per sample (allocated once,
+/// at the window's length).
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct KinematicCheck {
-    entries: VecDeque<Entry>,
+    disagreements: VecDeque<f64>,
+    /// `∫(ay − r vx) dt` since the window was last emptied, m/s.
+    kinematic_vy: f64,
     length: usize,
     sample_time: f64,
 }
@@ -59,7 +57,8 @@ impl KinematicCheck {
     pub(super) fn new(sample_time: f64) -> Self {
         let length = ((CHECK_TIME / sample_time).round() as usize).max(2);
         Self {
-            entries: VecDeque::with_capacity(length + 1),
+            disagreements: VecDeque::with_capacity(length + 1),
+            kinematic_vy: 0.0,
             length,
             sample_time,
         }
@@ -73,42 +72,36 @@ impl KinematicCheck {
         let vy = speed * sideslip.tan();
         let change = (ay - yaw_rate * speed) * self.sample_time;
         if !(change.is_finite() && vy.is_finite()) || speed < CHECK_MIN_SPEED {
-            self.entries.clear();
+            self.disagreements.clear();
+            self.kinematic_vy = 0.0;
             return false;
         }
-        if self.entries.len() == self.length + 1 {
-            self.entries.pop_front();
+        // The first sample's change led up to its vy: the integral starts after it.
+        if !self.disagreements.is_empty() {
+            self.kinematic_vy += change;
         }
-        self.entries.push_back(Entry {
-            kinematic_change: change,
-            estimated_vy: vy,
-        });
-        let (Some(first), Some(last)) = (self.entries.front(), self.entries.back()) else {
-            return false;
-        };
-        if self.entries.len() < self.length + 1 {
-            return false;
+        if self.disagreements.len() == self.length + 1 {
+            self.disagreements.pop_front();
         }
-        // The first entry's change led up to its vy, so the window's changes are the later ones.
-        let kinematic: f64 = self
-            .entries
-            .iter()
-            .skip(1)
-            .map(|e| e.kinematic_change)
-            .sum();
-        let estimated = last.estimated_vy - first.estimated_vy;
-        (kinematic - estimated).abs() > speed * CHECK_SIDESLIP.tan()
+        self.disagreements.push_back(vy - self.kinematic_vy);
+        match (self.disagreements.front(), self.disagreements.back()) {
+            (Some(first), Some(last)) if self.disagreements.len() == self.length + 1 => {
+                (last - first).abs() > speed * CHECK_SIDESLIP.tan()
+            }
+            _ => false,
+        }
     }
 
     pub(super) fn write(&self, writer: &mut StateWriter) {
-        writer.u64(self.entries.len() as u64);
-        for entry in &self.entries {
-            writer.f64(entry.kinematic_change);
-            writer.f64(entry.estimated_vy);
+        writer.f64(self.kinematic_vy);
+        writer.u64(self.disagreements.len() as u64);
+        for &disagreement in &self.disagreements {
+            writer.f64(disagreement);
         }
     }
 
     pub(super) fn read(&mut self, reader: &mut StateReader<'_>) -> Result<(), StateError> {
+        self.kinematic_vy = reader.f64("kinematic check's integral of vy")?;
         let count = reader.u64("kinematic check entries")? as usize;
         if count > self.length + 1 {
             return Err(StateError::new(format!(
@@ -116,12 +109,10 @@ impl KinematicCheck {
                 self.length + 1
             )));
         }
-        self.entries.clear();
+        self.disagreements.clear();
         for _ in 0..count {
-            self.entries.push_back(Entry {
-                kinematic_change: reader.f64("kinematic change of vy")?,
-                estimated_vy: reader.f64("estimated vy")?,
-            });
+            self.disagreements
+                .push_back(reader.f64("kinematic check's disagreement")?);
         }
         Ok(())
     }

@@ -424,6 +424,19 @@ where
         } else {
             None
         };
+        let adaptation = parameters::adaptation(v)?
+            .map(NoiseAdaptation::new)
+            .transpose()
+            .map_err(|e| e.0)?;
+        let observer_scaling = (choice == EstimatorChoice::Luenberger)
+            .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
+            .transpose()
+            .map_err(|e| e.0)?;
+        // Status bit 8192 comes from whichever of the three tests the innovations.
+        let innovation_monitor = (adaptation.is_none() && observer_scaling.is_none())
+            .then(|| InnovationMonitor::new(window_samples(INNOVATION_MONITOR_WINDOW, sample_time)))
+            .transpose()
+            .map_err(|e| e.0)?;
         let error_rows = model.model_error_rows();
         let innovations = std::array::from_fn(|row| {
             gate.filter(|_| error_rows[row])
@@ -458,26 +471,14 @@ where
             started: !v.start_from_measurements,
             parameters: Box::new(v.clone()),
             pending: Vec::with_capacity(PENDING_CAPACITY),
-            adaptation: parameters::adaptation(v)?
-                .map(NoiseAdaptation::new)
-                .transpose()
-                .map_err(|e| e.0)?,
+            adaptation,
             noise,
             guard_car: v.integrity_guard.then(|| guard::guard_car(v)).transpose()?,
             guard_samples: 0,
             kinematic_check: kinematic_check::KinematicCheck::new(sample_time),
             kinematic_car: kinematic::kinematic_car(v)?,
-            observer_scaling: (choice == EstimatorChoice::Luenberger)
-                .then(|| InnovationScaling::new(observer_scaling_window(sample_time)))
-                .transpose()
-                .map_err(|e| e.0)?,
-            innovation_monitor: (choice != EstimatorChoice::Luenberger
-                && !v.adaptive_process_noise)
-                .then(|| {
-                    InnovationMonitor::new(window_samples(INNOVATION_MONITOR_WINDOW, sample_time))
-                })
-                .transpose()
-                .map_err(|e| e.0)?,
+            observer_scaling,
+            innovation_monitor,
             yaw_rate_offset: YawRateOffset::from_parameters(v)?,
             lateral_accelerometer: LateralAccelerometer::from_parameters(
                 v,
