@@ -13,8 +13,8 @@
 //! Measured on the MBDS track recording (laps 2-6, a window of 1 s): the grip EKF's window is
 //! above the quantile in 0.6 % of the samples (its ratio `ΣNIS / D` has a median of 0.45), model
 //! B's EKF in 64 % (median 1.7, 10 % of the windows above 17), and with a roll moment
-//! distribution of 0.45, under which model B's sideslip ran away to 86° for 3 s with a status of
-//! 0, in 66 %.
+//! distribution of 0.45, under which model B's sideslip runs away to 86° for 3 s while no other
+//! status bit is set, in 66 % and throughout the run-away.
 
 use crate::adaptive::chi_square_quantile;
 use crate::innovation_scaling::NisWindow;
